@@ -1,0 +1,423 @@
+"""Command lines: header (§8), switch and body (§5, §6), chaining (§7), named commands (§6.8).
+
+:func:`Interpreter.run_line` takes one complete line (after line editing) and returns the
+bytes of the answer, or None when the module stays silent (a failed ``check``, a foreign
+``iaddress``). It never performs I/O beyond the injected non-volatile store.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from sondalog.ala1.cksum import cksum
+from sondalog.ala1.model import BAUD_RATES, CommandError, Unavailable, View
+from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
+from sondalog.ala1.state import ModuleState, Transaction
+from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
+from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
+
+#: A command line is at most 120 characters (§3.4.1, §7).
+MAX_LINE = 120
+
+_HEADER_WORDS = (
+    "check",
+    "crcsum",
+    "sum",
+    "pause",
+    "comspeed",
+    "quiet",
+    "startline",
+    "endline",
+    "iname",
+    "counter",
+    "number",
+    "date",
+    "iaddress",
+)
+_HEADER_OPTIONS = [(w,) for w in _HEADER_WORDS]
+_SWITCHES = [("read",), ("write",)]
+
+
+@dataclass
+class Headers:
+    """The header keywords of one line (§8.2), each at most once."""
+
+    seen: set[str] = field(default_factory=set)
+    check: int | None = None
+    check_from: int = 0
+    check_text: str = ""
+    crcsum: bool = False
+    sum: bool = False
+    pause: int | None = None
+    comspeed: int | None = None
+    quiet: bool = False
+    startline: str = ""
+    endline: str = ""
+    iname: bool = False
+    counter: int | None = None
+    number: int | None = None
+    date: bool = False
+    iaddress: str | None = None
+
+    def parse_one(self, word: str, cur: Cursor) -> None:
+        """Parse the parameter of header keyword ``word`` (already consumed)."""
+        if word in self.seen:
+            raise ParseError(f"header {word} given twice")
+        self.seen.add(word)
+        if word == "check":
+            self.check = cur.integer()
+            self.check_from = cur.pos
+            self.check_text = cur.text
+        elif word == "pause":
+            self.pause = cur.integer()
+            if self.pause >= 3600:
+                raise ParseError("pause must be below 3600 s (§8.5.1)")
+        elif word == "comspeed":
+            self.comspeed = cur.integer()
+            if self.comspeed not in BAUD_RATES:
+                raise ParseError("comspeed must be a §6.11.2 rate")
+        elif word == "startline":
+            self.startline = cur.string()
+            if len(self.startline) > 20:
+                raise ParseError("startline is at most 20 characters (§8.5.4)")
+        elif word == "endline":
+            self.endline = cur.string()
+            if len(self.endline) > 10:
+                raise ParseError("endline is at most 10 characters (§8.5.5)")
+        elif word == "counter":
+            self.counter = cur.integer()
+            if not 1 <= self.counter <= 4:
+                raise ParseError("counter is 1 to 4 (§8.5.7)")
+        elif word == "number":
+            self.number = cur.integer()
+        elif word == "iaddress":
+            self.iaddress = cur.string()
+        else:
+            setattr(self, word, True)
+        if self.counter is not None and self.number is not None:
+            raise ParseError("number and counter exclude each other")
+
+    def check_ok(self) -> bool:
+        """§8.3.1: the sum of the bytes after N to the end of the line equals N."""
+        if self.check is None:
+            return True
+        tail = self.check_text[self.check_from :]
+        return sum(tail.encode("latin-1")) == self.check
+
+
+@dataclass
+class Command:
+    """One parsed body command."""
+
+    switch: str  # "R" or "W"
+    leaf: Leaf
+    targets: list[Indices]
+    all_inputs: bool = False
+    hexadecimal: bool = False
+    values: list[list[str]] = field(default_factory=list)
+    arg: str | None = None
+
+
+@dataclass
+class Answer:
+    """The bytes of one answer and the rate to send them at (``comspeed``, §8.5.2)."""
+
+    data: bytes
+    baud: int | None = None
+
+
+class Interpreter:
+    """Runs complete command lines against a :class:`ModuleState`."""
+
+    def __init__(self, state: ModuleState) -> None:
+        self.state = state
+
+    # -- entry points ------------------------------------------------------------------------
+    def pause_of(self, line: str) -> int | None:
+        """The ``pause`` header of ``line`` if its header parses (§8.5.1), else None."""
+        cur = Cursor(line)
+        headers = Headers()
+        try:
+            self._headers(cur, headers)
+        except ParseError:
+            return None
+        return headers.pause
+
+    def run_line(self, line: str, host_now: float, *, overflow: bool = False) -> Answer | None:
+        """Execute one command line; None means the module stays silent.
+
+        ``overflow``: the line had more than 120 characters; the extra ones were dropped and
+        the answer is the error response for the first 120 (spec notes §1).
+        """
+        too_long = overflow or len(line) > MAX_LINE
+        line = line[:MAX_LINE]
+        cur = Cursor(line)
+        headers = Headers()
+        named: str | None = None
+        failed = too_long
+        try:
+            named = self._headers(cur, headers)
+        except ParseError:
+            failed = True
+        if not headers.check_ok():
+            return None
+        own = self.state.get("i address")
+        if own and named is None and headers.iaddress != own:
+            return None
+        if failed:
+            return self._error(line, headers)
+        txn = self.state.begin(host_now)
+        try:
+            if named is not None:
+                cur = self._expand(named, cur, headers, txn)
+            lines = self._body(cur, txn)
+        except (ParseError, CommandError, Unavailable, ValueError):
+            return self._error(line, headers)
+        txn.commit()
+        return Answer(self._render(lines, headers, txn), headers.comspeed)
+
+    # -- header and named commands -----------------------------------------------------------
+    def _headers(self, cur: Cursor, headers: Headers) -> str | None:
+        """Parse header keywords up to the switch; return a named command's text if any."""
+        while True:
+            cur.skip_spaces()
+            start = cur.pos
+            name = self._named_at(cur.rest())
+            word = cur.choose_keyword([*_HEADER_OPTIONS, *_SWITCHES])
+            if name is not None and (word is None or len(name) > cur.pos - start):
+                cur.pos = start
+                return name
+            if word is None:
+                raise ParseError("header keyword, read, write or a command name expected")
+            if word[0] in ("read", "write"):
+                cur.pos = start
+                return None
+            headers.parse_one(word[0], cur)
+
+    def _named_at(self, text: str) -> str | None:
+        """The longest command name that prefixes ``text`` (case-sensitive, §6.8.2)."""
+        best: str | None = None
+        for number in range(1, self.state.identity.limits.commands + 1):
+            name = self.state.get(f"command {number} name")
+            if name and text.startswith(name) and (best is None or len(name) > len(best)):
+                best = name
+        return best
+
+    def _expand(self, name: str, cur: Cursor, headers: Headers, view: View) -> Cursor:
+        """§6.8.3: the command's value, with ``&`` replaced by the text after the name."""
+        tail = cur.rest()[len(name) :]
+        number = next(
+            n
+            for n in range(1, view.identity.limits.commands + 1)
+            if view.get(f"command {n} name") == name
+        )
+        value = view.get(f"command {number} value")
+        if value.endswith("&"):
+            value = value[:-1] + tail
+        inner = Cursor(value)
+        if self._headers(inner, headers) is not None:
+            raise ParseError("a named command cannot run another one")
+        if not headers.check_ok():
+            raise ParseError("check of a named command's value failed")
+        return inner
+
+    # -- body ------------------------------------------------------------------------------
+    def _body(self, cur: Cursor, view: Transaction) -> list[str]:
+        """§5, §7: run every command of the body, chained, and collect the data lines."""
+        lines: list[str] = []
+        switch = self._switch(cur)
+        if switch is None:
+            raise ParseError("read or write expected")
+        first: str | None = None
+        node = ROOT
+        while True:
+            start = cur.pos
+            command, first_word = self._command(cur, switch, node, view)
+            if cur.pos == start:
+                raise ParseError("no progress")
+            if first is None:
+                first = first_word
+            lines.extend(self._execute(command, view))
+            if cur.at_end():
+                return lines
+            if command.leaf.ends_line:
+                raise ParseError(f"nothing may follow {command.leaf.pattern} (§7)")
+            new_switch = self._switch(cur)
+            if new_switch is not None:
+                switch, node, first = new_switch, ROOT, None  # §7.1
+            else:
+                assert first is not None
+                node = ROOT.words[first]  # §7.2: the switch and first keyword carry over
+
+    @staticmethod
+    def _switch(cur: Cursor) -> str | None:
+        word = cur.choose_keyword(_SWITCHES)
+        return None if word is None else ("R" if word[0] == "read" else "W")
+
+    def _command(
+        self, cur: Cursor, switch: str, node: Node, view: View
+    ) -> tuple[Command, str | None]:
+        first_word: str | None = None
+        indices: Indices = {}
+        channels: list[int] | None = None
+        while True:
+            word = cur.choose_keyword([(w,) for w in node.words])
+            if word is not None:
+                if node is ROOT:
+                    first_word = word[0]
+                node = node.words[word[0]]
+                continue
+            if node.index is not None:
+                spec, child = node.index
+                if spec.is_list:
+                    channels = self._channels(cur, spec, view)
+                else:
+                    indices[spec.name] = self._index(cur, spec, view)
+                node = child
+                continue
+            break
+        leaf = node.leaves.get(switch)
+        if leaf is None:
+            raise ParseError("no such parameter for this switch")
+        if "{ch}" in leaf.pattern:
+            if channels is None:
+                channels = list(range(1, int(view.get("channel max number")) + 1))
+            targets = [{**indices, "ch": c} for c in channels]
+        else:
+            targets = [indices]
+        command = Command(switch, leaf, targets)
+        self._modifiers(cur, command)
+        if switch == "R":
+            if leaf.read_arg is not None:
+                command.arg = leaf.read_arg.parse(cur, ParseCtx(view, indices))
+        else:
+            self._values(cur, command, view)
+        if leaf.unavailable:
+            raise Unavailable(leaf.unavailable)
+        return command, first_word
+
+    @staticmethod
+    def _index(cur: Cursor, spec: IndexSpec, view: View) -> int:
+        if cur.peek_digit():
+            value = cur.integer()
+        elif spec.optional:
+            return spec.default
+        else:
+            raise ParseError(f"{spec.doc} expected")
+        if not spec.lo <= value <= spec.hi(view.identity.limits):
+            raise ParseError(f"{spec.doc}: {value} out of range")
+        return value
+
+    @staticmethod
+    def _channels(cur: Cursor, spec: IndexSpec, view: View) -> list[int] | None:
+        channels = cur.channel_list()
+        if channels is not None:
+            high = spec.hi(view.identity.limits)
+            if any(not 1 <= c <= high for c in channels):
+                raise ParseError("channel number out of range")
+        return channels
+
+    @staticmethod
+    def _modifiers(cur: Cursor, command: Command) -> None:
+        leaf = command.leaf
+        while True:
+            if leaf.dual and not command.all_inputs and cur.try_keyword(("all",)):
+                command.all_inputs = True
+            elif leaf.hexable and not command.hexadecimal and cur.try_keyword(("x",)):
+                command.hexadecimal = True
+            else:
+                return
+
+    @staticmethod
+    def _values(cur: Cursor, command: Command, view: View) -> None:
+        multi = len(command.targets) > 1
+        vtype = command.leaf.vtype
+        for indices in command.targets:
+            ctx = ParseCtx(view, indices, multi)
+            slots = 2 if command.all_inputs else 1
+            values: list[str] = []
+            for slot in range(slots):
+                if slot:
+                    cur.skip_spaces()
+                    if cur.pos < len(cur.text) and cur.text[cur.pos] == ",":
+                        cur.pos += 1
+                if command.hexadecimal and isinstance(vtype, ChannelAddress):
+                    values.append(vtype.parse_hex(cur, ctx))
+                else:
+                    values.append(vtype.parse(cur, ctx))
+            command.values.append(values)
+
+    # -- execution ---------------------------------------------------------------------------
+    def _execute(self, command: Command, view: View) -> list[str]:
+        leaf = command.leaf
+        if command.switch == "W":
+            for indices, values in zip(command.targets, command.values, strict=True):
+                if leaf.writer is not None:
+                    leaf.writer(view, indices, values)
+                else:
+                    for slot, value in enumerate(values, start=1):
+                        view.set(leaf.key(indices, slot), value)
+            return []
+        if leaf.reader is not None:
+            if len(command.targets) == 1:
+                return leaf.reader(view, command.targets[0], command.arg)
+            return [",".join(",".join(leaf.reader(view, t, command.arg)) for t in command.targets)]
+        return [",".join(self._render_value(command, view, t) for t in command.targets)]
+
+    @staticmethod
+    def _render_value(command: Command, view: View, indices: Indices) -> str:
+        leaf = command.leaf
+        slots = (1, 2) if command.all_inputs else (1,)
+        parts = []
+        for slot in slots:
+            stored = view.get(leaf.key(indices, slot))
+            if command.hexadecimal:
+                parts.append(format(int(stored), "X"))
+            else:
+                parts.append(leaf.vtype.render(stored, view, indices))
+        return ",".join(parts)
+
+    # -- answers ---------------------------------------------------------------------------
+    def _render(self, lines: list[str], headers: Headers, view: Transaction) -> bytes:
+        """Decorate every line (spec notes §3 order), add crcsum and OK."""
+        prefix = headers.startline
+        if headers.iname:
+            prefix += view.get("i name") + ","
+        if headers.date:
+            prefix += format_stamp(view.now()) + ","
+        counters = self.state.counters
+        next_number = headers.number
+
+        def decorate(text: str) -> bytes:
+            nonlocal next_number
+            body = prefix
+            if next_number is not None:
+                body += f"{next_number},"
+                next_number += 1
+            elif headers.counter is not None:
+                body += f"{counters[headers.counter - 1]},"
+                counters[headers.counter - 1] += 1
+            body += text + headers.endline
+            raw = body.encode("latin-1", "replace")
+            if headers.sum:
+                raw = b"%05d," % sum(raw) + raw
+            return raw + b"\r\n"
+
+        out = [decorate(line) for line in lines]
+        if headers.crcsum:
+            blob = b"".join(out)
+            out.append(decorate(f"{cksum(blob)},{len(blob)}"))
+        if not headers.quiet:
+            out.append(decorate("OK"))
+        return b"".join(out)
+
+    def error_answer(self, line: str) -> Answer:
+        """The plain error response (used when something unexpected failed)."""
+        return Answer(line[:MAX_LINE].encode("latin-1", "replace") + b"\r\nERROR\r\n")
+
+    @staticmethod
+    def _error(line: str, headers: Headers) -> Answer | None:
+        """§3.3.1: the line as received, then ERROR; never decorated; ``quiet`` hides it."""
+        if headers.quiet:
+            return Answer(b"")
+        return Answer(line.encode("latin-1", "replace") + b"\r\nERROR\r\n")

@@ -1,0 +1,1 @@
+"""Non-volatile storage backends (SQLite)."""

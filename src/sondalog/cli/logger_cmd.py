@@ -1,0 +1,137 @@
+"""``sondalog logger ...``: serve a virtual ALA1 data logger (parsing only; the work is in
+:mod:`sondalog.transport.instance`)."""
+
+from __future__ import annotations
+
+import asyncio
+import signal
+import sys
+from pathlib import Path
+
+import click
+
+from sondalog.ala1 import Version
+from sondalog.clock import make_clock
+from sondalog.transport import DEFAULT_PORT
+from sondalog.transport.instance import (
+    IdentityConflict,
+    serve_until,
+    start_logger,
+    valid_serial_number,
+)
+
+
+class _Refused(click.ClickException):
+    """A usage problem found after parsing (exit code 2, like click's own usage errors)."""
+
+    exit_code = 2
+
+
+def parse_listen(value: str) -> tuple[str, int]:
+    """``HOST:PORT`` or ``[IPv6]:PORT`` -> (host, port); raises ValueError."""
+    host, sep, port_text = value.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"expected HOST:PORT, got {value!r}")
+    if host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]
+    if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
+        raise ValueError(f"port must be a number 0..65535, got {port_text!r}")
+    return host, int(port_text)
+
+
+def format_address(host: str, port: int) -> str:
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+def _listen_option(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, int]:
+    try:
+        return parse_listen(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), ctx, param) from exc
+
+
+@click.group()
+def logger() -> None:
+    """Virtual ALA1 data loggers."""
+
+
+@logger.command()
+@click.option(
+    "--listen",
+    metavar="HOST:PORT",
+    default=f"127.0.0.1:{DEFAULT_PORT}",
+    callback=_listen_option,
+    show_default=True,
+    help="Address to accept TCP connections on; port 0 picks a free port.",
+)
+@click.option(
+    "--state",
+    "state_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("state/logger"),
+    show_default=True,
+    help="State directory (non-volatile memory); created when missing.",
+)
+@click.option(
+    "--protocol",
+    type=click.Choice([v.value for v in Version]),
+    default=None,
+    help="Protocol version of a new logger (default 2.10); fixed once the state exists.",
+)
+@click.option(
+    "--serial-number",
+    default=None,
+    help="Serial number (i snumber) of a new logger (default 000001); fixed once created.",
+)
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="Run the module clock this many times faster than real time.",
+)
+def serve(
+    listen: tuple[str, int],
+    state_dir: Path,
+    protocol: str | None,
+    serial_number: str | None,
+    speed: float,
+) -> None:
+    """Serve one virtual ALA1 logger over TCP (§6.11.5.2.4: port 10001).
+
+    Prints ``listening on HOST:PORT`` once connections are accepted. SIGINT or SIGTERM stop
+    it cleanly.
+    """
+    if serial_number is not None and not valid_serial_number(serial_number):
+        raise click.BadParameter(
+            "1 to 32 printable ASCII characters without spaces", param_hint="--serial-number"
+        )
+    version = Version(protocol) if protocol is not None else None
+    try:
+        asyncio.run(_serve(state_dir, listen, version, serial_number, speed))
+    except IdentityConflict as exc:
+        raise _Refused(str(exc)) from exc
+    except OSError as exc:
+        raise click.ClickException(f"cannot serve on {format_address(*listen)}: {exc}") from exc
+
+
+async def _serve(
+    state_dir: Path,
+    listen: tuple[str, int],
+    version: Version | None,
+    serial_number: str | None,
+    speed: float,
+) -> None:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+
+    def announce(host: str, port: int) -> None:
+        sys.stdout.write(f"listening on {format_address(host, port)}\n")
+        sys.stdout.flush()
+
+    running = await start_logger(
+        state_dir, make_clock(speed), listen, version, serial_number, on_listening=announce
+    )
+    await serve_until(stop, running)

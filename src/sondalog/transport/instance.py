@@ -1,0 +1,121 @@
+"""One served virtual ALA1 logger: its state directory, identity, engine host and servers.
+
+A state directory holds the module's non-volatile memory (``ala1.sqlite``, DESIGN.md point 5)
+and ``identity.json``: the protocol version (§1.1) and serial number (§6.3.3) the module was
+"manufactured" with. Both are fixed when the directory is created; a later start that asks for
+different ones is refused (:class:`IdentityConflict`), so a 1.16 database is never served as
+2.10.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from sondalog.ala1 import Engine, Identity, Version
+from sondalog.clock import Clock
+from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.transport.runner import EngineHost
+from sondalog.transport.tcp import TcpServer, serve_tcp
+
+IDENTITY_FILE = "identity.json"
+DATABASE_FILE = "ala1.sqlite"
+
+
+class IdentityConflict(Exception):
+    """The state directory was created with another protocol version or serial number."""
+
+
+def valid_serial_number(serial: str) -> bool:
+    """A serial number is 1 to 32 printable ASCII characters without spaces (sondalog rule)."""
+    return 0 < len(serial) <= 32 and all(33 <= ord(c) < 127 for c in serial)
+
+
+def load_identity(
+    state_dir: Path, version: Version | None = None, serial_number: str | None = None
+) -> Identity:
+    """The identity of the module in ``state_dir``; created from the arguments when new.
+
+    ``None`` means "whatever the directory says" (or the default for a new directory).
+    """
+    path = state_dir / IDENTITY_FILE
+    if path.exists():
+        stored = json.loads(path.read_text(encoding="utf-8"))
+        identity = Identity(Version(stored["protocol"]), str(stored["serial_number"]))
+        if version is not None and version is not identity.version:
+            raise IdentityConflict(
+                f"{state_dir} holds a protocol {identity.version.value} logger; "
+                f"it cannot be served as protocol {version.value}"
+            )
+        if serial_number is not None and serial_number != identity.serial_number:
+            raise IdentityConflict(
+                f"{state_dir} holds the logger with serial number {identity.serial_number}; "
+                f"it cannot be served as serial number {serial_number}"
+            )
+        return identity
+    identity = Identity(version or Version.V2_10, serial_number or Identity().serial_number)
+    state_dir.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(
+        {"protocol": identity.version.value, "serial_number": identity.serial_number}, indent=2
+    )
+    tmp = path.with_suffix(".tmp")
+    with tmp.open("w", encoding="utf-8") as handle:
+        handle.write(text + "\n")
+        handle.flush()
+        os.fsync(handle.fileno())
+    tmp.replace(path)
+    return identity
+
+
+@dataclass
+class Logger:
+    """A running virtual logger: engine host plus its TCP servers."""
+
+    identity: Identity
+    store: SqliteNvStore
+    host: EngineHost
+    servers: list[TcpServer]
+
+    async def close(self) -> None:
+        for server in self.servers:
+            await server.close()
+        await self.host.stop()
+        self.store.close()
+
+
+async def start_logger(
+    state_dir: Path,
+    clock: Clock,
+    listen: tuple[str, int],
+    version: Version | None = None,
+    serial_number: str | None = None,
+    on_listening: Callable[[str, int], None] | None = None,
+) -> Logger:
+    """Open ``state_dir`` (creating it), start the engine and listen on ``listen``."""
+    state_dir.mkdir(parents=True, exist_ok=True)
+    identity = load_identity(state_dir, version, serial_number)
+    store = SqliteNvStore(state_dir / DATABASE_FILE)
+    try:
+        engine = Engine(identity, store, clock.now())
+        host = EngineHost(engine, clock)
+        server = await serve_tcp(host, *listen)
+        host.start()
+    except BaseException:
+        store.close()
+        raise
+    logger = Logger(identity, store, host, [server])
+    if on_listening is not None:
+        on_listening(*server.address)
+    return logger
+
+
+async def serve_until(stop: asyncio.Event, logger: Logger) -> None:
+    """Serve until ``stop`` is set, then close everything."""
+    try:
+        await stop.wait()
+    finally:
+        await logger.close()

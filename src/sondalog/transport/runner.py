@@ -1,0 +1,130 @@
+"""Drive one pure ALA1 engine from asyncio (DESIGN.md points 1, 2 and 6).
+
+The host owns the :class:`~sondalog.ala1.Engine` and a :class:`~sondalog.clock.Clock`. It
+passes ``clock.now()`` with every call, routes each :class:`~sondalog.ala1.Output` to the sink
+of its line, and runs a timer task that sleeps until :meth:`Engine.next_deadline` and then
+calls :meth:`Engine.advance` (``pause`` headers, §8.5.1; the 60 s entry timeout, §3.4.5). The
+timer is re-armed whenever input changes the engine's next deadline.
+
+No protocol logic lives here: bytes in, bytes out. An internal exception is logged with the
+offending bytes and the loop carries on (DESIGN.md point 6).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable
+
+from sondalog.ala1 import Engine, Output
+from sondalog.clock import Clock
+
+log = logging.getLogger(__name__)
+
+#: Where the bytes for one line go (e.g. ``transport.write`` of a TCP connection).
+Sink = Callable[[bytes], None]
+
+
+class EngineHost:
+    """One engine, its clock, its timers, and the sinks of its attached lines."""
+
+    def __init__(self, engine: Engine, clock: Clock) -> None:
+        self.engine = engine
+        self.clock = clock
+        self._sinks: dict[int, Sink] = {}
+        self._armed: float | None = None
+        self._rearm = asyncio.Event()
+        self._timer: asyncio.Task[None] | None = None
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    def start(self) -> None:
+        """Start the timer task (needs a running event loop)."""
+        if self._timer is None:
+            self._timer = asyncio.get_running_loop().create_task(self._run_timers())
+
+    async def stop(self) -> None:
+        """Stop the timer task and detach every line."""
+        if self._timer is not None:
+            self._timer.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._timer
+            self._timer = None
+        for line_id in list(self._sinks):
+            self.detach(line_id)
+
+    # -- lines -------------------------------------------------------------------------------
+    def attach(self, sink: Sink) -> int:
+        """A new connection: opens an engine line whose output goes to ``sink``."""
+        line_id = self.engine.open_line()
+        self._sinks[line_id] = sink
+        return line_id
+
+    def detach(self, line_id: int) -> None:
+        """The connection is gone: its partial command and pending output are dropped."""
+        self._sinks.pop(line_id, None)
+        try:
+            self.engine.close_line(line_id)
+        except Exception:
+            log.exception("internal error closing line %d", line_id)
+        self._check_deadline()
+
+    def feed(self, line_id: int, data: bytes) -> None:
+        """Bytes received on a line: run them through the engine and send the answers."""
+        try:
+            outputs = self.engine.receive(line_id, data, self.clock.now())
+        except Exception:
+            log.exception("internal error on line %d receiving %r", line_id, data)
+            outputs = []
+        self._dispatch(outputs)
+        self._check_deadline()
+
+    # -- internals ---------------------------------------------------------------------------
+    def _dispatch(self, outputs: list[Output]) -> None:
+        for output in outputs:
+            sink = self._sinks.get(output.line)
+            if sink is None:
+                continue  # the line went away while its answer was pending
+            try:
+                sink(output.data)  # comspeed (output.baud) has no meaning on TCP
+            except Exception:
+                log.exception("cannot send %r to line %d", output.data, output.line)
+
+    def _check_deadline(self) -> None:
+        """Wake the timer task when the engine's next deadline moved."""
+        if self.engine.next_deadline() != self._armed:
+            self._rearm.set()
+
+    async def _run_timers(self) -> None:
+        while True:
+            self._rearm.clear()
+            try:
+                deadline = self.engine.next_deadline()
+            except Exception:
+                log.exception("internal error computing the next deadline")
+                deadline = None
+            self._armed = deadline
+            if deadline is None:
+                await self._rearm.wait()
+                continue
+            if self.clock.now() < deadline:
+                await self._sleep_or_rearm(deadline)
+            now = self.clock.now()
+            if now >= deadline:
+                try:
+                    outputs = self.engine.advance(now)
+                except Exception:
+                    log.exception("internal error running timers at %r", now)
+                    outputs = []
+                    await asyncio.sleep(1.0)  # never spin on a timer that keeps failing
+                self._dispatch(outputs)
+
+    async def _sleep_or_rearm(self, deadline: float) -> None:
+        sleeper = asyncio.ensure_future(self.clock.sleep_until(deadline))
+        waker = asyncio.ensure_future(self._rearm.wait())
+        try:
+            await asyncio.wait({sleeper, waker}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for task in (sleeper, waker):
+                task.cancel()
+            await asyncio.gather(sleeper, waker, return_exceptions=True)

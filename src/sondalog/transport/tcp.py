@@ -1,0 +1,101 @@
+"""TCP transport for an ALA1 engine (§6.11.5.2.4: the GPRS modem listens on TCP port 10001).
+
+Every accepted connection is one line of the engine (its own echo and partial command, §3.4);
+each answer goes back to the connection that sent the command. Bytes are passed through
+unchanged in both directions, as ``telnet``/``nc`` would see a real module through the modem.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+
+from sondalog.transport.runner import EngineHost
+
+log = logging.getLogger(__name__)
+
+#: §6.11.5.2.4: the TCP server of the ALA GPRS modem.
+DEFAULT_PORT = 10001
+#: Stop reading from a client whose answers pile up unread beyond this many bytes.
+HIGH_WATER = 256 * 1024
+
+
+class _LineProtocol(asyncio.Protocol):
+    """One TCP connection = one engine line."""
+
+    def __init__(self, host: EngineHost, connections: set[_LineProtocol]) -> None:
+        self._host = host
+        self._connections = connections
+        self._transport: asyncio.Transport | None = None
+        self._line: int | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self._transport = transport
+        transport.set_write_buffer_limits(high=HIGH_WATER)
+        self._line = self._host.attach(self._send)
+        self._connections.add(self)
+        log.info("line %d: connected from %s", self._line, transport.get_extra_info("peername"))
+
+    def data_received(self, data: bytes) -> None:
+        if self._line is not None:
+            self._host.feed(self._line, data)
+
+    def eof_received(self) -> bool | None:
+        return None  # close our side too: the peer has finished talking
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._connections.discard(self)
+        if self._line is not None:
+            log.info("line %d: disconnected (%s)", self._line, exc or "closed")
+            self._host.detach(self._line)
+            self._line = None
+        self._transport = None
+
+    # Flow control: a client that pipelines commands without reading its answers is paused.
+    def pause_writing(self) -> None:
+        if self._transport is not None:
+            self._transport.pause_reading()
+
+    def resume_writing(self) -> None:
+        if self._transport is not None and not self._transport.is_closing():
+            self._transport.resume_reading()
+
+    def _send(self, data: bytes) -> None:
+        if self._transport is not None and not self._transport.is_closing():
+            self._transport.write(data)
+
+    def close(self) -> None:
+        if self._transport is not None:
+            self._transport.close()
+
+
+class TcpServer:
+    """A listening TCP server attached to one :class:`EngineHost`."""
+
+    def __init__(self, server: asyncio.Server, connections: set[_LineProtocol]) -> None:
+        self.server = server
+        self._connections = connections
+
+    @property
+    def address(self) -> tuple[str, int]:
+        """The (host, port) actually bound (port 0 picks a free port)."""
+        sockname = self.server.sockets[0].getsockname()
+        return str(sockname[0]), int(sockname[1])
+
+    async def close(self) -> None:
+        """Stop accepting and drop every connection."""
+        self.server.close()
+        for connection in list(self._connections):
+            connection.close()
+        await self.server.wait_closed()
+
+
+async def serve_tcp(host: EngineHost, address: str, port: int) -> TcpServer:
+    """Listen on ``address:port`` and attach each connection to ``host`` as its own line."""
+    connections: set[_LineProtocol] = set()
+    loop = asyncio.get_running_loop()
+    server = await loop.create_server(
+        lambda: _LineProtocol(host, connections), address, port, reuse_address=True
+    )
+    return TcpServer(server, connections)

@@ -1,0 +1,64 @@
+"""A harness around the pure ALA1 engine: bytes in, bytes out, time stepped by the test."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from sondalog.ala1 import Engine, Identity, Version
+from sondalog.storage.ala1_nv import SqliteNvStore
+
+T0 = 1_000_000_000.0
+
+
+class Module:
+    """One virtual ALA1 on one line, driven by a test."""
+
+    def __init__(self, version: Version = Version.V2_10, db: str | Path = ":memory:") -> None:
+        self.now = T0
+        self.store = SqliteNvStore(db)
+        self.engine = Engine(Identity(version), self.store, self.now)
+        self.line = self.engine.open_line()
+
+    def feed(self, data: bytes) -> bytes:
+        """Send raw bytes; return everything the module sends back."""
+        out = self.engine.receive(self.line, data, self.now)
+        assert all(o.line == self.line for o in out)
+        return b"".join(o.data for o in out)
+
+    def ask(self, command: str | bytes) -> bytes:
+        """Send one command line terminated by CR."""
+        raw = command.encode("latin-1") if isinstance(command, str) else command
+        return self.feed(raw + b"\r")
+
+    def ok(self, command: str) -> None:
+        assert self.ask(command) == b"OK\r\n", command
+
+    def read(self, command: str) -> str:
+        """Run a read command; return its single data line."""
+        answer = self.ask(command)
+        assert answer.endswith(b"\r\nOK\r\n"), (command, answer)
+        return answer[: -len(b"\r\nOK\r\n")].decode("latin-1")
+
+    def error(self, command: str) -> None:
+        assert self.ask(command) == command.encode("latin-1")[:120] + b"\r\nERROR\r\n", command
+
+    def advance(self, seconds: float) -> bytes:
+        self.now += seconds
+        return b"".join(o.data for o in self.engine.advance(self.now))
+
+
+@pytest.fixture
+def module() -> Iterator[Module]:
+    m = Module()
+    yield m
+    m.store.close()
+
+
+@pytest.fixture
+def module116() -> Iterator[Module]:
+    m = Module(Version.V1_16)
+    yield m
+    m.store.close()

@@ -110,6 +110,7 @@ class Leaf:
     unavailable: str | None = None  # behaviour arrives with a later issue: error response
     ends_line: bool = False  # nothing may follow on the line (§7: ``write global reset``)
     stored: bool = True  # has a storage key
+    default_doc: str = ""  # the factory value in words, when it depends on other values
 
     @property
     def words(self) -> tuple[str, ...]:
@@ -323,12 +324,14 @@ def _leaves() -> list[Leaf]:
         L("i device", NoValue(), "R", "", S + "6.3.2", "hardware version",
           reader=_identity("device"), stored=False),
         L("i snumber", NoValue(), "R", "", S + "6.3.3", "serial number",
-          reader=_identity("snumber"), stored=False),
+          reader=_identity("snumber"), stored=False, default_doc="--serial-number, 000001"),
         L("i program", NoValue(), "R", "", S + "6.3.4", "program version",
-          reader=_identity("program"), stored=False),
+          reader=_identity("program"), stored=False, default_doc="sondalog VERSION"),
         L("i name", Text(20), "RW", "", S + "6.3.5", "module name for messages"),
-        L("i description", Text(20), "RW", _serial_number, S + "6.3.6", "module label"),
-        L("i type", Text(20), "RW", _serial_number, S + "6.3.7", "configuration type"),
+        L("i description", Text(20), "RW", _serial_number, S + "6.3.6", "module label",
+          default_doc="the serial number"),
+        L("i type", Text(20), "RW", _serial_number, S + "6.3.7", "configuration type",
+          default_doc="the serial number"),
         L("i address", Text(10), "RW", "", S + "6.3.8", "own address / password"),
         # §6.4 device
         L("device {dev} type", Choice(("MSP430ADC", "MSP430TA", "DS18B20")), "RW",
@@ -337,9 +340,10 @@ def _leaves() -> list[Leaf]:
         L("device {dev} address", Integer(0, _U16), "RW", "0", S + "6.4.2",
           "P6 bit of a DS18B20"),
         L("device {dev} cal mult", Number(), "RW", _device_cal_default(0), S + "6.4.4.1",
-          "device multiplicative calibration"),
+          "device multiplicative calibration",
+          default_doc="by type: MSP430ADC 2.500000, MSP430TA 1.000000, DS18B20 3276.800000"),
         L("device {dev} cal add", Number(), "RW", _device_cal_default(1), S + "6.4.4.2",
-          "device additive calibration"),
+          "device additive calibration", default_doc="0.000000 for every type"),
         # §6.5 channel
         L("channel max number", Integer(1, _channels), "RW", "1", S + "6.5.1",
           "number of channels"),
@@ -406,9 +410,11 @@ def _leaves() -> list[Leaf]:
           writer=_write_record_clear, stored=False),
         # §6.7 output
         L("output {out} device", Integer(0, 8), "RW",
-          lambda v, i: "1" if i["out"] == 1 else "0", S + "6.7.1", "device of the output"),
+          lambda v, i: "1" if i["out"] == 1 else "0", S + "6.7.1", "device of the output",
+          default_doc="1 for output 1, else 0"),
         L("output {out} address", Integer(0, _U16), "RW",
-          lambda v, i: "7" if i["out"] == 1 else "0", S + "6.7.2", "address on the device"),
+          lambda v, i: "7" if i["out"] == 1 else "0", S + "6.7.2", "address on the device",
+          default_doc="7 for output 1, else 0"),
         L("output {out} value", OutputValue(), "RW", "NO", S + "6.7.3",
           "0, 1, or NO for automatic switching"),
         # §6.8 command
@@ -437,7 +443,8 @@ def _leaves() -> list[Leaf]:
           "LOCAL", S + "6.11.5", "communication device"),
         L("com device mode", Choice(("SAVING", "GSM", "GPRS")), "RW", "", S + "6.11.5.3",
           "idle mode of the wavecom modem", aliases=("com mode",), reader=_read_com_mode,
-          writer=_write_com_mode, stored=False),
+          writer=_write_com_mode, stored=False,
+          default_doc="none: error while com device is LOCAL"),
         L("com network smc", Text(), "RW", "", S + "6.11.6.1", "SMS centre",
           aliases=("com network smsc",)),
         L("com network apn address", Text(), "RW", "", S + "6.11.6.2", "GPRS APN"),

@@ -17,7 +17,7 @@ _ACCESS = {"R": "read", "W": "write", "RW": "read/write"}
 def _factory(leaf: Leaf, state: ModuleState) -> str:
     if leaf.default_doc:
         return leaf.default_doc
-    if leaf.unavailable or (leaf.reader is None and not leaf.stored) or "W" == leaf.access:
+    if leaf.unavailable or (leaf.reader is None and not leaf.stored) or leaf.access == "W":
         return "-"
     view = state.begin(0.0)
     indices = {w[1:-1]: INDEX_SPECS[w[1:-1]].lo or 1 for w in leaf.words if w.startswith("{")}

@@ -92,6 +92,8 @@ class FrameDecoder:
 
     def __init__(self) -> None:
         self._buf = bytearray()
+        #: Bytes dropped so far: noise before ``:`` and lines that were not valid frames.
+        self.rejected = 0
 
     def feed(self, data: bytes) -> list[Frame]:
         """Add received bytes; return the complete valid frames they finish."""
@@ -100,20 +102,25 @@ class FrameDecoder:
         while True:
             start = self._buf.find(b":")
             if start < 0:
+                self.rejected += len(self._buf)
                 self._buf.clear()
                 return frames
             if start:
+                self.rejected += start
                 del self._buf[:start]
             end = self._buf.find(b"\n")
             if end < 0:
                 if len(self._buf) > MAX_LINE:
+                    self.rejected += 1
                     del self._buf[:1]  # drop this ":"; look for the next one
                     continue
                 return frames
             line = bytes(self._buf[: end + 1])
             del self._buf[: end + 1]
             frame = _parse_resync(line)
-            if frame is not None:
+            if frame is None:
+                self.rejected += len(line)
+            else:
                 frames.append(frame)
 
     def pending(self) -> int:

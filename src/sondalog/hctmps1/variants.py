@@ -24,7 +24,7 @@ from typing import Protocol
 class SensorSource(Protocol):
     """The physical quantity at the sensor at time ``t`` (clock seconds)."""
 
-    def __call__(self, t: float) -> float: ...
+    def __call__(self, t: float, /) -> float: ...
 
 
 class Kind(enum.Enum):

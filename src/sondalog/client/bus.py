@@ -1,0 +1,501 @@
+"""Bus master for HCTMPS1 modules: the host side of the RS-485 bus (hctmps1.md §2, §4).
+
+:class:`BusMaster` talks to modules through a :class:`BusLink` (a TCP-to-RS-485 gateway such
+as ``sondalog bus serve``, a serial port or pty, or an in-process port of a virtual bus):
+request/response with a timeout and retries on a bad or missing reply, ``scan`` (broadcast
+``HELLO`` until no new module answers), ``poll`` (``REPLY`` grants round-robin) and a typed
+helper for every command of §4.
+
+URL forms (:func:`parse_bus_url`): ``tcp://HOST:PORT`` and ``serial:///dev/ttyX?baud=9600``
+(also for the symlink of ``bus serve --pty``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import AsyncIterator, Awaitable, Callable, Iterable
+from dataclasses import dataclass
+from typing import Protocol, TypeVar
+from urllib.parse import parse_qs, urlsplit
+
+from sondalog.hctmps1.framing import BROADCAST, Frame, FrameDecoder, encode_frame, is_valid_id
+from sondalog.hctmps1.module import slot_time
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+DEFAULT_HOST_ID = "PC"
+DEFAULT_BAUD = 9600
+#: Longest frame the master expects, for timeouts (a full LISTSUP reply is about 110 bytes).
+LONGEST_FRAME = 128
+
+
+class BusError(Exception):
+    """Base of the bus master's errors."""
+
+
+class NoReply(BusError):
+    """No valid reply came within the timeout, after every retry."""
+
+
+class UnexpectedReply(BusError):
+    """A reply came but is not one the command can give."""
+
+
+class BusUrlError(ValueError):
+    """A bus URL cannot be understood."""
+
+
+@dataclass(frozen=True, slots=True)
+class BusUrl:
+    """Where the bus is: ``tcp`` (host, port) or ``serial`` (device, baud)."""
+
+    scheme: str
+    host: str = ""
+    port: int = 0
+    device: str = ""
+    baud: int = DEFAULT_BAUD
+
+
+def parse_bus_url(url: str) -> BusUrl:
+    """``tcp://HOST:PORT`` or ``serial:///dev/ttyX[?baud=N]``."""
+    parts = urlsplit(url)
+    if parts.scheme == "tcp":
+        try:
+            port = parts.port
+        except ValueError as exc:
+            raise BusUrlError(f"{url}: bad port ({exc})") from None
+        if not parts.hostname or port is None:
+            raise BusUrlError(f"{url}: expected tcp://HOST:PORT")
+        return BusUrl("tcp", host=parts.hostname, port=port)
+    if parts.scheme == "serial":
+        if parts.netloc or not parts.path.startswith("/"):
+            raise BusUrlError(f"{url}: expected serial:///path/to/device[?baud=N]")
+        query = parse_qs(parts.query, strict_parsing=False)
+        unknown = set(query) - {"baud"}
+        if unknown:
+            raise BusUrlError(f"{url}: unknown option {sorted(unknown)[0]!r} (known: baud)")
+        baud = DEFAULT_BAUD
+        if "baud" in query:
+            text = query["baud"][-1]
+            if not text.isdigit() or int(text) <= 0:
+                raise BusUrlError(f"{url}: baud must be a positive integer, not {text!r}")
+            baud = int(text)
+        return BusUrl("serial", device=parts.path, baud=baud)
+    raise BusUrlError(f"{url}: unknown URL form (use tcp://HOST:PORT or serial:///dev/X?baud=N)")
+
+
+class BusLink(Protocol):
+    """A byte pipe to the bus."""
+
+    async def send(self, data: bytes) -> None: ...
+
+    async def receive(self) -> bytes:
+        """Received bytes; ``b""`` once the link is closed."""
+        ...
+
+    async def close(self) -> None: ...
+
+
+class StreamLink:
+    """A link over asyncio streams (TCP or serial)."""
+
+    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        self._reader = reader
+        self._writer = writer
+
+    async def send(self, data: bytes) -> None:
+        self._writer.write(data)
+        await self._writer.drain()
+
+    async def receive(self) -> bytes:
+        try:
+            return await self._reader.read(4096)
+        except (ConnectionError, OSError):
+            return b""
+
+    async def close(self) -> None:
+        self._writer.close()
+        with contextlib.suppress(ConnectionError, OSError):
+            await self._writer.wait_closed()
+
+
+async def open_link(url: str | BusUrl) -> StreamLink:
+    """Open the bus at ``url``."""
+    where = parse_bus_url(url) if isinstance(url, str) else url
+    if where.scheme == "tcp":
+        reader, writer = await asyncio.open_connection(where.host, where.port)
+    else:
+        import serial_asyncio_fast
+
+        reader, writer = await serial_asyncio_fast.open_serial_connection(
+            url=where.device, baudrate=where.baud
+        )
+    return StreamLink(reader, writer)
+
+
+@dataclass(frozen=True, slots=True)
+class DataFrame:
+    """A measurement released by ``REPLY``: module, its addressee, the value, when received."""
+
+    module: str
+    addressee: str
+    value: str
+    received: float
+
+
+def _status(text: str) -> bool:
+    if text == "<OK>":
+        return True
+    if text == "<FA>":
+        return False
+    raise UnexpectedReply(f"expected <OK> or <FA>, got {text!r}")
+
+
+def _id_list(text: str) -> list[str]:
+    return [] if text == "<EMPTY>" else text.split(",")
+
+
+class BusMaster:
+    """The host's side of the bus protocol (hctmps1.md §2, §4)."""
+
+    def __init__(
+        self,
+        link: BusLink,
+        host_id: str = DEFAULT_HOST_ID,
+        *,
+        baud: int = DEFAULT_BAUD,
+        timeout: float | None = None,
+        retries: int = 2,
+    ) -> None:
+        if not is_valid_id(host_id):
+            raise ValueError(f"bad host ID {host_id!r}: 1 to 8 of A-Z a-z 0-9 _ -")
+        self.link = link
+        self.host_id = host_id
+        self.baud = baud
+        frame_time = LONGEST_FRAME * 10 / baud
+        self.timeout = timeout if timeout is not None else 0.25 + 2 * frame_time
+        self.retries = retries
+        #: How long to collect answers to a broadcast: 16 slots, a frame, and slack (§2).
+        self.broadcast_window = 16 * slot_time(baud) + frame_time + 0.25
+        self._decoder = FrameDecoder()
+        self._frames: asyncio.Queue[Frame | None] = asyncio.Queue()
+        self._reader: asyncio.Task[None] | None = None
+        self._lock = asyncio.Lock()
+        self.closed = False
+
+    @classmethod
+    async def open(
+        cls,
+        url: str | BusUrl,
+        host_id: str = DEFAULT_HOST_ID,
+        *,
+        baud: int | None = None,
+        timeout: float | None = None,
+        retries: int = 2,
+    ) -> BusMaster:
+        """Open ``url`` and start a master on it (the baud of a serial URL sets the timing)."""
+        where = parse_bus_url(url) if isinstance(url, str) else url
+        link = await open_link(where)
+        master = cls(link, host_id, baud=baud or where.baud, timeout=timeout, retries=retries)
+        master.start()
+        return master
+
+    def start(self) -> None:
+        if self._reader is None:
+            self._reader = asyncio.create_task(self._read_loop(), name="bus master reader")
+
+    async def close(self) -> None:
+        if self._reader is not None:
+            self._reader.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._reader
+        await self.link.close()
+        self.closed = True
+
+    async def __aenter__(self) -> BusMaster:
+        self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    @property
+    def garbage(self) -> int:
+        """Bytes received that were not part of a valid frame (noise, collisions)."""
+        return self._decoder.rejected
+
+    async def _read_loop(self) -> None:
+        while data := await self.link.receive():
+            for frame in self._decoder.feed(data):
+                self._frames.put_nowait(frame)
+        self.closed = True
+        self._frames.put_nowait(None)
+
+    def _drain(self) -> None:
+        while not self._frames.empty():
+            if self._frames.get_nowait() is None:
+                self._frames.put_nowait(None)
+                return
+
+    async def _next_frame(self, deadline: float) -> Frame | None:
+        """The next received frame, or None at the deadline (loop time)."""
+        loop = asyncio.get_running_loop()
+        remaining = deadline - loop.time()
+        if remaining <= 0:
+            return None
+        try:
+            frame = await asyncio.wait_for(self._frames.get(), remaining)
+        except TimeoutError:
+            return None
+        if frame is None:
+            self._frames.put_nowait(None)
+            raise ConnectionError("the bus link is closed")
+        return frame
+
+    async def transact(
+        self,
+        dst: str,
+        body: str,
+        accept: Callable[[Frame], bool],
+        *,
+        retries: int | None = None,
+        timeout: float | None = None,
+    ) -> Frame:
+        """Send ``body`` to ``dst`` until a frame ``accept`` likes comes back."""
+        request = encode_frame(dst, self.host_id, body)
+        attempts = 1 + (self.retries if retries is None else retries)
+        wait = self.timeout if timeout is None else timeout
+        loop = asyncio.get_running_loop()
+        async with self._lock:
+            for attempt in range(attempts):
+                self._drain()
+                await self.link.send(request)
+                deadline = loop.time() + wait
+                while (frame := await self._next_frame(deadline)) is not None:
+                    if accept(frame):
+                        return frame
+                    log.debug("bus master: ignored %r while waiting for %s", frame, body)
+                log.debug("bus master: no reply to %s from %s (attempt %d)", body, dst, attempt + 1)
+        raise NoReply(f"no reply from {dst} to {body}")
+
+    async def command(
+        self, dst: str, command: str, param: str | None = None, *, retries: int | None = None
+    ) -> str:
+        """Send ``COMMAND[.PARAM]`` to ``dst``; return the reply's parameter (§4)."""
+        body = command if param is None else f"{command}.{param}"
+        prefix = f"R{command}."
+
+        def accept(frame: Frame) -> bool:
+            return frame.dst == self.host_id and frame.src == dst and frame.body.startswith(prefix)
+
+        frame = await self.transact(dst, body, accept, retries=retries)
+        return frame.body[len(prefix) :]
+
+    async def broadcast(self, body: str, window: float | None = None) -> list[Frame]:
+        """Send ``body`` to ``*`` and collect every reply to the host during the window (§2)."""
+        loop = asyncio.get_running_loop()
+        command = body.split(".", 1)[0]
+        frames: list[Frame] = []
+        async with self._lock:
+            self._drain()
+            await self.link.send(encode_frame(BROADCAST, self.host_id, body))
+            deadline = loop.time() + (self.broadcast_window if window is None else window)
+            while (frame := await self._next_frame(deadline)) is not None:
+                if frame.dst == self.host_id and frame.body.startswith(f"R{command}."):
+                    frames.append(frame)
+        return frames
+
+    # -- discovery and polling ---------------------------------------------------------------
+
+    async def scan(self, *, max_rounds: int = 30, window: float | None = None) -> dict[str, str]:
+        """Every module on the bus: ``{id: HELLO text}``.
+
+        Broadcasts ``HELLO`` round after round until a round brings no new module and no
+        garbled bytes (a collision or noise may have hidden one), or ``max_rounds``.
+        """
+        found: dict[str, str] = {}
+        for _ in range(max_rounds):
+            garbage = self.garbage
+            new = False
+            for frame in await self.broadcast("HELLO", window):
+                if frame.src not in found:
+                    found[frame.src] = frame.body[len("RHELLO.") :]
+                    new = True
+            if not new and self.garbage == garbage:
+                break
+        return dict(sorted(found.items()))
+
+    async def reply(self, module: str) -> DataFrame | None:
+        """``REPLY``: one queued data frame of ``module``, or None for ``NODATA`` (§4)."""
+
+        def accept(frame: Frame) -> bool:
+            if frame.src != module:
+                return False
+            if frame.body == "RREPLY.NODATA":
+                return frame.dst == self.host_id
+            return frame.body.startswith("RPV.")
+
+        frame = await self.transact(module, "REPLY", accept)
+        if frame.body == "RREPLY.NODATA":
+            return None
+        return DataFrame(frame.src, frame.dst, frame.body[len("RPV.") :], time.time())
+
+    async def poll(
+        self, modules: Iterable[str], *, max_rounds: int | None = None
+    ) -> list[DataFrame]:
+        """Grant ``REPLY`` round-robin until every module says ``NODATA``; the frames collected.
+
+        A module that does not answer after the retries is dropped from the round.
+        """
+        active = list(dict.fromkeys(modules))
+        frames: list[DataFrame] = []
+        rounds = 0
+        while active and (max_rounds is None or rounds < max_rounds):
+            for module in list(active):
+                try:
+                    data = await self.reply(module)
+                except NoReply:
+                    log.warning("bus master: %s does not answer REPLY", module)
+                    active.remove(module)
+                    continue
+                if data is None:
+                    active.remove(module)
+                else:
+                    frames.append(data)
+            rounds += 1
+        return frames
+
+    async def watch(self, modules: Iterable[str], idle: float = 0.5) -> AsyncIterator[DataFrame]:
+        """Grant ``REPLY`` round-robin forever, yielding data frames as they come."""
+        targets = list(dict.fromkeys(modules))
+        while True:
+            got = False
+            for module in targets:
+                try:
+                    data = await self.reply(module)
+                except NoReply:
+                    continue
+                if data is not None:
+                    got = True
+                    yield data
+            if not got:
+                await asyncio.sleep(idle)
+
+    # -- typed helpers, one per command of §4 ---------------------------------------------
+
+    async def hello(self, module: str) -> str:
+        return await self.command(module, "HELLO")
+
+    async def getver(self, module: str) -> str:
+        return await self.command(module, "GETVER")
+
+    async def connect(self, module: str, password: str) -> bool:
+        """Open ``<connect>``; False if the module stays silent (wrong password, lockout)."""
+        try:
+            return _status(await self.command(module, "CONNECT", password, retries=1))
+        except NoReply:
+            return False
+
+    async def disconnect(self, module: str) -> None:
+        _status(await self.command(module, "DISCONNECT"))
+
+    async def reinit(self, module: str) -> None:
+        _status(await self.command(module, "REINIT"))
+
+    async def resee(self, module: str) -> None:
+        _status(await self.command(module, "RESEE"))
+
+    async def saveee(self, module: str) -> None:
+        _status(await self.command(module, "SAVEEE"))
+
+    async def setmid(self, module: str, new_id: str) -> bool:
+        return _status(await self.command(module, "SETMID", new_id))
+
+    async def addsup(self, module: str, supervisor: str) -> bool:
+        return _status(await self.command(module, "ADDSUP", supervisor))
+
+    async def delsup(self, module: str, supervisor: str) -> bool:
+        return _status(await self.command(module, "DELSUP", supervisor))
+
+    async def listsup(self, module: str) -> list[str]:
+        return _id_list(await self.command(module, "LISTSUP"))
+
+    async def addp(self, module: str, symbol: str) -> bool:
+        return _status(await self.command(module, "ADDP", symbol))
+
+    async def delp(self, module: str, symbol: str) -> bool:
+        return _status(await self.command(module, "DELP", symbol))
+
+    async def listp(self, module: str) -> str | None:
+        text = await self.command(module, "LISTP")
+        return None if text == "<EMPTY>" else text
+
+    async def newpw(self, module: str, password: str) -> bool:
+        return _status(await self.command(module, "NEWPW", password))
+
+    async def pv_text(self, module: str) -> str:
+        """``PV`` as the module sends it (``21.44``)."""
+        return await self.command(module, "PV")
+
+    async def pv(self, module: str) -> float:
+        text = await self.pv_text(module)
+        try:
+            return float(text)
+        except ValueError:
+            raise UnexpectedReply(f"RPV.{text} is not a number") from None
+
+    async def csservon(self, module: str, target: str) -> bool:
+        return _status(await self.command(module, "CSSERVON", target))
+
+    async def csservoff(self, module: str, target: str) -> bool:
+        return _status(await self.command(module, "CSSERVOFF", target))
+
+    async def csservlist(self, module: str) -> list[str]:
+        return _id_list(await self.command(module, "CSSERVLIST"))
+
+    async def autoon(self, module: str) -> None:
+        _status(await self.command(module, "AUTOON"))
+
+    async def autooff(self, module: str) -> None:
+        _status(await self.command(module, "AUTOOFF"))
+
+    async def getmode(self, module: str) -> bool:
+        """True if autonomous mode is on (``MDISON``)."""
+        text = await self.command(module, "GETMODE")
+        if text not in ("MDISON", "MDISOF"):
+            raise UnexpectedReply(f"RGETMODE.{text}")
+        return text == "MDISON"
+
+
+class BlockingBusMaster:
+    """A blocking wrapper around :class:`BusMaster`.
+
+    ``with BlockingBusMaster(url) as bus: text = bus.run(lambda m: m.hello("T1"))``
+    """
+
+    def __init__(
+        self, url: str, host_id: str = DEFAULT_HOST_ID, *, timeout: float | None = None
+    ) -> None:
+        self._runner = asyncio.Runner()
+        self.master = self._runner.run(BusMaster.open(url, host_id, timeout=timeout))
+
+    def run(self, call: Callable[[BusMaster], Awaitable[T]]) -> T:
+        async def go() -> T:
+            return await call(self.master)
+
+        return self._runner.run(go())
+
+    def close(self) -> None:
+        self._runner.run(self.master.close())
+        self._runner.close()
+
+    def __enter__(self) -> BlockingBusMaster:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

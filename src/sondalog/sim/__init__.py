@@ -1,0 +1,1 @@
+"""Simulation backends: seeded signal models and site files (DESIGN.md point 4)."""

@@ -1,0 +1,265 @@
+"""Signal models: what a simulated sensor measures over time (DESIGN.md point 4).
+
+Every model is built from a TOML table (a dict) with a ``model`` key and returns a callable
+``signal(t) -> value`` for clock time ``t`` in seconds, which is what a
+:class:`sondalog.hctmps1.SensorSource` (and the ALA1 logger's simulated inputs) need. Times in
+a table are seconds after the signal's *origin*: the ``origin`` key (clock seconds) if given,
+else the start time the caller passes (the moment the simulation starts).
+
+Models (``docs/hctmps1.md`` "Signal models"):
+
+========== ===========================================================================
+constant   ``value``
+sine       ``mean``, ``amplitude``, ``period`` (s), ``phase`` (s, default 0)
+ramp       ``start``, ``rate`` (units per second), ``min`` / ``max`` (optional clamp)
+random_walk ``start``, ``step`` (std dev per interval), ``interval`` (s, default 60),
+           ``seed`` (default 0), ``min`` / ``max`` (optional clamp)
+steps      ``schedule``: ``[[t, value], ...]``, times ascending; holds each value
+csv        ``path`` (relative to the site file), ``interpolate`` (default true),
+           ``loop`` (default false); rows ``time,value``, an optional header line
+========== ===========================================================================
+
+Every model accepts ``origin``. A bad table raises :class:`SignalError` naming the field.
+"""
+
+from __future__ import annotations
+
+import bisect
+import csv
+import math
+import random
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+Signal = Callable[[float], float]
+
+
+class SignalError(ValueError):
+    """A signal table is wrong; ``field`` is the key at fault (dotted, relative to the table)."""
+
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(f"{field}: {message}")
+        self.field = field
+        self.message = message
+
+
+class _Table:
+    """Typed, checked access to one signal table; reports unknown keys at the end."""
+
+    def __init__(self, table: Mapping[str, object]) -> None:
+        self.table = table
+        self.used = {"model", "origin"}
+
+    def number(self, key: str, default: float | None = None, *, positive: bool = False) -> float:
+        self.used.add(key)
+        raw = self.table.get(key)
+        if raw is None:
+            if default is None:
+                raise SignalError(key, "required number missing")
+            return default
+        if isinstance(raw, bool) or not isinstance(raw, int | float) or not math.isfinite(raw):
+            raise SignalError(key, f"must be a number, not {raw!r}")
+        if positive and raw <= 0:
+            raise SignalError(key, f"must be positive, not {raw!r}")
+        return float(raw)
+
+    def optional(self, key: str) -> float | None:
+        self.used.add(key)
+        return self.number(key) if key in self.table else None
+
+    def integer(self, key: str, default: int) -> int:
+        self.used.add(key)
+        raw = self.table.get(key, default)
+        if isinstance(raw, bool) or not isinstance(raw, int):
+            raise SignalError(key, f"must be an integer, not {raw!r}")
+        return raw
+
+    def boolean(self, key: str, default: bool) -> bool:
+        self.used.add(key)
+        raw = self.table.get(key, default)
+        if not isinstance(raw, bool):
+            raise SignalError(key, f"must be true or false, not {raw!r}")
+        return raw
+
+    def string(self, key: str) -> str:
+        self.used.add(key)
+        raw = self.table.get(key)
+        if not isinstance(raw, str) or not raw:
+            raise SignalError(key, f"required text missing or not text: {raw!r}")
+        return raw
+
+    def check_unknown(self) -> None:
+        for key in self.table:
+            if key not in self.used:
+                raise SignalError(key, "unknown key for this model")
+
+
+def _clamp(low: float | None, high: float | None) -> Callable[[float], float]:
+    lo = -math.inf if low is None else low
+    hi = math.inf if high is None else high
+    if lo > hi:
+        raise SignalError("min", f"min {lo} is above max {hi}")
+    return lambda v: min(max(v, lo), hi)
+
+
+def constant(value: float) -> Signal:
+    """A value that never changes."""
+    return lambda t: value
+
+
+def sine(mean: float, amplitude: float, period: float, phase: float, origin: float) -> Signal:
+    """``mean + amplitude * sin(2π (t - origin - phase) / period)``."""
+    return lambda t: mean + amplitude * math.sin(2 * math.pi * (t - origin - phase) / period)
+
+
+def ramp(start: float, rate: float, origin: float, clamp: Callable[[float], float]) -> Signal:
+    """``start + rate * (t - origin)``, clamped."""
+    return lambda t: clamp(start + rate * (t - origin))
+
+
+class RandomWalk:
+    """A seeded random walk: one normal step per interval, the same for every run."""
+
+    def __init__(
+        self,
+        start: float,
+        step: float,
+        interval: float,
+        seed: int,
+        origin: float,
+        clamp: Callable[[float], float],
+    ) -> None:
+        self._rng = random.Random(seed)
+        self._step = step
+        self._interval = interval
+        self._origin = origin
+        self._clamp = clamp
+        self._values = [clamp(start)]
+
+    def __call__(self, t: float) -> float:
+        index = max(0, int((t - self._origin) // self._interval))
+        while len(self._values) <= index:
+            self._values.append(self._clamp(self._values[-1] + self._rng.gauss(0, self._step)))
+        return self._values[index]
+
+
+class Schedule:
+    """Piecewise values: ``(time after origin, value)`` points, held or interpolated."""
+
+    def __init__(
+        self,
+        points: list[tuple[float, float]],
+        origin: float,
+        interpolate: bool,
+        loop: bool,
+    ) -> None:
+        self._times = [p[0] for p in points]
+        self._values = [p[1] for p in points]
+        self._origin = origin
+        self._interpolate = interpolate
+        self._span = self._times[-1] - self._times[0] if loop else 0.0
+
+    def __call__(self, t: float) -> float:
+        x = t - self._origin
+        if self._span > 0:
+            x = self._times[0] + (x - self._times[0]) % self._span
+        i = bisect.bisect_right(self._times, x) - 1
+        if i < 0:
+            return self._values[0]
+        if i >= len(self._times) - 1 or not self._interpolate:
+            return self._values[i]
+        t0, t1 = self._times[i], self._times[i + 1]
+        v0, v1 = self._values[i], self._values[i + 1]
+        return v0 + (v1 - v0) * (x - t0) / (t1 - t0)
+
+
+def _points(raw: object, field: str) -> list[tuple[float, float]]:
+    if not isinstance(raw, list) or not raw:
+        raise SignalError(field, "must be a non-empty list of [time, value] pairs")
+    points: list[tuple[float, float]] = []
+    for i, pair in enumerate(raw):
+        where = f"{field}[{i}]"
+        if (
+            not isinstance(pair, list | tuple)
+            or len(pair) != 2
+            or any(isinstance(x, bool) or not isinstance(x, int | float) for x in pair)
+        ):
+            raise SignalError(where, f"must be a [time, value] pair of numbers, not {pair!r}")
+        if points and pair[0] <= points[-1][0]:
+            raise SignalError(where, "times must be strictly ascending")
+        points.append((float(pair[0]), float(pair[1])))
+    return points
+
+
+def read_csv_points(path: Path) -> list[tuple[float, float]]:
+    """``time,value`` rows of a CSV file (an optional header line is skipped)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SignalError("path", f"cannot read {path}: {exc.strerror or exc}") from exc
+    rows: list[list[float]] = []
+    for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
+        if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
+            continue
+        try:
+            rows.append([float(row[0]), float(row[1])])
+        except (ValueError, IndexError):
+            if lineno == 1 and not rows:
+                continue  # header
+            raise SignalError("path", f"{path} line {lineno}: expected time,value") from None
+    if not rows:
+        raise SignalError("path", f"{path} holds no time,value rows")
+    try:
+        return _points(rows, "path")
+    except SignalError as exc:
+        raise SignalError("path", f"{path}: {exc.message}") from None
+
+
+MODELS = ("constant", "sine", "ramp", "random_walk", "steps", "csv")
+
+
+def build_signal(table: Mapping[str, object], start: float, base_dir: Path | None = None) -> Signal:
+    """The signal described by ``table`` (see the module docstring)."""
+    if not isinstance(table, Mapping):
+        raise SignalError("model", f"a signal must be a table, not {table!r}")
+    t = _Table(table)
+    model = table.get("model")
+    if model not in MODELS:
+        raise SignalError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
+    origin = t.number("origin", start)
+    signal: Signal
+    if model == "constant":
+        signal = constant(t.number("value"))
+    elif model == "sine":
+        signal = sine(
+            t.number("mean"),
+            t.number("amplitude"),
+            t.number("period", positive=True),
+            t.number("phase", 0.0),
+            origin,
+        )
+    elif model == "ramp":
+        clamp = _clamp(t.optional("min"), t.optional("max"))
+        signal = ramp(t.number("start"), t.number("rate"), origin, clamp)
+    elif model == "random_walk":
+        clamp = _clamp(t.optional("min"), t.optional("max"))
+        signal = RandomWalk(
+            t.number("start"),
+            t.number("step", positive=True),
+            t.number("interval", 60.0, positive=True),
+            t.integer("seed", 0),
+            origin,
+            clamp,
+        )
+    elif model == "steps":
+        t.used.add("schedule")
+        signal = Schedule(_points(table.get("schedule"), "schedule"), origin, False, False)
+    else:
+        path = Path(t.string("path"))
+        if not path.is_absolute() and base_dir is not None:
+            path = base_dir / path
+        interpolate = t.boolean("interpolate", True)
+        loop = t.boolean("loop", False)
+        signal = Schedule(read_csv_points(path), origin, interpolate, loop)
+    t.check_unknown()
+    return signal

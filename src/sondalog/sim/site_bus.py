@@ -1,0 +1,214 @@
+"""The bus part of a site file: which HCTMPS1 modules sit on the bus and what they measure.
+
+A site file is TOML. The bus reads its ``[bus]`` table and ignores other top-level tables
+(the ALA1 logger's simulation keeps its own there)::
+
+    [bus]
+    baud = 9600        # optional; --baud overrides it
+    noise = 0.0        # optional bit error rate injected on the line
+    seed = 1           # optional seed of the modules' random reply delays
+
+    [[bus.modules]]
+    id = "T1"          # factory ID (hctmps1.md §1)
+    kind = "temp"      # temp (DS18B20) or hum (SHT11)
+    cycle = 10.0       # optional measurement cycle, seconds
+    signal = { model = "sine", mean = 21.0, amplitude = 2.0, period = 86400 }
+
+The signal tables are those of :mod:`sondalog.sim.signals`. A wrong file is rejected with a
+:class:`SiteError` naming the file, the field and, where it can be found, the line.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from sondalog.hctmps1.framing import is_valid_id
+from sondalog.hctmps1.module import DEFAULT_CYCLE
+from sondalog.hctmps1.variants import Kind, variant_for
+from sondalog.sim.signals import Signal, SignalError, build_signal
+
+_BUS_KEYS = {"baud", "noise", "seed", "modules"}
+_MODULE_KEYS = {"id", "kind", "cycle", "signal"}
+
+
+class SiteError(ValueError):
+    """A site file is wrong: ``path``, the dotted ``field`` and the ``line`` if known."""
+
+    def __init__(self, path: Path | None, field: str, message: str, line: int | None = None):
+        where = str(path) if path is not None else "<site>"
+        if line is not None:
+            where += f":{line}"
+        super().__init__(f"{where}: {field}: {message}")
+        self.path = path
+        self.field = field
+        self.line = line
+
+
+@dataclass(frozen=True, slots=True)
+class ModuleSite:
+    """One module on the bus."""
+
+    module_id: str
+    kind: Kind
+    signal: Signal
+    cycle: float = DEFAULT_CYCLE
+
+
+@dataclass(frozen=True, slots=True)
+class BusSite:
+    """Everything the bus reads from a site file."""
+
+    modules: tuple[ModuleSite, ...]
+    baud: int | None = None
+    noise: float = 0.0
+    seed: int | None = None
+    path: Path | None = None
+
+
+def default_bus_site(start: float) -> BusSite:
+    """The bus without a site file: ``T1`` (temperature) and ``H1`` (humidity), hctmps1.md §1."""
+    day = {"period": 86400.0, "origin": 0.0}
+    return BusSite(
+        modules=(
+            ModuleSite(
+                "T1",
+                Kind.TEMP,
+                build_signal({"model": "sine", "mean": 21.0, "amplitude": 3.0, **day}, start),
+            ),
+            ModuleSite(
+                "H1",
+                Kind.HUM,
+                build_signal({"model": "sine", "mean": 50.0, "amplitude": 10.0, **day}, start),
+            ),
+        )
+    )
+
+
+def load_bus_site(path: Path, start: float) -> BusSite:
+    """Read and check the bus part of the site file at ``path``."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SiteError(path, "toml", str(exc)) from exc
+    return parse_bus_site(data, start, path, text)
+
+
+def parse_bus_site(
+    data: Mapping[str, object],
+    start: float,
+    path: Path | None = None,
+    text: str | None = None,
+) -> BusSite:
+    """Check the ``[bus]`` table of an already parsed site file."""
+
+    def fail(field: str, message: str) -> SiteError:
+        return SiteError(path, field, message, _locate(text, field))
+
+    bus = data.get("bus")
+    if not isinstance(bus, Mapping):
+        raise fail("bus", "the site file needs a [bus] table")
+    for key in bus:
+        if key not in _BUS_KEYS:
+            raise fail(f"bus.{key}", f"unknown key (known: {', '.join(sorted(_BUS_KEYS))})")
+    baud = bus.get("baud")
+    if baud is not None and (isinstance(baud, bool) or not isinstance(baud, int) or baud <= 0):
+        raise fail("bus.baud", f"must be a positive integer, not {baud!r}")
+    noise = bus.get("noise", 0.0)
+    if isinstance(noise, bool) or not isinstance(noise, int | float) or not 0 <= noise < 1:
+        raise fail("bus.noise", f"must be a bit error rate in [0, 1), not {noise!r}")
+    seed = bus.get("seed")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+        raise fail("bus.seed", f"must be an integer, not {seed!r}")
+    raw_modules = bus.get("modules")
+    if not isinstance(raw_modules, list) or not raw_modules:
+        raise fail("bus.modules", "at least one [[bus.modules]] entry is needed")
+    base_dir = path.parent if path is not None else None
+    modules: list[ModuleSite] = []
+    for i, raw in enumerate(raw_modules):
+        where = f"bus.modules[{i}]"
+        if not isinstance(raw, Mapping):
+            raise fail(where, "must be a table")
+        for key in raw:
+            if key not in _MODULE_KEYS:
+                known = ", ".join(sorted(_MODULE_KEYS))
+                raise fail(f"{where}.{key}", f"unknown key (known: {known})")
+        module_id = raw.get("id")
+        if not isinstance(module_id, str) or not is_valid_id(module_id):
+            raise fail(f"{where}.id", f"must be 1 to 8 of A-Z a-z 0-9 _ -, not {module_id!r}")
+        if any(m.module_id == module_id for m in modules):
+            raise fail(f"{where}.id", f"duplicate module ID {module_id!r}")
+        kind_text = raw.get("kind")
+        if kind_text not in ("temp", "hum"):
+            raise fail(f"{where}.kind", f"must be 'temp' or 'hum', not {kind_text!r}")
+        kind = Kind(kind_text)
+        cycle = raw.get("cycle", DEFAULT_CYCLE)
+        if (
+            isinstance(cycle, bool)
+            or not isinstance(cycle, int | float)
+            or cycle <= variant_for(kind).conversion_time
+        ):
+            raise fail(
+                f"{where}.cycle", f"must be seconds, longer than the conversion, not {cycle!r}"
+            )
+        signal_table = raw.get("signal")
+        if not isinstance(signal_table, Mapping):
+            raise fail(f"{where}.signal", "a signal table is required")
+        try:
+            signal = build_signal(signal_table, start, base_dir)
+        except SignalError as exc:
+            raise fail(f"{where}.signal.{exc.field}", exc.message) from None
+        modules.append(ModuleSite(module_id, kind, signal, float(cycle)))
+    return BusSite(tuple(modules), baud, float(noise), seed, path)
+
+
+_HEADER = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_.\s\"]+?)\s*\]\]?")
+
+
+def _locate(text: str | None, field: str) -> int | None:
+    """Best-effort line number of ``field`` (``bus.modules[2].signal.period``) in ``text``."""
+    if text is None:
+        return None
+    lines = text.splitlines()
+    match = re.match(r"bus\.modules\[(\d+)\](.*)", field)
+    headers = [
+        (n, m.group(1).replace(" ", ""))
+        for n, line in enumerate(lines)
+        if (m := _HEADER.match(line))
+    ]
+    if match is None:
+        start = next((n for n, name in headers if name == "bus"), None)
+        prefix = "bus"
+        rest = field[len("bus.") :] if field.startswith("bus.") else ""
+    else:
+        starts = [
+            n for n, name in headers if name == "bus.modules" and lines[n].lstrip().startswith("[[")
+        ]
+        index = int(match.group(1))
+        start = starts[index] if index < len(starts) else None
+        prefix = "bus.modules"
+        rest = match.group(2).lstrip(".")
+    if start is None:
+        return None
+    end = next(
+        (
+            n
+            for n, name in headers
+            if n > start and (name == prefix or not name.startswith(prefix + "."))
+        ),
+        len(lines),
+    )
+    key = re.split(r"[.\[]", rest)[-1] if rest else ""
+    if key:
+        pattern = re.compile(rf"(^|[\s{{,]){re.escape(key)}\s*=")
+        for n in range(start, end):
+            if pattern.search(lines[n]):
+                return n + 1
+    return start + 1

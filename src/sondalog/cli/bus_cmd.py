@@ -1,0 +1,372 @@
+"""``sondalog bus ...``: serve a virtual RS-485 bus of HCTMPS1 modules, and talk to one.
+
+Parsing only (DESIGN.md point 7): the bus lives in :mod:`sondalog.bus`, the host side in
+:mod:`sondalog.client.bus`. Bad input exits with code 2, a bus that does not answer with 1.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import signal
+import sys
+from collections.abc import Awaitable, Callable
+from datetime import datetime
+from pathlib import Path
+from typing import TypeVar
+
+import click
+
+from sondalog.bus.serve import DEFAULT_PORT, start_bus_server
+from sondalog.cli.logger_cmd import format_address, parse_listen
+from sondalog.client.bus import (
+    DEFAULT_HOST_ID,
+    BusError,
+    BusMaster,
+    BusUrlError,
+    DataFrame,
+    parse_bus_url,
+)
+from sondalog.clock import make_clock
+from sondalog.hctmps1.framing import BROADCAST, FrameError, is_valid_id
+from sondalog.sim.site_bus import SiteError
+
+T = TypeVar("T")
+
+
+class _Refused(click.ClickException):
+    """Bad input found after parsing: exit code 2, like click's usage errors."""
+
+    exit_code = 2
+
+
+def _listen(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, int]:
+    try:
+        return parse_listen(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), ctx, param) from exc
+
+
+def _url(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    try:
+        parse_bus_url(value)
+    except BusUrlError as exc:
+        raise click.BadParameter(str(exc), ctx, param) from exc
+    return value
+
+
+def _module_id(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    if value is not None and not is_valid_id(value):
+        raise click.BadParameter(f"{value!r}: 1 to 8 of A-Z a-z 0-9 _ -", ctx, param)
+    return value
+
+
+def _module_ids(
+    ctx: click.Context, param: click.Parameter, values: tuple[str, ...]
+) -> tuple[str, ...]:
+    for value in values:
+        _module_id(ctx, param, value)
+    return values
+
+
+@click.group()
+def bus() -> None:
+    """Virtual RS-485 bus with HCTMPS1 sensor servers, and a bus master."""
+
+
+@bus.command()
+@click.option(
+    "--listen",
+    metavar="HOST:PORT",
+    default=f"127.0.0.1:{DEFAULT_PORT}",
+    callback=_listen,
+    show_default=True,
+    help="TCP gateway address; port 0 picks a free port.",
+)
+@click.option("--pty", "pty_link", type=click.Path(path_type=Path), help="Symlink to a pty.")
+@click.option("--serial", "serial_device", metavar="DEVICE", help="Attach a real serial port.")
+@click.option(
+    "--state",
+    "state_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("state/bus"),
+    show_default=True,
+    help="State directory (the modules' EEPROM); created when missing.",
+)
+@click.option(
+    "--site",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Site file (TOML) naming the modules; default: T1 (temp) and H1 (hum).",
+)
+@click.option("--baud", type=click.IntRange(min=1), help="Bus speed (default 9600).")
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="Run the bus clock this many times faster than real time.",
+)
+@click.option(
+    "--noise",
+    type=click.FloatRange(min=0, max=1, max_open=True),
+    help="Bit error rate injected on the line (tests).",
+)
+@click.option("--seed", type=int, help="Seed of the random reply delays and the noise.")
+def serve(
+    listen: tuple[str, int],
+    pty_link: Path | None,
+    serial_device: str | None,
+    state_dir: Path,
+    site: Path | None,
+    baud: int | None,
+    speed: float,
+    noise: float | None,
+    seed: int | None,
+) -> None:
+    """Run a virtual RS-485 bus (hctmps1.md §1, §2).
+
+    Prints ``listening on HOST:PORT`` once ready. SIGINT or SIGTERM stop it cleanly.
+    """
+    try:
+        asyncio.run(
+            _serve(listen, pty_link, serial_device, state_dir, site, baud, speed, noise, seed)
+        )
+    except SiteError as exc:
+        raise _Refused(str(exc)) from exc
+    except FileExistsError as exc:
+        raise _Refused(str(exc)) from exc
+    except OSError as exc:
+        raise click.ClickException(f"cannot serve the bus: {exc}") from exc
+
+
+async def _serve(
+    listen: tuple[str, int],
+    pty_link: Path | None,
+    serial_device: str | None,
+    state_dir: Path,
+    site: Path | None,
+    baud: int | None,
+    speed: float,
+    noise: float | None,
+    seed: int | None,
+) -> None:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+    running = await start_bus_server(
+        make_clock(speed),
+        listen,
+        site=site,
+        state_dir=state_dir,
+        baud=baud,
+        pty=pty_link,
+        serial=serial_device,
+        noise=noise,
+        seed=seed,
+    )
+    try:
+        sys.stdout.write(f"listening on {format_address(*running.address)}\n")
+        sys.stdout.flush()
+        await stop.wait()
+    finally:
+        await running.close()
+
+
+# -- host side --------------------------------------------------------------------------
+
+
+def _master_options(func: Callable[..., None]) -> Callable[..., None]:
+    func = click.option(
+        "--host-id",
+        default=DEFAULT_HOST_ID,
+        show_default=True,
+        callback=_module_id,
+        help="This host's own bus ID.",
+    )(func)
+    func = click.option(
+        "--timeout",
+        type=click.FloatRange(min=0, min_open=True),
+        help="Seconds to wait for a reply (default: from the baud rate).",
+    )(func)
+    return click.argument("url", callback=_url)(func)
+
+
+def _run_master(
+    url: str, host_id: str, timeout: float | None, work: Callable[[BusMaster], Awaitable[T]]
+) -> T:
+    async def go() -> T:
+        master = await BusMaster.open(url, host_id, timeout=timeout)
+        try:
+            return await work(master)
+        finally:
+            await master.close()
+
+    try:
+        return asyncio.run(go())
+    except BusError as exc:
+        raise click.ClickException(str(exc)) from exc
+    except OSError as exc:
+        raise click.ClickException(f"cannot reach the bus at {url}: {exc}") from exc
+
+
+@bus.command()
+@_master_options
+def scan(url: str, host_id: str, timeout: float | None) -> None:
+    """Find every module on the bus (broadcast HELLO until no new one answers)."""
+    found = _run_master(url, host_id, timeout, lambda m: m.scan())
+    for module_id, hello in found.items():
+        click.echo(f"{module_id:<8} {hello}")
+    if not found:
+        raise click.ClickException("no module answered")
+
+
+@bus.command()
+@_master_options
+@click.argument("module_id", metavar="ID")
+@click.argument("command", metavar="CMD")
+@click.argument("param", metavar="[PARAM]", required=False)
+def ask(
+    url: str,
+    host_id: str,
+    timeout: float | None,
+    module_id: str,
+    command: str,
+    param: str | None,
+) -> None:
+    """Send one command to module ID (``*``: broadcast) and print the reply."""
+    if module_id != BROADCAST and not is_valid_id(module_id):
+        raise _Refused(f"ID {module_id!r}: 1 to 8 of A-Z a-z 0-9 _ -, or * for broadcast")
+    body = command if param is None else f"{command}.{param}"
+    if not command or "." in command or not body.isascii() or "|" in body:
+        raise _Refused(f"bad command {body!r}: printable ASCII without '|'")
+
+    async def work(master: BusMaster) -> list[str]:
+        if module_id == BROADCAST:
+            return [f"{f.src} {f.body}" for f in await master.broadcast(body)]
+        if body == "REPLY":
+            data = await master.reply(module_id)
+            return ["RREPLY.NODATA" if data is None else f"RPV.{data.value} (to {data.addressee})"]
+        reply = await master.command(module_id, command, param)
+        return [f"R{command}.{reply}"]
+
+    try:
+        lines = _run_master(url, host_id, timeout, work)
+    except FrameError as exc:
+        raise _Refused(str(exc)) from exc
+    for line in lines:
+        click.echo(line)
+    if not lines:
+        raise click.ClickException("no reply")
+
+
+@bus.command()
+@_master_options
+@click.argument("module_id", metavar="ID", callback=_module_id)
+@click.option("--password", default="0000", show_default=True, help="Password for CONNECT.")
+@click.option("--set-id", "new_id", callback=_module_id, help="New module ID (SETMID).")
+@click.option(
+    "--add-supervisor", "add", multiple=True, callback=_module_ids, help="ADDSUP (repeatable)."
+)
+@click.option("--del-supervisor", "delete", multiple=True, callback=_module_ids, help="DELSUP.")
+@click.option("--symbol", help="Symbol of the measured variable (ADDP).")
+@click.option("--new-password", help="New password (NEWPW).")
+@click.option("--save/--no-save", default=False, help="SAVEEE before DISCONNECT.")
+def config(
+    url: str,
+    host_id: str,
+    timeout: float | None,
+    module_id: str,
+    password: str,
+    new_id: str | None,
+    add: tuple[str, ...],
+    delete: tuple[str, ...],
+    symbol: str | None,
+    new_password: str | None,
+    save: bool,
+) -> None:
+    """Open <connect> on module ID, apply the settings, optionally SAVEEE, DISCONNECT."""
+
+    async def work(m: BusMaster) -> list[str]:
+        if not await m.connect(module_id, password):
+            raise click.ClickException(
+                f"{module_id}: CONNECT got no reply (wrong password, locked out or absent)"
+            )
+        lines = [f"CONNECT {module_id}: <OK>"]
+        target = module_id
+
+        def status(what: str, ok: bool) -> None:
+            lines.append(f"{what}: {'<OK>' if ok else '<FA>'}")
+
+        for supervisor in add:
+            status(f"ADDSUP {supervisor}", await m.addsup(target, supervisor))
+        for supervisor in delete:
+            status(f"DELSUP {supervisor}", await m.delsup(target, supervisor))
+        if symbol is not None:
+            status(f"ADDP {symbol}", await m.addp(target, symbol))
+        if new_password is not None:
+            status("NEWPW", await m.newpw(target, new_password))
+        if new_id is not None:
+            ok = await m.setmid(target, new_id)
+            status(f"SETMID {new_id}", ok)
+            target = new_id if ok else target
+        if save:
+            await m.saveee(target)
+            lines.append("SAVEEE: <OK>")
+        await m.disconnect(target)
+        lines.append(f"DISCONNECT {target}: <OK>")
+        return lines
+
+    for line in _run_master(url, host_id, timeout, work):
+        click.echo(line)
+
+
+@bus.command()
+@_master_options
+@click.option(
+    "--module",
+    "modules",
+    multiple=True,
+    callback=_module_ids,
+    help="Module to watch (repeatable; default: every module a scan finds).",
+)
+@click.option("--count", type=click.IntRange(min=1), help="Stop after this many data frames.")
+def watch(
+    url: str, host_id: str, timeout: float | None, modules: tuple[str, ...], count: int | None
+) -> None:
+    """Turn on autonomous mode and print data frames as they arrive, with timestamps.
+
+    Each module gets this host on its temporary distribution list (CSSERVON) and AUTOON; the
+    host then grants REPLY round-robin. Ctrl-C (or --count) undoes both and stops.
+    """
+
+    async def work(m: BusMaster) -> None:
+        targets = list(modules) or list(await m.scan())
+        if not targets:
+            raise click.ClickException("no module answered")
+        for target in targets:
+            await m.csservon(target, host_id)
+            await m.autoon(target)
+        click.echo(f"watching {', '.join(targets)}", err=True)
+        seen = 0
+        try:
+            async for data in m.watch(targets):
+                click.echo(_format_data(data))
+                seen += 1
+                if count is not None and seen >= count:
+                    break
+        finally:
+            for target in targets:
+                try:
+                    await m.autooff(target)
+                    await m.csservoff(target, host_id)
+                except BusError:
+                    pass
+
+    with contextlib.suppress(KeyboardInterrupt):
+        _run_master(url, host_id, timeout, work)
+
+
+def _format_data(data: DataFrame) -> str:
+    stamp = datetime.fromtimestamp(data.received).astimezone().isoformat(timespec="milliseconds")
+    return f"{stamp} {data.module} -> {data.addressee} {data.value}"

@@ -9,7 +9,7 @@ import subprocess
 from collections.abc import Awaitable, Callable
 
 import pytest
-from conftest import ServedLogger
+from ala1_served import ServedLogger
 
 from sondalog.client import (
     Ala1Client,

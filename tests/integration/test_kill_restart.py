@@ -9,7 +9,7 @@ import threading
 import time
 from collections.abc import Callable
 
-from conftest import ServedLogger, exchange
+from ala1_served import ServedLogger, exchange
 
 Serve = Callable[..., ServedLogger]
 

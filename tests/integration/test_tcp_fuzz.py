@@ -8,7 +8,7 @@ import random
 import socket
 
 import pytest
-from conftest import ServedLogger, exchange, read_quiet
+from ala1_served import ServedLogger, exchange, read_quiet
 
 ALIVE = (b"read i version\r", b"2.10\r\nOK\r\n")
 

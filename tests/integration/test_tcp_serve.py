@@ -11,7 +11,7 @@ from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
 
-from conftest import ServedLogger, exchange, read_quiet, read_until
+from ala1_served import ServedLogger, exchange, read_quiet, read_until
 
 Serve = Callable[..., ServedLogger]
 

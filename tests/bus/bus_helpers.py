@@ -13,8 +13,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import random
+import select
 import selectors
+import signal
+import subprocess
+import sys
 from collections.abc import Callable, Coroutine
+from pathlib import Path
 from typing import Any, TypeVar
 
 from sondalog.bus.core import BusCore
@@ -85,3 +90,56 @@ async def stop(task: asyncio.Task[None]) -> None:
     task.cancel()
     with contextlib.suppress(asyncio.CancelledError):
         await task
+
+
+class ServedBus:
+    """A real ``sondalog bus serve`` subprocess; ``port`` is read from its first line."""
+
+    def __init__(self, state: Path, *args: str) -> None:
+        self.log_path = state.parent / f"{state.name}-serve.log"
+        self._log = self.log_path.open("ab")
+        command = [sys.executable, "-m", "sondalog", "bus", "serve", "--listen", "127.0.0.1:0"]
+        self.proc = subprocess.Popen(
+            [*command, "--state", str(state), *args],
+            stdout=subprocess.PIPE,
+            stderr=self._log,
+        )
+        assert self.proc.stdout is not None
+        ready, _, _ = select.select([self.proc.stdout], [], [], 20)
+        line = self.proc.stdout.readline().decode() if ready else ""
+        if not line.startswith("listening on 127.0.0.1:"):
+            self.kill()
+            raise RuntimeError(f"bus serve did not start: {line!r} {self.log_path.read_text()}")
+        self.port = int(line.rsplit(":", 1)[1])
+        self.url = f"tcp://127.0.0.1:{self.port}"
+
+    def terminate(self) -> int:
+        self.proc.send_signal(signal.SIGTERM)
+        try:
+            return self.proc.wait(timeout=10)
+        finally:
+            self.kill()
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(timeout=10)
+        if self.proc.stdout is not None:
+            self.proc.stdout.close()
+        self._log.close()
+
+    def __enter__(self) -> ServedBus:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.kill()
+
+
+def sondalog(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
+    """Run the real CLI."""
+    return subprocess.run(
+        [sys.executable, "-m", "sondalog", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )

@@ -44,14 +44,12 @@ class SignalError(ValueError):
 
 
 class _Table:
-    """Typed, checked access to one signal table; reports unknown keys at the end."""
+    """Typed, checked access to one signal table."""
 
     def __init__(self, table: Mapping[str, object]) -> None:
         self.table = table
-        self.used = {"model", "origin"}
 
     def number(self, key: str, default: float | None = None, *, positive: bool = False) -> float:
-        self.used.add(key)
         raw = self.table.get(key)
         if raw is None:
             if default is None:
@@ -64,34 +62,25 @@ class _Table:
         return float(raw)
 
     def optional(self, key: str) -> float | None:
-        self.used.add(key)
         return self.number(key) if key in self.table else None
 
     def integer(self, key: str, default: int) -> int:
-        self.used.add(key)
         raw = self.table.get(key, default)
         if isinstance(raw, bool) or not isinstance(raw, int):
             raise SignalError(key, f"must be an integer, not {raw!r}")
         return raw
 
     def boolean(self, key: str, default: bool) -> bool:
-        self.used.add(key)
         raw = self.table.get(key, default)
         if not isinstance(raw, bool):
             raise SignalError(key, f"must be true or false, not {raw!r}")
         return raw
 
     def string(self, key: str) -> str:
-        self.used.add(key)
         raw = self.table.get(key)
         if not isinstance(raw, str) or not raw:
             raise SignalError(key, f"required text missing or not text: {raw!r}")
         return raw
-
-    def check_unknown(self) -> None:
-        for key in self.table:
-            if key not in self.used:
-                raise SignalError(key, "unknown key for this model")
 
 
 def _clamp(low: float | None, high: float | None) -> Callable[[float], float]:
@@ -215,7 +204,16 @@ def read_csv_points(path: Path) -> list[tuple[float, float]]:
         raise SignalError("path", f"{path}: {exc.message}") from None
 
 
-MODELS = ("constant", "sine", "ramp", "random_walk", "steps", "csv")
+#: Every model and the keys its table may hold (besides ``model`` and ``origin``).
+MODEL_KEYS: dict[str, frozenset[str]] = {
+    "constant": frozenset({"value"}),
+    "sine": frozenset({"mean", "amplitude", "period", "phase"}),
+    "ramp": frozenset({"start", "rate", "min", "max"}),
+    "random_walk": frozenset({"start", "step", "interval", "seed", "min", "max"}),
+    "steps": frozenset({"schedule"}),
+    "csv": frozenset({"path", "interpolate", "loop"}),
+}
+MODELS = tuple(MODEL_KEYS)
 
 
 def build_signal(table: Mapping[str, object], start: float, base_dir: Path | None = None) -> Signal:
@@ -224,8 +222,12 @@ def build_signal(table: Mapping[str, object], start: float, base_dir: Path | Non
         raise SignalError("model", f"a signal must be a table, not {table!r}")
     t = _Table(table)
     model = table.get("model")
-    if model not in MODELS:
+    if not isinstance(model, str) or model not in MODEL_KEYS:
         raise SignalError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
+    for key in table:
+        if key not in MODEL_KEYS[model] | {"model", "origin"}:
+            known = ", ".join(sorted(MODEL_KEYS[model] | {"origin"}))
+            raise SignalError(key, f"unknown key for model {model} (known: {known})")
     origin = t.number("origin", start)
     signal: Signal
     if model == "constant":
@@ -252,7 +254,6 @@ def build_signal(table: Mapping[str, object], start: float, base_dir: Path | Non
             clamp,
         )
     elif model == "steps":
-        t.used.add("schedule")
         signal = Schedule(_points(table.get("schedule"), "schedule"), origin, False, False)
     else:
         path = Path(t.string("path"))
@@ -261,5 +262,4 @@ def build_signal(table: Mapping[str, object], start: float, base_dir: Path | Non
         interpolate = t.boolean("interpolate", True)
         loop = t.boolean("loop", False)
         signal = Schedule(read_csv_points(path), origin, interpolate, loop)
-    t.check_unknown()
     return signal

@@ -379,6 +379,45 @@ class Ala1Client:
             raise ClientError("not connected")
         return self._stream
 
+    async def exchange_raw(
+        self, text: str, *, timeout: float | None = None, quiet_period: float | None = None
+    ) -> bytes:
+        """Send ``text`` as typed and return the raw answer, without interpreting headers.
+
+        For terminals: the answer ends at a line that looks final (``OK``, a decorated
+        ``...,OK`` or ``ERROR``), or once bytes have arrived and then ``quiet_period`` seconds
+        pass in silence (``quiet``, or decorations this heuristic does not see). Returns b""
+        when nothing arrives within ``timeout``.
+        """
+        stream = self._require_stream()
+        if any(c in text for c in "\r\n"):
+            raise ValueError("a command line may not contain CR or LF")
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + (self.timeout if timeout is None else timeout)
+        period = self.quiet_period if quiet_period is None else quiet_period
+        async with self._lock:
+            stream.buffer.clear()
+            assert stream.transport is not None
+            stream.transport.write(text.encode("latin-1") + b"\r")
+            received = bytearray()
+            while True:
+                line = stream.take_line()
+                if line is not None:
+                    received += line
+                    final = line.rstrip(b"\r\n")
+                    if final in (b"OK", b"ERROR") or final.endswith(b",OK"):
+                        return bytes(received)
+                    continue
+                remaining = deadline - loop.time()
+                if received or stream.buffer:
+                    remaining = min(remaining, period)
+                if stream.closed or remaining <= 0 or not await stream.wait(remaining):
+                    received += stream.buffer
+                    stream.buffer.clear()
+                    if not received and stream.closed:
+                        raise ConnectionLost("connection closed")
+                    return bytes(received)
+
     async def send_raw(self, data: bytes) -> None:
         """Send bytes as they are (terminal use: partial lines, ESC, ...)."""
         stream = self._require_stream()

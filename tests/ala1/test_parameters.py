@@ -302,13 +302,6 @@ def test_record_status_clear(module: Module) -> None:
 @pytest.mark.parametrize(
     "command",
     [
-        "read channel value",
-        "write channel 1 value",
-        "read record from start",
-        "read record 100 from date/20070716090000.0/",
-        "read record 1000 from lastread shift",
-        "read record from last 2 read hold",
-        "write text 5/abc/",
         "write message 1 run 1",
         "read special file list xmodem",
         "write special program xmodem",

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from sondalog.ala1.cksum import cksum
 from sondalog.ala1.model import BAUD_RATES, CommandError, Unavailable, View
 from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
-from sondalog.ala1.state import ModuleState, Transaction
+from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
 from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
 
@@ -146,6 +146,9 @@ class Interpreter:
     def run_line(self, line: str, host_now: float, *, overflow: bool = False) -> Answer | None:
         """Execute one command line; None means the module stays silent.
 
+        Raises :class:`NeedWait` when a measurement must wait for a switch or a conversion;
+        nothing has run then, and the caller runs the line again after the wait.
+
         ``overflow``: the line had more than 120 characters; the extra ones were dropped and
         the answer is the error response for the first 120 (spec notes §1).
         """
@@ -172,7 +175,14 @@ class Interpreter:
                 cur = self._expand(named, cur, headers, txn)
             lines = self._body(cur, txn)
         except (ParseError, CommandError, Unavailable, ValueError):
+            txn.rollback()
             return self._error(line, headers)
+        except BaseException:
+            txn.rollback()
+            raise
+        if txn.waits:
+            txn.rollback()
+            raise NeedWait(max(txn.waits))
         txn.commit()
         return Answer(self._render(lines, headers, txn), headers.comspeed)
 
@@ -332,6 +342,10 @@ class Interpreter:
     def _values(cur: Cursor, command: Command, view: View) -> None:
         multi = len(command.targets) > 1
         vtype = command.leaf.vtype
+        if command.leaf.group_writer is not None:
+            value = vtype.parse(cur, ParseCtx(view, command.targets[0], multi))
+            command.values.append([value] if value else [])
+            return
         for indices in command.targets:
             ctx = ParseCtx(view, indices, multi)
             slots = 2 if command.all_inputs else 1
@@ -351,6 +365,9 @@ class Interpreter:
     def _execute(self, command: Command, view: View) -> list[str]:
         leaf = command.leaf
         if command.switch == "W":
+            if leaf.group_writer is not None:
+                leaf.group_writer(view, command.targets, command.values[0])
+                return []
             for indices, values in zip(command.targets, command.values, strict=True):
                 if leaf.writer is not None:
                     leaf.writer(view, indices, values)

@@ -13,8 +13,9 @@ import logging
 from dataclasses import dataclass, field
 
 from sondalog.ala1.commands import MAX_LINE, Interpreter
+from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.model import Identity
-from sondalog.ala1.state import ModuleState, NvStore
+from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 
 log = logging.getLogger(__name__)
 
@@ -49,9 +50,11 @@ class _Line:
 class Engine:
     """One ALA1 module: its state and the lines attached to it."""
 
-    def __init__(self, identity: Identity, store: NvStore, now: float) -> None:
+    def __init__(
+        self, identity: Identity, store: NvStore, now: float, hardware: Hardware | None = None
+    ) -> None:
         self.identity = identity
-        self.state = ModuleState(identity, store, now)
+        self.state = ModuleState(identity, store, now, hardware)
         self.interpreter = Interpreter(self.state)
         self._lines: dict[int, _Line] = {}
         self._next_id = 1
@@ -72,6 +75,7 @@ class Engine:
         """Bytes received on a line at time ``now``; returns what to send."""
         line = self._lines[line_id]
         out: list[Output] = []
+        self.state.run_sampling(now)
         self._expire(line_id, line, now, out)
         if line.pending is not None:
             line.backlog.extend(data)
@@ -80,14 +84,17 @@ class Engine:
         return out
 
     def advance(self, now: float) -> list[Output]:
-        """Run what is due at ``now``: paused commands, entry timeouts."""
+        """Run what is due at ``now``: samples, paused commands, entry timeouts."""
         out: list[Output] = []
+        self.state.run_sampling(now)
         for line_id, line in list(self._lines.items()):
             self._expire(line_id, line, now, out)
         return out
 
     def next_deadline(self) -> float | None:
-        deadlines = []
+        """Clock time at which :meth:`advance` must be called next (None: only on input)."""
+        sampling = self.state.next_event_host()
+        deadlines = [] if sampling is None else [sampling]
         for line in self._lines.values():
             if line.pending is not None:
                 deadlines.append(line.run_at)
@@ -180,6 +187,11 @@ class Engine:
     ) -> None:
         try:
             answer = self.interpreter.run_line(text, now, overflow=overflow)
+        except NeedWait as wait:  # §6.5.13: the line runs again once its sensors are ready
+            line = self._lines[line_id]
+            line.pending = text
+            line.run_at = now + wait.seconds
+            return
         except Exception:  # DESIGN.md point 6: never stop the device loop
             log.exception("internal error on line %r", text)
             answer = self.interpreter.error_answer(text)

@@ -5,7 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from datetime import datetime
 from enum import Enum
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    from sondalog.ala1.record import RecordMemory
 
 
 class Version(Enum):
@@ -72,6 +75,7 @@ class View(Protocol):
     """The module's parameters as one command line sees them (a transaction)."""
 
     identity: Identity
+    record: RecordMemory
 
     def get(self, key: str) -> str:
         """The current value of a storage key (its default when never written)."""
@@ -95,4 +99,16 @@ class View(Protocol):
 
     def clear_record(self) -> None:
         """Stage the erasure of the record memory (§6.6.5.1, §6.15.1, §6.17.1)."""
+        ...
+
+    def measure(self, ch: int) -> str:
+        """Measure channel ``ch`` now, formatted; empty when it has no value (§6.5.8)."""
+        ...
+
+    def append_row(self, row_type: int, body: str) -> None:
+        """Stage a record row of type ``row_type`` stamped now (§9)."""
+        ...
+
+    def channel_state(self, ch: int) -> tuple[str, str]:
+        """The last scheduled sample and the last recorded value of a channel (§6.5.9)."""
         ...

@@ -27,6 +27,7 @@ from sondalog.ala1.model import (
     Version,
     View,
 )
+from sondalog.ala1.record import row_key
 from sondalog.ala1.tokens import NumberFormat, ParseError, format_stamp
 from sondalog.ala1.values import (
     ChannelAddress,
@@ -40,10 +41,12 @@ from sondalog.ala1.values import (
     NoValue,
     Number,
     OneOf,
+    OptionalInteger,
     OutputValue,
     Period,
     RestOfLine,
     Text,
+    TextRow,
     ValueType,
     fixed,
 )
@@ -53,6 +56,8 @@ Default = str | Callable[[View, Indices], str]
 Reader = Callable[[View, Indices, str | None], list[str]]
 #: A write with side effects: receives the parsed values (two for ``all``).
 Writer = Callable[[View, Indices, list[str]], None]
+#: A write that takes one value for all its targets (``write channel 1 3 value 5``).
+GroupWriter = Callable[[View, list[Indices], list[str]], None]
 
 
 @dataclass(frozen=True)
@@ -111,6 +116,7 @@ class Leaf:
     ends_line: bool = False  # nothing may follow on the line (§7: ``write global reset``)
     stored: bool = True  # has a storage key
     default_doc: str = ""  # the factory value in words, when it depends on other values
+    group_writer: GroupWriter | None = None  # one value for all targets
 
     @property
     def words(self) -> tuple[str, ...]:
@@ -263,8 +269,70 @@ def _read_record_space(view: View, indices: Indices, arg: str | None) -> list[st
 
 
 def _read_record_status(view: View, indices: Indices, arg: str | None) -> list[str]:
-    # The record itself arrives with the sampling issue; until then it is always empty.
-    return ["0,0.00,CLEAR"]
+    return [view.record.status()]
+
+
+def _write_record_type(view: View, indices: Indices, values: list[str]) -> None:
+    """§6.6.4: the type can change only while the record is empty."""
+    if len(view.record) and values[0] != view.get("record type"):
+        raise CommandError("the record type changes only while the record is empty")
+    view.set("record type", values[0])
+
+
+def _start_of(view: View, point: str) -> int:
+    """§6.6.1: with the ``.c`` counter, rows after that row; without, from the oldest row
+    at or after the point; an empty point is before the oldest row."""
+    if not point:
+        return 0
+    if "." in point:
+        return view.record.position_after(point)
+    return view.record.position_at_or_after(point)
+
+
+def _read_record_from_date(view: View, indices: Indices, arg: str | None) -> list[str]:
+    return view.record.rows(_start_of(view, arg or ""), indices["n"])
+
+
+def _read_record_from_start(view: View, indices: Indices, arg: str | None) -> list[str]:
+    return view.record.rows(0, indices["n"])
+
+
+def _read_record_from_last(shift: bool) -> Reader:
+    def read(view: View, indices: Indices, arg: str | None) -> list[str]:
+        key = f"record last {indices['pt']} read"
+        rows = view.record.rows(_start_of(view, view.get(key)), indices["n"])
+        if shift and rows:
+            view.set(key, row_key(rows[-1]))
+        return rows
+
+    return read
+
+
+def _read_value(view: View, indices: Indices, arg: str | None) -> list[str]:
+    return [view.measure(indices["ch"])]
+
+
+def _write_values(view: View, targets: list[Indices], values: list[str]) -> None:
+    """§6.5.8: measure the channels now and store them as one row of type t (default 2)."""
+    count = int(view.get("channel max number"))
+    fields = [""] * max(count, max(t["ch"] for t in targets))
+    for target in targets:
+        fields[target["ch"] - 1] = view.measure(target["ch"])
+    view.append_row(int(values[0]) if values else 2, ",".join(fields[:count]))
+
+
+def _read_sample(view: View, indices: Indices, arg: str | None) -> list[str]:
+    return [view.channel_state(indices["ch"])[0]]
+
+
+def _read_recorded(view: View, indices: Indices, arg: str | None) -> list[str]:
+    return [view.channel_state(indices["ch"])[1]]
+
+
+def _write_text(view: View, indices: Indices, values: list[str]) -> None:
+    """§6.19: the string becomes a row ``stamp,t,s`` (type 3 unless given)."""
+    row_type, _, text = values[0].partition(",")
+    view.append_row(int(row_type), text)
 
 
 def _write_record_clear(view: View, indices: Indices, values: list[str]) -> None:
@@ -304,8 +372,6 @@ _commands: Callable[[Limits], int] = lambda lim: lim.commands  # noqa: E731
 _addresses: Callable[[Limits], int] = lambda lim: lim.addresses  # noqa: E731
 _U16 = 65535
 
-LATER_RECORD = "the record (issue: measurement, sampling and record memory)"
-LATER_MEASURE = "measurement (issue: measurement, sampling and record memory)"
 LATER_XMODEM = "XMODEM transfers (issue: serial-line fidelity, XMODEM and tables)"
 LATER_MESSAGES = "messages (a later issue)"
 
@@ -355,9 +421,13 @@ def _leaves() -> list[Leaf]:
         L(ch + " type", OneOf((1, 2, 3, 6, 9, 11, 12)), "RW", "1", S + "6.5.6",
           "channel type"),
         L(ch + " format", Format(), "RW", "0.1", S + "6.5.7", "value format"),
-        L(ch + " value", NoValue(), "RW", "", S + "6.5.8", "measure now",
-          unavailable=LATER_MEASURE, stored=False),
-        L(ch + " sample", NoValue(), "R", "", S + "6.5.9", "last scheduled sample"),
+        L(ch + " value", NoValue(), "R", "", S + "6.5.8", "measure now", reader=_read_value,
+          stored=False),
+        L(ch + " value", OptionalInteger(1, 9), "W", "", S + "6.5.8",
+          "measure now and store a row of type t (default 2)", group_writer=_write_values,
+          stored=False),
+        L(ch + " sample", NoValue(), "R", "", S + "6.5.9", "last scheduled sample",
+          reader=_read_sample, stored=False),
         L(ch + " cal mult value", Number(fmt=_own_format("mult"), fmt_doc="cal mult format"),
           "RW", "1", S + "6.5.10.1", "multiplicative calibration"),
         L(ch + " cal mult format", Format(), "RW", "0.0", S + "6.5.10.3.2",
@@ -388,22 +458,24 @@ def _leaves() -> list[Leaf]:
           "RW", "0", S + "6.5.16.1", "change that triggers a row (0 always, -1 never)"),
         L(ch + " record samples", Integer(0, _U16), "RW", "0", S + "6.5.16.2",
           "row every n samples (0 = off)"),
-        L(ch + " record value", NoValue(), "R", "", S + "6.5.16.3", "last recorded value"),
+        L(ch + " record value", NoValue(), "R", "", S + "6.5.16.3", "last recorded value",
+          reader=_read_recorded, stored=False),
         # §6.6 record
         L("record {n} from date", NoValue(), "R", "", S + "6.6.1.1", "rows from a point",
-          read_arg=Text(), unavailable=LATER_RECORD, stored=False),
+          read_arg=Text(), reader=_read_record_from_date, stored=False),
         L("record {n} from start", NoValue(), "R", "", S + "6.6.1.2", "rows from the oldest",
-          unavailable=LATER_RECORD, stored=False),
+          reader=_read_record_from_start, stored=False),
         L("record {n} from last {pt} read hold", NoValue(), "R", "", S + "6.6.1.3",
-          "rows after a last-read point, point kept", unavailable=LATER_RECORD, stored=False),
+          "rows after a last-read point, point kept", reader=_read_record_from_last(False),
+          stored=False),
         L("record {n} from last {pt} read shift", NoValue(), "R", "", S + "6.6.1.4",
-          "rows after a last-read point, point moved", unavailable=LATER_RECORD,
+          "rows after a last-read point, point moved", reader=_read_record_from_last(True),
           stored=False),
         L("record last {pt} read", Text(), "RW", "", S + "6.6.2", "last-read point"),
         L("record space", NoValue(), "R", "", S + "6.6.3", "total memory",
           reader=_read_record_space, stored=False),
         L("record type", Choice(("CYCLIC", "LINEAR")), "RW", "CYCLIC", S + "6.6.4",
-          "cyclic or linear record (only while empty)"),
+          "cyclic or linear record (only while empty)", writer=_write_record_type),
         L("record status", NoValue(), "R", "", S + "6.6.5", "characters,fill,state",
           reader=_read_record_status, stored=False),
         L("record status clear", NoValue(), "W", "", S + "6.6.5.1", "erase the record",
@@ -527,8 +599,8 @@ def _leaves() -> list[Leaf]:
           reader=_read_nothing, writer=_write_nothing, stored=False),
         L("text", NoValue(), "R", "", S + "6.19", "echo a string", read_arg=Text(),
           reader=_read_text, stored=False),
-        L("text", NoValue(), "W", "", S + "6.19", "store a text row",
-          unavailable=LATER_RECORD, stored=False),
+        L("text", TextRow(), "W", "", S + "6.19", "store a text row (type 3 unless given)",
+          writer=_write_text, stored=False),
     ]  # fmt: skip
 
 

@@ -1,23 +1,33 @@
 """Module state and the per-line transaction (spec notes §3: whole-line atomicity).
 
 :class:`ModuleState` holds what the module remembers: parameters written (non-volatile, in an
-:class:`NvStore`), the clock offset (a battery-backed clock), and the four line counters of
-§8.5.7 (RAM, zero at power-up). A command line runs against a :class:`Transaction`: reads see
-the line's own earlier writes; nothing reaches the store unless the whole line succeeds, and
-then it is committed in one store transaction before the answer is released.
+:class:`NvStore`), the clock offset (a battery-backed clock), the record memory, the table
+files, and in RAM the four line counters of §8.5.7, the sampling state and the outputs. A
+command line runs against a :class:`Transaction`: reads see the line's own earlier writes;
+nothing reaches the store unless the whole line succeeds, and then it is committed in one
+store transaction before the answer is released.
 """
 
 from __future__ import annotations
 
+import math
 from datetime import datetime, timedelta
 from typing import Protocol
 
+from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
+from sondalog.ala1.measure import Measurer, channel_config, format_value
 from sondalog.ala1.model import Identity
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
+from sondalog.ala1.record import RecordChanges, RecordMemory
+from sondalog.ala1.sampling import Outputs, Sampler
+from sondalog.ala1.tables import TableSet
+from sondalog.ala1.tokens import format_stamp, period_seconds
 
 _EPOCH = datetime(1970, 1, 1)
 #: The clock of a new virtual module (§11 factory value of ``date``).
 FACTORY_DATE = datetime(2000, 1, 1)
+#: Keys whose change reconfigures sampling, outputs or the record.
+_LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
 
 
 def to_seconds(moment: datetime) -> float:
@@ -25,7 +35,7 @@ def to_seconds(moment: datetime) -> float:
 
 
 def from_seconds(seconds: float) -> datetime:
-    return _EPOCH + timedelta(seconds=int(seconds // 1))
+    return _EPOCH + timedelta(seconds=math.floor(seconds))
 
 
 class NvStore(Protocol):
@@ -35,37 +45,136 @@ class NvStore(Protocol):
         """Parameters written so far, and the clock offset (None for a new module)."""
         ...
 
+    def load_record(self) -> tuple[list[str], int, bool, bool]:
+        """Record rows oldest first, first sequence number, wrapped and refused flags."""
+        ...
+
+    def load_files(self) -> dict[str, bytes]:
+        """The file areas (``list``, ``data``) of §6.15."""
+        ...
+
+    def write_file(self, area: str, data: bytes) -> None:
+        """Durably replace a file area."""
+        ...
+
     def commit(
-        self, changes: dict[str, str | None], clock_offset: float | None, clear_record: bool
+        self,
+        changes: dict[str, str | None],
+        clock_offset: float | None,
+        record: RecordChanges | None = None,
     ) -> None:
         """Durably apply ``changes`` (None = back to the factory value) in one transaction."""
         ...
 
 
+class NeedWait(Exception):
+    """A measurement needs its switch advance or a DS18B20 conversion first (§6.5.13)."""
+
+    def __init__(self, seconds: float) -> None:
+        super().__init__(seconds)
+        self.seconds = seconds
+
+
 class ModuleState:
     """What one ALA1 module remembers."""
 
-    def __init__(self, identity: Identity, store: NvStore, host_now: float) -> None:
+    def __init__(
+        self,
+        identity: Identity,
+        store: NvStore,
+        host_now: float,
+        hardware: Hardware | None = None,
+    ) -> None:
         self.identity = identity
         self.store = store
+        self.hardware: Hardware = hardware or NoHardware()
         self.keys: dict[str, KeyInfo] = storage_keys(identity.version)
         values, offset = store.load()
         self.values = {k: v for k, v in values.items() if k in self.keys}
         if offset is None:
             offset = to_seconds(FACTORY_DATE) - host_now
-            store.commit({}, offset, clear_record=False)
+            store.commit({}, offset)
         self.clock_offset = offset
         self.counters = [0, 0, 0, 0]
+        self.measurer = Measurer(self.hardware)
+        files = store.load_files()
+        self.measurer.tables = TableSet(files.get("list", b""), files.get("data", b""))
+        rows, first_seq, wrapped, refused = store.load_record()
+        self.record = RecordMemory(rows, first_seq, 0, True, wrapped, refused)
+        self.outputs = Outputs(self.hardware)
+        self.sampler = Sampler(self.measurer, self.outputs)
+        self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
+        self.configure(host_now)
+
+    # -- time --------------------------------------------------------------------------------
+    def module_seconds(self, host_now: float) -> float:
+        return host_now + self.clock_offset
 
     def module_time(self, host_now: float) -> datetime:
-        return from_seconds(host_now + self.clock_offset)
+        return from_seconds(self.module_seconds(host_now))
 
+    # -- parameters --------------------------------------------------------------------------
     def get(self, key: str) -> str:
         """A committed value (outside any line)."""
         return Transaction(self, 0.0).get(key)
 
     def begin(self, host_now: float) -> Transaction:
         return Transaction(self, host_now)
+
+    def configure(self, host_now: float) -> None:
+        """Apply committed parameters to sampling, outputs, the record and the tables."""
+        view = Transaction(self, host_now)
+        max_number = int(view.get("channel max number"))
+        configs = [channel_config(view, ch) for ch in range(1, max_number + 1)]
+        now = math.floor(self.module_seconds(host_now))
+        self.sampler.configure(configs, max_number, now)
+        self.measurer.timing = int(view.get("global timing"))
+        outputs = self.outputs
+        for n in range(1, self.identity.limits.outputs + 1):
+            outputs.manual[n] = view.get(f"output {n} value")
+            outputs.usable[n] = view.get(f"output {n} device") != "0"
+        outputs.update(float(now), self.clock_offset)
+        self.record.reconfigure(
+            int(view.get("file record size")), view.get("record type") == "CYCLIC"
+        )
+
+    # -- files -------------------------------------------------------------------------------
+    def write_file(self, area: str, data: bytes) -> None:
+        """Place a table file (``list`` or ``data``) in the memory (§6.15, §6.16)."""
+        if area not in ("list", "data"):
+            raise ValueError(f"unknown file area {area!r}")
+        size = int(self.get(f"file {area} size"))
+        if len(data) > size:
+            raise ValueError(f"{len(data)} bytes do not fit the {area} area of {size}")
+        self.store.write_file(area, data)
+        files = self.store.load_files()
+        self.measurer.tables = TableSet(files.get("list", b""), files.get("data", b""))
+
+    # -- sampling ----------------------------------------------------------------------------
+    def run_sampling(self, host_now: float) -> None:
+        """Take every scheduled sample up to ``host_now`` and store the rows (§6.5.14)."""
+        target = self.module_seconds(host_now)
+        event = self.sampler.next_event()
+        if event is None or event > target:
+            self.outputs.update(target, self.clock_offset)
+            return
+        mark = self.record.mark()
+        try:
+            self.sampler.run_until(target, self.clock_offset, self._store_row)
+            changes = self.record.take_changes()
+            if changes is not None:
+                self.store.commit({}, None, changes)
+        except BaseException:
+            self.record.rollback(mark)
+            raise
+
+    def _store_row(self, module_second: int, fields: list[str]) -> None:
+        stamp = format_stamp(from_seconds(module_second))
+        self.record.append(stamp, "1," + ",".join(fields))
+
+    def next_event_host(self) -> float | None:
+        event = self.sampler.next_event()
+        return None if event is None else event - self.clock_offset
 
 
 class Transaction:
@@ -74,11 +183,13 @@ class Transaction:
     def __init__(self, state: ModuleState, host_now: float) -> None:
         self.state = state
         self.identity = state.identity
+        self.record = state.record
         self.host_now = host_now
         self.changes: dict[str, str | None] = {}
         self.reset_all = False
         self.clock: datetime | None = None
-        self.record_cleared = False
+        self.waits: list[float] = []
+        self._mark = state.record.mark()
 
     def default(self, key: str) -> str:
         info = self.state.keys[key]
@@ -113,7 +224,63 @@ class Transaction:
         self.clock = moment
 
     def clear_record(self) -> None:
-        self.record_cleared = True
+        self.record.clear()
+
+    # -- measurement and rows ------------------------------------------------------------------
+    def measure(self, ch: int) -> str:
+        """§6.5.8: measure channel ``ch`` now; a switched or DS18B20 input may need time."""
+        state = self.state
+        cfg = channel_config(self, ch)
+        now = state.module_seconds(self.host_now)
+        outputs = state.outputs
+        hold = period_seconds(self.get("command channel switch hold")) or 0
+        ready_at = now
+        for inp in cfg.used_inputs:
+            output = inp.switch_output
+            if output and outputs.manual.get(output, "NO") == "NO":
+                on_since = outputs.on_since.get(output) if outputs.is_on(output) else None
+                powered_at = (on_since if on_since is not None else now) + inp.switch_advance
+                ready_at = max(ready_at, powered_at)
+                outputs.held_until[output] = max(
+                    outputs.held_until.get(output, 0.0), powered_at + hold
+                )
+            if inp.device_type == "DS18B20" and cfg.type in (3, 9):
+                conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
+                ready_at = max(ready_at, conversion)
+        outputs.update(now, state.clock_offset)
+        if ready_at > now:
+            self.waits.append(ready_at - now)
+            return ""
+        state.conversions.pop(ch, None)
+        run = state.sampler.runs.get(ch)
+        window = now - run.last_t if run and run.last_t is not None else float(cfg.period or 1)
+        self._detect(cfg.inputs[0], ch)
+        return format_value(cfg, state.measurer.value(cfg, self.host_now, window))
+
+    def _detect(self, inp: object, ch: int) -> None:
+        """§6.4.3.1.1: a detection address learns the sensor's ROM code."""
+        from sondalog.ala1.measure import Input
+
+        assert isinstance(inp, Input)
+        if inp.device_type != "DS18B20" or inp.address & 0xFF or not inp.address:
+            return
+        found = self.state.hardware.ds18b20(inp.device_address, inp.address, self.host_now)
+        if found is not None:
+            self.set(f"channel {ch} address", str(found[0] & ~0xFF))
+
+    def channel_state(self, ch: int) -> tuple[str, str]:
+        run = self.state.sampler.runs.get(ch)
+        if run is None or not run.sampled:
+            return "", run.recorded or "" if run else ""
+        return format_value(run.cfg, run.sample), run.recorded or ""
+
+    def append_row(self, row_type: int, body: str) -> None:
+        """Store a row of type ``row_type`` written now (§9)."""
+        self.record.append(format_stamp(self.now()), f"{row_type},{body}")
+
+    # -- end of the line -----------------------------------------------------------------------
+    def rollback(self) -> None:
+        self.record.rollback(self._mark)
 
     def commit(self) -> None:
         """Make the line's effects durable, then visible."""
@@ -126,9 +293,9 @@ class Transaction:
         offset = None
         if self.clock is not None:
             offset = to_seconds(self.clock) - self.host_now
-        if not changes and offset is None and not self.record_cleared:
-            return
-        state.store.commit(changes, offset, self.record_cleared)
+        record = self.record.take_changes()
+        if changes or offset is not None or record is not None:
+            state.store.commit(changes, offset, record)
         for key, value in changes.items():
             if value is None:
                 state.values.pop(key, None)
@@ -136,3 +303,7 @@ class Transaction:
                 state.values[key] = value
         if offset is not None:
             state.clock_offset = offset
+        if any(key.startswith(_LIVE_PREFIXES) for key in changes) or self.reset_all:
+            state.configure(self.host_now)
+        if offset is not None:
+            state.sampler.reschedule(math.floor(state.module_seconds(self.host_now)))

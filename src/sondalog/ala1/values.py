@@ -340,3 +340,53 @@ class NoValue(ValueType):
 
     def parse(self, cur: Cursor, ctx: ParseCtx) -> str:
         return ""
+
+
+@dataclass
+class OptionalInteger(ValueType):
+    """An optional integer (the row type after ``write channel value``, §6.5.8)."""
+
+    lo: int = 1
+    hi: int = 9
+    kind = "[integer]"
+
+    def parse(self, cur: Cursor, ctx: ParseCtx) -> str:
+        if not cur.peek_digit():
+            return ""
+        start = cur.pos
+        value = cur.integer()
+        if not self.lo <= value <= self.hi:
+            cur.pos = start
+            raise ParseError(f"{value} outside {self.lo}..{self.hi}")
+        return str(value)
+
+    def describe(self, limits: Limits) -> str:
+        return f"optional {self.lo}..{self.hi}"
+
+
+@dataclass
+class TextRow(ValueType):
+    """``[t] /s/`` of ``write text`` (§6.19, spec notes §6): a digit 1-9 right after
+    ``text`` (spaces allowed) is always the row type; then the string."""
+
+    kind = "[type] string"
+
+    def parse(self, cur: Cursor, ctx: ParseCtx) -> str:
+        start = cur.pos
+        row_type = "3"
+        if cur.peek_digit():
+            cur.skip_spaces()
+            digit = cur.text[cur.pos]
+            if digit == "0":
+                raise ParseError("a row type is 1 to 9")
+            row_type = digit
+            cur.pos += 1
+        try:
+            text = cur.string()
+        except ParseError:
+            cur.pos = start
+            raise
+        return f"{row_type},{text}"
+
+    def describe(self, limits: Limits) -> str:
+        return "row type 1..9 (default 3), then a string"

@@ -1,0 +1,207 @@
+"""Measuring a channel (§6.4, §6.5, spec notes §7).
+
+The pipeline: device reading(s) -> device calibration (§6.4.4) -> ``cal2`` per input
+(§6.5.11) -> table 1, 1-D or 2-D for type 9 (§6.5.12, §10) -> ``cal`` (§6.5.10.4) -> table 2
+-> the channel's format (§6.5.7). ``device 0`` reads 0. Any missing piece (nothing
+connected, a sensor without power, a missing or malformed table) gives no value (None).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from decimal import Decimal
+
+from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
+from sondalog.ala1.model import View
+from sondalog.ala1.tables import Curve, Surface, TableError, TableSet
+from sondalog.ala1.tokens import NumberFormat, period_seconds
+
+#: Highest countable frequency of the MSP430TA input (§6.5.6.2.2).
+TIMER_MAX_HZ = 50_000.0
+
+
+@dataclass(frozen=True, slots=True)
+class Input:
+    """One signal input of a channel (two for type 9, §6.5.12.2)."""
+
+    device: int
+    address: int
+    device_type: str
+    device_address: int
+    device_mult: float
+    device_add: float
+    cal2_mult: float
+    cal2_add: float
+    switch_output: int
+    switch_advance: int
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelConfig:
+    """A channel's parameters, parsed once per change."""
+
+    number: int
+    type: int
+    inputs: tuple[Input, Input]
+    table1: str
+    table2: str
+    mult: float
+    add: float
+    format: NumberFormat
+    period: int  # seconds; 0 = not sampled
+    start: str  # YYYYMMDDhhmmss
+    average: int
+    change: Decimal
+    samples: int
+    used_inputs: tuple[Input, ...] = ()  # the inputs this channel type reads
+    switches: tuple[tuple[int, int], ...] = ()  # (output, advance) of switched inputs
+
+
+def _used(kind: int, inputs: tuple[Input, Input]) -> tuple[Input, ...]:
+    if kind in (11, 12):
+        return ()
+    return inputs if kind == 9 else inputs[:1]
+
+
+def channel_config(view: View, ch: int) -> ChannelConfig:
+    """Read channel ``ch``'s configuration from the parameters."""
+    p = f"channel {ch} "
+
+    def slot(name: str, n: int) -> str:
+        return view.get(p + name + ("" if n == 1 else " #2"))
+
+    inputs = []
+    for n in (1, 2):
+        device = int(slot("device", n))
+        dev = f"device {device} " if device else ""
+        inputs.append(
+            Input(
+                device=device,
+                address=int(slot("address", n)),
+                device_type=view.get(dev + "type") if device else "",
+                device_address=int(view.get(dev + "address")) if device else 0,
+                device_mult=float(view.get(dev + "cal mult")) if device else 1.0,
+                device_add=float(view.get(dev + "cal add")) if device else 0.0,
+                cal2_mult=float(slot("cal2 mult", n)),
+                cal2_add=float(slot("cal2 add", n)),
+                switch_output=int(slot("switch output", n)),
+                switch_advance=int(slot("switch advance", n)),
+            )
+        )
+    kind = int(view.get(p + "type"))
+    pair = (inputs[0], inputs[1])
+    used = _used(kind, pair)
+    return ChannelConfig(
+        number=ch,
+        type=kind,
+        inputs=pair,
+        used_inputs=used,
+        switches=tuple((i.switch_output, i.switch_advance) for i in used if i.switch_output),
+        table1=view.get(p + "convert 1 file name"),
+        table2=view.get(p + "convert 2 file name"),
+        mult=float(view.get(p + "cal mult value")),
+        add=float(view.get(p + "cal add value")),
+        format=NumberFormat.parse(view.get(p + "format")),
+        period=period_seconds(view.get(p + "sampling period")) or 0,
+        start=view.get(p + "sampling start"),
+        average=int(view.get(p + "average samples")),
+        change=Decimal(view.get(p + "record change")),
+        samples=int(view.get(p + "record samples")),
+    )
+
+
+class Measurer:
+    """Turns hardware readings into channel values."""
+
+    def __init__(self, hardware: Hardware, timing: int = 8) -> None:
+        self.hardware = hardware
+        self.tables = TableSet()
+        self.timing = timing  # global timing (§6.17.2)
+
+    def reading(self, cfg: ChannelConfig, inp: Input, t: float, window: float) -> float | None:
+        """One input after the device calibration; ``window`` = counting time for pulses."""
+        hw = self.hardware
+        if inp.device == 0:
+            return 0.0
+        kind = cfg.type
+        if kind == 1:
+            raw = hw.supply(t) if inp.device_type == "MSP430ADC" else None
+            if raw is None:
+                return None
+            return (raw * inp.device_mult + inp.device_add) * SUPPLY_DIVIDER
+        if kind in (2, 6):
+            timer = inp.device_type == "MSP430TA"
+            if inp.device_type not in ("MSP430TA", "MSP430ADC"):
+                return None
+            count = hw.pulses(inp.device, inp.address, timer, t - window, t)
+            limit = TIMER_MAX_HZ if timer else self.timing / 2
+            count = min(count, math.floor(limit * window))
+            return count * inp.device_mult + inp.device_add if timer else float(count)
+        if inp.device_type == "MSP430ADC":
+            raw = hw.adc(inp.device, inp.address, t)
+        elif inp.device_type == "DS18B20":
+            found = hw.ds18b20(inp.device_address, inp.address, t)
+            raw = None if found is None else found[1]
+        else:
+            raw = None
+        if raw is None:
+            return None
+        return raw * inp.device_mult + inp.device_add
+
+    def value(self, cfg: ChannelConfig, t: float, window: float) -> float | None:
+        """The channel's value at host time ``t`` (unformatted), or None."""
+        if cfg.type in (11, 12):
+            x = self.hardware.gsm("credit" if cfg.type == 11 else "signal", t)
+            if x is None:
+                return None
+            return self._finish(cfg, self._table1(cfg, x, None))
+        readings = []
+        for inp in cfg.used_inputs:
+            r = self.reading(cfg, inp, t, window)
+            if r is None:
+                return None
+            readings.append(r * inp.cal2_mult + inp.cal2_add)
+        if cfg.type == 9:
+            return self._finish(cfg, self._table1(cfg, readings[0], readings[1]))
+        return self._finish(cfg, self._table1(cfg, readings[0], None))
+
+    def _table1(self, cfg: ChannelConfig, x: float, p: float | None) -> float | None:
+        if not cfg.table1:
+            return x if p is None else None  # type 9 needs its 2-D table
+        table = self.tables.get(cfg.table1)
+        if isinstance(table, TableError):
+            return None
+        if p is None:
+            return table(x) if isinstance(table, Curve) else None
+        return table(x, p) if isinstance(table, Surface) else None
+
+    def _finish(self, cfg: ChannelConfig, y: float | None) -> float | None:
+        if y is None:
+            return None
+        y = y * cfg.mult + cfg.add
+        if cfg.table2:
+            table = self.tables.get(cfg.table2)
+            if not isinstance(table, Curve):
+                return None
+            y = table(y)
+        return y
+
+    def why_no_value(self, cfg: ChannelConfig) -> str | None:
+        """The table problem that keeps a channel from having a value, for host tools."""
+        for name, two_d in ((cfg.table1, cfg.type == 9), (cfg.table2, False)):
+            if not name:
+                continue
+            table = self.tables.get(name)
+            if isinstance(table, TableError):
+                return str(table)
+            if isinstance(table, Surface) != two_d:
+                return f"table {name}: a {'2-D' if two_d else '1-D'} table is needed"
+        return None
+
+
+def format_value(cfg: ChannelConfig, value: float | None) -> str:
+    """A value in the channel's format; no value is an empty field (spec notes §7)."""
+    if value is None or not math.isfinite(value):
+        return ""
+    return cfg.format.render(Decimal(repr(value)))

@@ -1,0 +1,261 @@
+"""Scheduled sampling and the switches (§6.5.13-§6.5.16, §6.7, §6.9; spec notes §7).
+
+Times here are *module* seconds (the module clock as seconds since 1970); the hardware is
+asked at the matching host time. A channel with period P and start S samples at S + k*P; a
+start in the past moves forward by whole periods. Channels sampled in the same second share
+one row of type 1. A switched sensor is powered ``advance`` seconds before its sample and
+switched off after it, unless an on-demand read holds it (``command channel switch hold``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from decimal import Decimal
+
+from sondalog.ala1.hardware import Hardware
+from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
+
+_ZERO = Decimal(0)
+_NEVER = Decimal(-1)
+
+
+@dataclass
+class ChannelRun:
+    """Sampling state of one channel (RAM, like the module's)."""
+
+    cfg: ChannelConfig
+    next_t: int | None = None
+    last_t: int | None = None
+    avg_sum: float = 0.0
+    avg_n: int = 0
+    since_write: int = 0
+    recorded: str | None = None  # last value written to the record (formatted)
+    event_active: bool = False  # type 6: the last sample met the condition
+    sample: float | None = None  # last scheduled sample (unformatted)
+    sampled: bool = False
+
+    def schedule(self, now: int) -> None:
+        cfg = self.cfg
+        if cfg.period <= 0:
+            self.next_t = None
+            return
+        start = _stamp_seconds(cfg.start)
+        if now <= start:
+            self.next_t = start
+        else:
+            self.next_t = start + math.ceil((now - start) / cfg.period) * cfg.period
+
+    @property
+    def switches(self) -> tuple[tuple[int, int], ...]:
+        """(output, advance) of the inputs that have a switch (§6.5.13)."""
+        return self.cfg.switches
+
+
+def _stamp_seconds(stamp: str) -> int:
+    from sondalog.ala1.state import to_seconds
+    from sondalog.ala1.tokens import parse_stamp
+
+    return int(to_seconds(parse_stamp(stamp)))
+
+
+@dataclass
+class Outputs:
+    """The seven outputs (§6.7): a written value, or automatic switching (``NO``)."""
+
+    hardware: Hardware
+    manual: dict[int, str] = field(default_factory=dict)  # output -> "0" | "1" | "NO"
+    usable: dict[int, bool] = field(default_factory=dict)  # device configured (§6.7.1)
+    scheduled: dict[int, set[int]] = field(default_factory=dict)  # output -> channels powering
+    held_until: dict[int, float] = field(default_factory=dict)  # module seconds
+    on_since: dict[int, float] = field(default_factory=dict)  # module seconds, when on
+    applied: dict[int, bool] = field(default_factory=dict)
+
+    def is_on(self, output: int) -> bool:
+        return self.applied.get(output, False)
+
+    def update(self, now: float, offset: float) -> None:
+        """Recompute every output's state at module time ``now`` and tell the hardware."""
+        for output in range(1, 8):
+            manual = self.manual.get(output, "NO")
+            if not self.usable.get(output, False):
+                on = False
+            elif manual != "NO":
+                on = manual == "1"
+            else:
+                on = bool(self.scheduled.get(output)) or self.held_until.get(output, -1) > now
+            if on != self.applied.get(output, False):
+                self.applied[output] = on
+                if on:
+                    self.on_since[output] = now
+                else:
+                    self.on_since.pop(output, None)
+                self.hardware.set_output(output, on, now - offset)
+
+
+RowSink = Callable[[int, list[str]], None]
+
+
+class Sampler:
+    """Runs the channels' schedules and decides which values reach the record."""
+
+    def __init__(self, measurer: Measurer, outputs: Outputs) -> None:
+        self.measurer = measurer
+        self.outputs = outputs
+        self.runs: dict[int, ChannelRun] = {}
+        self.max_number = 1
+
+    def configure(self, configs: list[ChannelConfig], max_number: int, now: int) -> None:
+        """New channel parameters; channels whose sampling changed restart their schedule."""
+        old = self.runs
+        self.runs = {}
+        self.max_number = max_number
+        for cfg in configs:
+            run = old.get(cfg.number)
+            if run is None or _sampling_changed(run.cfg, cfg):
+                run = ChannelRun(cfg)
+                run.schedule(now)
+            else:
+                run.cfg = cfg
+            self.runs[cfg.number] = run
+        for output in list(self.outputs.scheduled):
+            self.outputs.scheduled[output].clear()
+
+    def reschedule(self, now: int) -> None:
+        """The clock was set: every channel finds its next sample from the new time."""
+        for run in self.runs.values():
+            run.schedule(now)
+
+    def _events(self) -> tuple[int | None, int | None, float | None]:
+        """Module times of the next sample, the next switch power-on and hold expiry."""
+        sample: int | None = None
+        power: int | None = None
+        scheduled = self.outputs.scheduled
+        for run in self.runs.values():
+            t = run.next_t
+            if t is None:
+                continue
+            if sample is None or t < sample:
+                sample = t
+            for output, advance in run.cfg.switches:
+                if (
+                    advance > 0
+                    and run.cfg.number not in scheduled.get(output, ())
+                    and (power is None or t - advance < power)
+                ):
+                    power = t - advance
+        hold = min(self.outputs.held_until.values(), default=None)
+        return sample, power, hold
+
+    def next_event(self) -> float | None:
+        """Module time of the next thing the sampler must do."""
+        return min((t for t in self._events() if t is not None), default=None)
+
+    def run_until(self, target: float, offset: float, sink: RowSink) -> None:
+        """Process every event up to module time ``target``; rows go to ``sink``."""
+        outputs = self.outputs
+        while True:
+            sample, power, hold = self._events()
+            if hold is not None and hold <= target and (sample is None or hold <= sample):
+                for output, until in list(outputs.held_until.items()):
+                    if until <= hold:
+                        del outputs.held_until[output]
+                outputs.update(hold, offset)
+                continue
+            if power is not None and power <= target and (sample is None or power < sample):
+                self._power_on(power, offset)
+                continue
+            if sample is None or sample > target:
+                outputs.update(target, offset)
+                return
+            due = [run for run in self.runs.values() if run.next_t == sample]
+            self._sample(sample, due, offset, sink)
+
+    def _power_on(self, t: int, offset: float) -> None:
+        """§6.5.13: power the switches whose advance window opens at ``t``."""
+        scheduled = self.outputs.scheduled
+        for run in self.runs.values():
+            if run.next_t is None:
+                continue
+            for output, advance in run.switches:
+                if advance > 0 and run.next_t - advance <= t:
+                    scheduled.setdefault(output, set()).add(run.cfg.number)
+        self.outputs.update(float(t), offset)
+
+    def _sample(self, t: int, due: list[ChannelRun], offset: float, sink: RowSink) -> None:
+        outputs = self.outputs
+        switched = any(run.cfg.switches for run in due)
+        if switched:
+            for run in due:
+                for output, _ in run.cfg.switches:
+                    outputs.scheduled.setdefault(output, set()).add(run.cfg.number)
+            outputs.update(float(t), offset)
+        host_t = t - offset
+        fields: dict[int, str] = {}
+        for run in due:
+            cfg = run.cfg
+            window = float(t - run.last_t) if run.last_t is not None else float(cfg.period)
+            value = self.measurer.value(cfg, host_t, window)
+            run.last_t = t
+            run.next_t = t + cfg.period
+            run.sample, run.sampled = value, True
+            written = self._decide(run, value)
+            if written is not None and cfg.number <= self.max_number:
+                fields[cfg.number] = written
+        if switched:
+            for run in due:
+                for output, _ in run.cfg.switches:
+                    outputs.scheduled.get(output, set()).discard(run.cfg.number)
+            outputs.update(float(t), offset)
+        if fields:
+            sink(t, [fields.get(n, "") for n in range(1, self.max_number + 1)])
+
+    @staticmethod
+    def _decide(run: ChannelRun, value: float | None) -> str | None:
+        """§6.5.15, §6.5.16: averaging, then the change and samples conditions."""
+        cfg = run.cfg
+        if cfg.average > 0:
+            if value is not None:
+                run.avg_sum += value
+                run.avg_n += 1
+            if run.avg_n < cfg.average:
+                return None
+            value = run.avg_sum / run.avg_n
+            run.avg_sum, run.avg_n = 0.0, 0
+        text = format_value(cfg, value)
+        run.since_write += 1
+        write: str | None = None
+        change = cfg.change
+        if change == _ZERO:
+            write = text
+        elif change != _NEVER:
+            if cfg.type == 6:
+                # §6.5.16.1: events per period; one 0 when the condition stops holding
+                if text and Decimal(text) >= change:
+                    write, run.event_active = text, True
+                elif run.event_active:
+                    write, run.event_active = format_value(cfg, 0.0), False
+            elif run.recorded is None or _changed(run.recorded, text, change):
+                write = text
+        if write is None and cfg.samples > 0 and run.since_write >= cfg.samples:
+            write = text
+        if write is not None:
+            run.recorded = write
+            run.since_write = 0
+        return write
+
+
+def _changed(old: str, new: str, change: Decimal) -> bool:
+    if not old or not new:
+        return old != new
+    return abs(Decimal(new) - Decimal(old)) >= change
+
+
+def _sampling_changed(old: ChannelConfig, new: ChannelConfig) -> bool:
+    return (old.period, old.start, old.average, old.type) != (
+        new.period,
+        new.start,
+        new.average,
+        new.type,
+    )

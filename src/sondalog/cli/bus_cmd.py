@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import signal
 import sys
 from collections.abc import Awaitable, Callable
@@ -17,7 +18,7 @@ from typing import TypeVar
 
 import click
 
-from sondalog.bus.serve import DEFAULT_PORT, start_bus_server
+from sondalog.bus.serve import DEFAULT_PORT, BusServer, start_bus_server
 from sondalog.cli.logger_cmd import format_address, parse_listen
 from sondalog.client.bus import (
     DEFAULT_HOST_ID,
@@ -127,34 +128,8 @@ def serve(
 
     Prints ``listening on HOST:PORT`` once ready. SIGINT or SIGTERM stop it cleanly.
     """
-    try:
-        asyncio.run(
-            _serve(listen, pty_link, serial_device, state_dir, site, baud, speed, noise, seed)
-        )
-    except SiteError as exc:
-        raise _Refused(str(exc)) from exc
-    except FileExistsError as exc:
-        raise _Refused(str(exc)) from exc
-    except OSError as exc:
-        raise click.ClickException(f"cannot serve the bus: {exc}") from exc
-
-
-async def _serve(
-    listen: tuple[str, int],
-    pty_link: Path | None,
-    serial_device: str | None,
-    state_dir: Path,
-    site: Path | None,
-    baud: int | None,
-    speed: float,
-    noise: float | None,
-    seed: int | None,
-) -> None:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
-    running = await start_bus_server(
+    start = functools.partial(
+        start_bus_server,
         make_clock(speed),
         listen,
         site=site,
@@ -165,6 +140,20 @@ async def _serve(
         noise=noise,
         seed=seed,
     )
+    try:
+        asyncio.run(_serve(start))
+    except (SiteError, FileExistsError) as exc:
+        raise _Refused(str(exc)) from exc
+    except OSError as exc:
+        raise click.ClickException(f"cannot serve the bus: {exc}") from exc
+
+
+async def _serve(start: Callable[[], Awaitable[BusServer]]) -> None:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+    running = await start()
     try:
         sys.stdout.write(f"listening on {format_address(*running.address)}\n")
         sys.stdout.flush()

@@ -88,16 +88,21 @@ def default_bus_site(start: float) -> BusSite:
     )
 
 
-def load_bus_site(path: Path, start: float) -> BusSite:
-    """Read and check the bus part of the site file at ``path``."""
+def read_site_file(path: Path) -> tuple[dict[str, object], str]:
+    """The parsed TOML of a site file and its text (for line numbers in errors)."""
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from exc
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as exc:
         raise SiteError(path, "toml", str(exc)) from exc
+
+
+def load_bus_site(path: Path, start: float) -> BusSite:
+    """Read and check the bus part of the site file at ``path``."""
+    data, text = read_site_file(path)
     return parse_bus_site(data, start, path, text)
 
 

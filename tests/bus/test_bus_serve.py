@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import asyncio
 import os
+import select
 from pathlib import Path
 
 from bus_helpers import ServedBus, sondalog
 
 from sondalog.client.bus import BusMaster
+from sondalog.hctmps1 import encode_frame
 
 
 def test_kill_9_after_saveee_keeps_saved_settings_only(tmp_path: Path) -> None:
@@ -151,3 +153,22 @@ path = "hum.csv"
         assert hum == 40.0
         assert sniffed.startswith(b":TA,PC,PV|")
         assert served.terminate() == 0
+
+
+def test_serial_port_option_with_a_real_tty(tmp_path: Path) -> None:
+    master, slave = os.openpty()  # the test holds the far end of a "serial cable"
+    try:
+        device = os.ttyname(slave)
+        with ServedBus(tmp_path / "state", "--serial", device, "--speed", "5") as served:
+            os.write(master, encode_frame("T1", "PC", "HELLO"))
+            received = b""
+            expected = encode_frame("PC", "T1", "RHELLO.HCTMPS1-temp server (DS18B20)")
+            while not received.endswith(b"\n"):
+                ready, _, _ = select.select([master], [], [], 10)
+                assert ready, f"no reply on the serial port, got {received!r}"
+                received += os.read(master, 4096)
+            assert received == expected
+            assert served.terminate() == 0
+    finally:
+        os.close(master)
+        os.close(slave)

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from sondalog.ala1 import Engine, Identity, Version
+from sondalog.ala1.hardware import Hardware
 from sondalog.storage.ala1_nv import SqliteNvStore
 
 T0 = 1_000_000_000.0
@@ -16,10 +17,16 @@ T0 = 1_000_000_000.0
 class Module:
     """One virtual ALA1 on one line, driven by a test."""
 
-    def __init__(self, version: Version = Version.V2_10, db: str | Path = ":memory:") -> None:
-        self.now = T0
+    def __init__(
+        self,
+        version: Version = Version.V2_10,
+        db: str | Path = ":memory:",
+        hardware: Hardware | None = None,
+        now: float = T0,
+    ) -> None:
+        self.now = now
         self.store = SqliteNvStore(db)
-        self.engine = Engine(Identity(version), self.store, self.now)
+        self.engine = Engine(Identity(version), self.store, self.now, hardware)
         self.line = self.engine.open_line()
 
     def feed(self, data: bytes) -> bytes:
@@ -48,6 +55,19 @@ class Module:
     def advance(self, seconds: float) -> bytes:
         self.now += seconds
         return b"".join(o.data for o in self.engine.advance(self.now))
+
+    def settle(self, command: str, limit: float = 120.0) -> bytes:
+        """Send a command and step the clock through its waits (switch advance,
+        DS18B20 conversion) until the answer comes."""
+        answer = self.ask(command)
+        waited = 0.0
+        while not answer and waited < limit:
+            deadline = self.engine.next_deadline()
+            assert deadline is not None
+            step = max(deadline - self.now, 0.0)
+            waited += step
+            answer = self.advance(step)
+        return answer
 
 
 @pytest.fixture

@@ -11,6 +11,7 @@ import subprocess
 from conftest import T0, Module
 
 from sondalog.ala1.hardware import rom_code
+from sondalog.ala1.measure import channel_config
 from sondalog.ala1.tables import build_files
 from sondalog.sim.logger import Analog, PulseSource, SimHardware, Thermometer
 from sondalog.sim.signals import Schedule, constant
@@ -332,7 +333,7 @@ def test_10_3_two_dimensional_table() -> None:
 
 
 def test_missing_or_malformed_table_yields_no_value() -> None:
-    m, hw = table_module()
+    m, _ = table_module()
     m.ok("write channel 1 convert file name/nosuch/")
     assert m.ask("read channel 1 value") == b"\r\nOK\r\n"
     m.ok("write channel 1 convert file name/tabulka2/")  # a 2-D table for a type-3 channel
@@ -341,12 +342,8 @@ def test_missing_or_malformed_table_yields_no_value() -> None:
     m.engine.state.write_file("data", descending + TABLE2)
     m.ok("write channel 1 convert file name/tabulka1/")
     assert m.ask("read channel 1 value") == b"\r\nOK\r\n"
-    cfg_reason = m.engine.state.measurer.why_no_value(
-        __import__("sondalog.ala1.measure", fromlist=["channel_config"]).channel_config(
-            m.engine.state.begin(m.now), 1
-        )
-    )
-    assert cfg_reason is not None and "ascend" in cfg_reason
+    reason = m.engine.state.measurer.why_no_value(channel_config(m.engine.state.begin(m.now), 1))
+    assert reason is not None and "ascend" in reason
 
 
 def test_pulses_per_period_and_timer_limit() -> None:

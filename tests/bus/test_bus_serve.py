@@ -35,7 +35,7 @@ def test_kill_9_after_saveee_keeps_saved_settings_only(tmp_path: Path) -> None:
         served.proc.wait(timeout=10)
 
     async def check(url: str) -> None:
-        async with await BusMaster.open(url, retries=0, timeout=0.4) as m:
+        async with await BusMaster.open(url) as m:
             assert await m.hello("T5") == "HCTMPS1-temp server (DS18B20)"
             assert await m.hello("H1") == "HCTMPS1-hum server (SHT11)"
             assert not await m.connect("T5", "other")

@@ -125,46 +125,50 @@ class Measurer:
         if inp.device == 0:
             return 0.0
         kind = cfg.type
+        device_type = inp.device_type
+        if kind == 3 or kind == 9:
+            if device_type == "MSP430ADC":
+                raw = hw.adc(inp.device, inp.address, t)
+            elif device_type == "DS18B20":
+                found = hw.ds18b20(inp.device_address, inp.address, t)
+                raw = None if found is None else found[1]
+            else:
+                return None
+            return None if raw is None else raw * inp.device_mult + inp.device_add
         if kind == 1:
-            raw = hw.supply(t) if inp.device_type == "MSP430ADC" else None
+            raw = hw.supply(t) if device_type == "MSP430ADC" else None
             if raw is None:
                 return None
             return (raw * inp.device_mult + inp.device_add) * SUPPLY_DIVIDER
-        if kind in (2, 6):
-            timer = inp.device_type == "MSP430TA"
-            if inp.device_type not in ("MSP430TA", "MSP430ADC"):
-                return None
-            count = hw.pulses(inp.device, inp.address, timer, t - window, t)
-            limit = TIMER_MAX_HZ if timer else self.timing / 2
-            count = min(count, math.floor(limit * window))
-            return count * inp.device_mult + inp.device_add if timer else float(count)
-        if inp.device_type == "MSP430ADC":
-            raw = hw.adc(inp.device, inp.address, t)
-        elif inp.device_type == "DS18B20":
-            found = hw.ds18b20(inp.device_address, inp.address, t)
-            raw = None if found is None else found[1]
-        else:
-            raw = None
-        if raw is None:
+        # types 2 and 6: pulses in the window
+        timer = device_type == "MSP430TA"
+        if not timer and device_type != "MSP430ADC":
             return None
-        return raw * inp.device_mult + inp.device_add
+        count = hw.pulses(inp.device, inp.address, timer, t - window, t)
+        limit = TIMER_MAX_HZ if timer else self.timing / 2
+        count = min(count, math.floor(limit * window))
+        return count * inp.device_mult + inp.device_add if timer else float(count)
 
     def value(self, cfg: ChannelConfig, t: float, window: float) -> float | None:
         """The channel's value at host time ``t`` (unformatted), or None."""
-        if cfg.type in (11, 12):
-            x = self.hardware.gsm("credit" if cfg.type == 11 else "signal", t)
-            if x is None:
+        kind = cfg.type
+        if kind == 11 or kind == 12:
+            x = self.hardware.gsm("credit" if kind == 11 else "signal", t)
+            return None if x is None else self._finish(cfg, self._table1(cfg, x, None))
+        first = cfg.inputs[0]
+        r = self.reading(cfg, first, t, window)
+        if r is None:
+            return None
+        x = r * first.cal2_mult + first.cal2_add
+        if kind == 9:
+            second = cfg.inputs[1]
+            r2 = self.reading(cfg, second, t, window)
+            if r2 is None:
                 return None
-            return self._finish(cfg, self._table1(cfg, x, None))
-        readings = []
-        for inp in cfg.used_inputs:
-            r = self.reading(cfg, inp, t, window)
-            if r is None:
-                return None
-            readings.append(r * inp.cal2_mult + inp.cal2_add)
-        if cfg.type == 9:
-            return self._finish(cfg, self._table1(cfg, readings[0], readings[1]))
-        return self._finish(cfg, self._table1(cfg, readings[0], None))
+            return self._finish(cfg, self._table1(cfg, x, r2 * second.cal2_mult + second.cal2_add))
+        if not cfg.table1 and not cfg.table2:
+            return x * cfg.mult + cfg.add
+        return self._finish(cfg, self._table1(cfg, x, None))
 
     def _table1(self, cfg: ChannelConfig, x: float, p: float | None) -> float | None:
         if not cfg.table1:

@@ -1,0 +1,123 @@
+"""Benchmark: simulated logging and record reads through the pure ALA1 engine (issue 3).
+
+Prints:
+1. a year of module time for 12 channels sampled every minute, with averaging (10 samples)
+   and change conditions on: wall-clock seconds, samples and rows per second (target: a
+   year in under 10 s);
+2. the cost of ``read record 1000 from date/.../`` on a full 1 MiB cyclic record;
+3. bytes per second of ``read record 100000 from start``.
+
+Run: ``.venv/bin/python benchmarks/bench_sampling.py`` (``make bench`` runs every benchmark).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from sondalog.ala1 import Engine, Identity, Version
+from sondalog.ala1.record import row_key
+from sondalog.sim.logger import Analog, SimHardware
+from sondalog.sim.signals import RandomWalk, sine
+from sondalog.storage.ala1_nv import SqliteNvStore
+
+T0 = 1_000_000_000.0
+ADDRESSES = (16, 17, 18, 19, 20, 24)
+
+
+def logger(db: Path) -> tuple[Engine, int]:
+    hw = SimHardware(
+        analog=[
+            Analog(a, sine(1.0, 0.8, 86400.0 / (i + 1), 0.0, T0))
+            if i % 2
+            else Analog(a, RandomWalk(1.0, 0.01, 60.0, i, T0, lambda v: min(2.4, max(0.0, v))))
+            for i, a in enumerate(ADDRESSES)
+        ]
+    )
+    engine = Engine(Identity(Version.V2_10), SqliteNvStore(db), T0, hw)
+    return engine, engine.open_line()
+
+
+def ask(engine: Engine, line: int, command: str, now: float = T0) -> bytes:
+    return b"".join(o.data for o in engine.receive(line, command.encode() + b"\r", now))
+
+
+def configure(engine: Engine, line: int) -> None:
+    for command in (
+        "write date 20070101000000",
+        "write channel max number 12",
+    ):
+        assert ask(engine, line, command) == b"OK\r\n"
+    for ch in range(1, 13):
+        for part in (
+            f"type 3 write channel {ch} address {ADDRESSES[ch % 6]}",
+            f"switch output 0 write channel {ch} format 0.3",
+            f"sampling period 000100 write channel {ch} sampling start 20070101000000",
+            f"average samples 10 write channel {ch} record change 0.02",
+        ):
+            assert ask(engine, line, f"write channel {ch} {part}") == b"OK\r\n", part
+
+
+def bench_year(tmp: Path) -> None:
+    engine, line = logger(tmp / "year.sqlite")
+    configure(engine, line)
+    days = 365
+    start = time.perf_counter()
+    for day in range(1, days + 1):  # one advance per simulated day, each a group commit
+        engine.advance(T0 + day * 86400)
+    elapsed = time.perf_counter() - start
+    samples = days * 1440 * 12
+    status = ask(engine, line, "read record status", T0 + days * 86400).decode().split()[0]
+    rows = len(engine.state.record)
+    print("1. one year, 12 channels sampled every minute, averaging 10, change 0.02")
+    print(f"   wall time            {elapsed:8.2f} s   (target < 10 s: {elapsed < 10})")
+    print(f"   channel samples / s  {samples / elapsed:12,.0f}")
+    print(f"   module time speed-up {days * 86400 / elapsed:12,.0f} x")
+    print(f"   record               {status} ({rows} rows kept, cyclic 1 MiB)")
+
+
+def full_record(tmp: Path) -> tuple[Engine, int, float]:
+    engine, line = logger(tmp / "full.sqlite")
+    configure(engine, line)
+    for ch in range(1, 13):
+        ask(
+            engine, line, f"write channel {ch} average samples 0 write channel {ch} record change 0"
+        )
+    now = T0
+    while "FULL" not in ask(engine, line, "read record status", now).decode():
+        now += 86400
+        engine.advance(now)
+    return engine, line, now
+
+
+def bench_reads(tmp: Path) -> None:
+    engine, line, now = full_record(tmp)
+    record = engine.state.record
+    rows = len(record)
+    middle = row_key(record.rows(rows // 2, 1)[0])[:14]
+    runs = 50
+    start = time.perf_counter()
+    for _ in range(runs):
+        answer = ask(engine, line, f"read record 1000 from date/{middle}/", now)
+    per_read = (time.perf_counter() - start) / runs
+    print(f"2. read record 1000 from date/{middle}/ on a full 1 MiB record ({rows} rows)")
+    print(f"   {per_read * 1000:8.2f} ms per command, {len(answer):,} bytes answered")
+
+    start = time.perf_counter()
+    answer = ask(engine, line, "read record 100000 from start", now)
+    elapsed = time.perf_counter() - start
+    print(f"3. read record 100000 from start: {len(answer):,} bytes ({rows} rows)")
+    print(
+        f"   {elapsed * 1000:8.1f} ms, {len(answer) / elapsed / 1e6:8.1f} MB/s through the engine"
+    )
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        bench_year(Path(tmp))
+        bench_reads(Path(tmp))
+
+
+if __name__ == "__main__":
+    main()

@@ -51,6 +51,10 @@ async def _start() -> Logger:
 
 
 async def main() -> None:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
     logger = await _start()
     host, port = logger.servers[0].address
     url = f"tcp://{host}:{port}"
@@ -75,10 +79,6 @@ async def main() -> None:
 
     print("\nServing until Ctrl-C.")
     sys.stdout.flush()
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
     try:
         await stop.wait()
     finally:

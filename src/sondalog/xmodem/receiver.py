@@ -74,6 +74,8 @@ class XmodemReceiver(Transfer):
         self._data = bytearray()
         self._content_end = 0
         self._errors = 0
+        self._wait_deadline: float | None = None
+        """The deadline that was running when the current block began."""
         self._dup_ok = False
         """May a duplicate of the last block be ACKed? Once after each NAK we sent."""
 
@@ -152,6 +154,7 @@ class XmodemReceiver(Transfer):
             return b""
         if byte in BLOCK_SIZES:
             self._state = "block"
+            self._wait_deadline = self._deadline
             self._buf = bytearray([byte])
             self._need = _frame_length(byte, self._crc)
             self._deadline = now + self._byte_timeout
@@ -188,6 +191,7 @@ class XmodemReceiver(Transfer):
             return bytes([ACK])
         if self._received_any and number == (self._expected - 1) & 0xFF:
             if not self._dup_ok:
+                self._deadline = self._wait_deadline
                 return b""
             self._dup_ok = False
             self._deadline = now + self._block_timeout

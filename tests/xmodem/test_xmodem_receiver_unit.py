@@ -239,3 +239,20 @@ def test_max_size_refuses_extra_padding_blocks_beyond_the_limit() -> None:
 def test_must_start_first() -> None:
     with pytest.raises(RuntimeError):
         XmodemReceiver().receive(b"x", 0.0)
+
+
+def test_first_block_in_crc_mode_after_fallback_to_nak() -> None:
+    r = started(crc_tries=1)
+    assert r.advance(3.0) == NAK_  # fallback sent; the sender had already seen the C
+    assert r.receive(block(1, crc=True), 3.1) == ACK_
+    assert r.crc is True
+    assert r.receive(block(2, crc=True), 3.2) == ACK_
+
+
+def test_first_block_in_checksum_mode_although_c_was_sent() -> None:
+    r = started()
+    assert r.receive(block(1, crc=False), 0.1) == b""  # waits for a 133rd byte
+    assert r.advance(1.1) == ACK_
+    assert r.crc is False
+    assert r.receive(block(2, crc=False), 1.2) == ACK_
+    assert len(r.data) == 256

@@ -85,14 +85,19 @@ def test_repeated_c_only_repeats_the_first_block() -> None:
     assert s.receive(b"C", 0.3) == b""  # later, C is noise
 
 
-def test_rest_of_a_chunk_after_a_reaction_is_stale() -> None:
+def test_one_reaction_per_read_the_last_answer_counts() -> None:
     s = started(b"z" * 1000)
-    s.receive(b"C", 0.0)
-    # Two ACKs in one read: the second was sent before block 2 existed.
+    first = s.receive(b"C", 0.0)
+    # Two ACKs in one read: the first was for a duplicate, both sent before block 2 existed.
     second = s.receive(ACK_ + ACK_, 0.1)
     assert second[1] == 2
     assert s.acked == 128
-    assert s.receive(ACK_, 0.2)[1] == 3
+    # NAK then ACK: the retransmission that crossed the NAK arrived.
+    assert s.receive(NAK_ + b"?" + ACK_ + b"!", 0.2)[1] == 3
+    # ACK then NAK: the ACK was stale, block 3 goes again.
+    third = s.receive(ACK_ + NAK_, 0.3)
+    assert third[1] == 3 and s.acked == 256
+    assert first[1] == 1
 
 
 def test_can_can_from_receiver_aborts_even_in_a_stale_tail() -> None:

@@ -7,6 +7,10 @@ What this implements (Christensen 1982, Forsberg 1988):
   ``NAK`` from the start. Garbage before the first block is ignored. No sender within
   ``start_timeout`` (60 s): ``CAN CAN`` and failure.
 - Blocks of 128 (``SOH``) and 1024 (``STX``) bytes are both accepted, mixed in one transfer.
+- The first block settles the mode, whatever the start character was: the sender may have
+  seen an earlier ``C`` than the ``NAK`` of the fallback, or ignore ``C``. A first block that
+  fails as a checksum block is given one more byte to pass as a CRC block; a CRC-mode first
+  block that stops one byte short (``byte_timeout``) is tried as a checksum block.
 - A block with a bad complement or a bad checksum/CRC, a partial block (``byte_timeout``, 1 s
   between bytes), or garbage where a block should start: purge (wait until the line has been
   quiet for ``byte_timeout``), then ``NAK``. Nothing within ``block_timeout`` (10 s): ``NAK``.
@@ -136,6 +140,8 @@ class XmodemReceiver(Transfer):
         if self._state == "purge":
             return self._nak(now)
         if self._state == "block":
+            if self._maybe_checksum_block():
+                return self._on_block(now, extend=False)
             why = "timeout within a block"
         else:
             why = "timeout waiting for a block"
@@ -171,13 +177,19 @@ class XmodemReceiver(Transfer):
             return b""
         return self._bad("garbage where a block should start", now)
 
-    def _on_block(self, now: float) -> bytes:
+    def _on_block(self, now: float, extend: bool = True) -> bytes:
+        """A whole block is in the buffer (its length tells the mode)."""
         buf = bytes(self._buf)
         size = BLOCK_SIZES[buf[0]]
+        crc = len(buf) == size + 5
         number, complement = buf[1], buf[2]
         payload = buf[3 : 3 + size]
-        if number + complement != 0xFF or buf[3 + size :] != check_bytes(payload, self._crc):
+        if number + complement != 0xFF or buf[3 + size :] != check_bytes(payload, crc):
+            if extend and not crc and not self._received_any:
+                self._need += 1  # perhaps a CRC block: the sender saw an earlier C
+                return b""
             return self._bad("bad block", now)
+        self._crc = crc  # the first block settles the mode
         self._state = "wait"
         if number == self._expected:
             if self._exceeds(payload):
@@ -197,6 +209,14 @@ class XmodemReceiver(Transfer):
             self._deadline = now + self._block_timeout
             return bytes([ACK])
         return self._give_up(f"block {number} where {self._expected} was expected")
+
+    def _maybe_checksum_block(self) -> bool:
+        """First block, CRC expected, and a checksum block's worth arrived, then silence."""
+        return (
+            not self._received_any
+            and self._crc
+            and len(self._buf) == _frame_length(self._buf[0], crc=False)
+        )
 
     def _exceeds(self, payload: bytes) -> bool:
         """Would this block take the content beyond ``max_size``?"""

@@ -13,8 +13,10 @@ What this implements (Christensen 1982, Forsberg 1988):
 - The last block is padded with ``pad`` (0x1A). After the data comes ``EOT``, repeated on
   ``NAK`` or timeout until ``ACK``. An empty ``data`` sends ``EOT`` straight away.
 - Two consecutive ``CAN`` from the receiver (outside a block) abort the transfer.
-- Purge: once a byte made the sender transmit, the rest of that same chunk is stale (the
-  receiver sent it before it could see the new transmission) and is ignored, except ``CAN``.
+- One reaction per read: of the answers in one chunk of input, only the last counts (``CAN
+  CAN`` anywhere still aborts). Everything in a chunk was sent before the receiver could see
+  our reaction to it, so earlier answers are superseded: ``NAK ACK`` means the retransmission
+  that crossed the NAK arrived; ``ACK NAK`` means that ACK was stale.
 """
 
 from __future__ import annotations
@@ -80,16 +82,13 @@ class XmodemSender(Transfer):
     def receive(self, data: bytes, now: float) -> bytes:
         """Feed bytes read from the line; returns bytes to write to it."""
         self._check_started()
-        out = b""
+        last: int | None = None
         for byte in data:
-            if self._done:
-                break
-            if self._peer_cancelled(byte):
-                out = b""
-                break
-            if not out:
-                out = self._on_byte(byte, now)
-        return out
+            if self._done or self._peer_cancelled(byte):
+                return b""
+            if self._is_answer(byte):
+                last = byte
+        return b"" if last is None else self._on_answer(last, now)
 
     def advance(self, now: float) -> bytes:
         """Handle an expired deadline: retransmit, or give up."""
@@ -100,12 +99,16 @@ class XmodemSender(Transfer):
             return self._give_up("no start character from the receiver")
         return self._retry("timeout waiting for ACK", now)
 
-    def _on_byte(self, byte: int, now: float) -> bytes:
+    def _is_answer(self, byte: int) -> bool:
+        """Is ``byte`` meaningful now? Anything else is line noise."""
         if self._state == "start":
-            if byte in (CRC_START, NAK):
-                self._crc = byte == CRC_START
-                return self._send_next(now)
-            return b""
+            return byte in (CRC_START, NAK)
+        return byte in (ACK, NAK) or (byte == CRC_START and self._offset == 0)
+
+    def _on_answer(self, byte: int, now: float) -> bytes:
+        if self._state == "start":
+            self._crc = byte == CRC_START
+            return self._send_next(now)
         if byte == ACK:
             if self._state == "eot":
                 self._succeed()
@@ -114,13 +117,7 @@ class XmodemSender(Transfer):
             self._number += 1
             self._errors = 0
             return self._send_next(now)
-        if byte == NAK or (byte == CRC_START and self._repeat_start_is_nak()):
-            return self._retry("NAK", now)
-        return b""
-
-    def _repeat_start_is_nak(self) -> bool:
-        """A ``C`` after the first block (or the EOT of an empty file) asks for it again."""
-        return self._offset == 0
+        return self._retry("NAK", now)  # NAK, or C repeated for the first block
 
     def _send_next(self, now: float) -> bytes:
         remaining = len(self._data) - self._offset

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from xmodem_line import End
 from xmodem_pump import pump
 
 from sondalog.xmodem import XmodemReceiver, XmodemSender
@@ -46,6 +47,27 @@ def spawn(args: list[str], cwd: Path) -> subprocess.Popen[bytes]:
     )
 
 
+RunResult = tuple[int, bytes, list[bytes]]
+
+
+def run_peer(args: list[str], cwd: Path, end: End) -> RunResult:
+    """Run ``end`` against an lrzsz program; its return code, stderr and our writes."""
+    proc = spawn(args, cwd)
+    assert proc.stdin is not None and proc.stdout is not None
+    writes: list[bytes] = []
+    try:
+        pump(end, proc.stdout.fileno(), proc.stdin.fileno(), writes=writes)
+        _, err = proc.communicate(timeout=10)
+    finally:
+        proc.kill()
+    return proc.returncode, err, writes
+
+
+def from_sx(args: list[str], cwd: Path, data: bytes, receiver: XmodemReceiver) -> RunResult:
+    (cwd / "in.bin").write_bytes(data)
+    return run_peer(["sx", "-X", "-q", *args, "in.bin"], cwd, receiver)
+
+
 @dataclass
 class RxRun:
     sender: XmodemSender
@@ -58,16 +80,9 @@ class RxRun:
 def send_to_rx(mode: str, size: int, workdir: Path) -> RxRun:
     workdir.mkdir()
     args = ["rx", "-X", "-q"] + ([] if mode == "checksum" else ["-c"]) + ["out.bin"]
-    proc = spawn(args, workdir)
-    assert proc.stdin is not None and proc.stdout is not None
     sender = XmodemSender(payload(size), one_k=mode == "1k")
-    writes: list[bytes] = []
-    try:
-        pump(sender, proc.stdout.fileno(), proc.stdin.fileno(), writes=writes)
-        _, err = proc.communicate(timeout=10)
-    finally:
-        proc.kill()
-    return RxRun(sender, writes, proc.returncode, (workdir / "out.bin").read_bytes(), err)
+    code, err, writes = run_peer(args, workdir, sender)
+    return RxRun(sender, writes, code, (workdir / "out.bin").read_bytes(), err)
 
 
 @pytest.fixture(scope="module")
@@ -100,19 +115,10 @@ def test_xmodem_our_sender_to_lrzsz_rx(
 @pytest.mark.parametrize("mode", MODES)
 def test_xmodem_lrzsz_sx_to_our_receiver(tmp_path: Path, mode: str, size: int) -> None:
     data = payload(size)
-    (tmp_path / "in.bin").write_bytes(data)
-    args = ["sx", "-X", "-q"] + (["-k"] if mode == "1k" else []) + ["in.bin"]
-    proc = spawn(args, tmp_path)
-    assert proc.stdin is not None and proc.stdout is not None
     receiver = XmodemReceiver(crc=mode != "checksum")
-    writes: list[bytes] = []
-    try:
-        pump(receiver, proc.stdout.fileno(), proc.stdin.fileno(), writes=writes)
-        _, err = proc.communicate(timeout=10)
-    finally:
-        proc.kill()
+    code, err, writes = from_sx(["-k"] if mode == "1k" else [], tmp_path, data, receiver)
     assert receiver.ok, (receiver.error, err)
-    assert proc.returncode == 0, err
+    assert code == 0, err
     assert receiver.crc is (mode != "checksum")
     assert_padded(receiver.data, data)
     acks = b"".join(writes).count(ACK)  # one per block, one for the (second) EOT
@@ -123,24 +129,16 @@ def test_xmodem_lrzsz_sx_to_our_receiver(tmp_path: Path, mode: str, size: int) -
 
 
 def test_xmodem_empty_file_both_ways(tmp_path: Path) -> None:
-    (tmp_path / "empty.bin").write_bytes(b"")
-    proc = spawn(["sx", "-X", "-q", "empty.bin"], tmp_path)
-    assert proc.stdin is not None and proc.stdout is not None
     receiver = XmodemReceiver()
-    pump(receiver, proc.stdout.fileno(), proc.stdin.fileno())
-    proc.communicate(timeout=10)
-    assert receiver.ok and receiver.data == b"" and proc.returncode == 0
+    code, _, _ = from_sx([], tmp_path, b"", receiver)
+    assert receiver.ok and receiver.data == b"" and code == 0
     run = send_to_rx("crc", 0, tmp_path / "rx")
     assert run.sender.ok and run.returncode == 0 and run.file == b""
 
 
 def test_xmodem_sx_cancelled_by_our_receiver(tmp_path: Path) -> None:
-    (tmp_path / "in.bin").write_bytes(payload(50_000))
-    proc = spawn(["sx", "-X", "-q", "in.bin"], tmp_path)
-    assert proc.stdin is not None and proc.stdout is not None
     receiver = XmodemReceiver(max_size=10_000)
-    pump(receiver, proc.stdout.fileno(), proc.stdin.fileno())
-    proc.communicate(timeout=10)
+    code, _, _ = from_sx([], tmp_path, payload(50_000), receiver)
     assert not receiver.ok and receiver.data == b""
     assert receiver.error == "more data than max_size (10000 bytes)"
-    assert proc.returncode != 0
+    assert code != 0

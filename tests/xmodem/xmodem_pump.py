@@ -8,22 +8,11 @@ import socket
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any
+
+from xmodem_line import End
 
 import xmodem  # type: ignore[import-untyped]
-
-
-class End(Protocol):
-    @property
-    def done(self) -> bool: ...
-
-    def start(self, now: float) -> bytes: ...
-
-    def receive(self, data: bytes, now: float) -> bytes: ...
-
-    def advance(self, now: float) -> bytes: ...
-
-    def next_deadline(self) -> float | None: ...
 
 
 def write_all(fd: int, data: bytes) -> None:

@@ -124,6 +124,7 @@ class Answer:
 
     data: bytes
     baud: int | None = None
+    release: bool = False  # the line ran `write com close` (§6.11.8)
 
 
 class Interpreter:
@@ -184,7 +185,7 @@ class Interpreter:
             txn.rollback()
             raise NeedWait(max(txn.waits))
         txn.commit()
-        return Answer(self._render(lines, headers, txn), headers.comspeed)
+        return Answer(self._render(lines, headers, txn), headers.comspeed, txn.released)
 
     # -- header and named commands -----------------------------------------------------------
     def _headers(self, cur: Cursor, headers: Headers) -> str | None:

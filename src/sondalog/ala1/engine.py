@@ -2,9 +2,10 @@
 
 Transports feed it received bytes with the current clock time and send what it returns; they
 wake it at :meth:`Engine.next_deadline` by calling :meth:`Engine.advance`. Each line (a TCP
-connection, a serial port) has its own line state (§3.4 and spec notes §1): echo, partial
-command, entry timeout, a command waiting for its ``pause``. Commands run one at a time, and
-each answer goes to the line that sent the command.
+connection, a pty, a serial port) has its own line state (§3.4 and spec notes §1): echo,
+partial command, entry timeout, a command waiting for its ``pause`` or its sensors, and its
+transmitter (:class:`~sondalog.ala1.pacing.Pacer`: baud-rate pacing, XON/XOFF). Commands run
+one at a time, and each answer goes to the line that sent the command.
 """
 
 from __future__ import annotations
@@ -12,9 +13,10 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 
-from sondalog.ala1.commands import MAX_LINE, Interpreter
+from sondalog.ala1.commands import MAX_LINE, Answer, Interpreter
 from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.model import Identity
+from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 
 log = logging.getLogger(__name__)
@@ -27,7 +29,7 @@ BREAK = b"BREAK\r\n"
 
 @dataclass(slots=True)
 class Output:
-    """Bytes for one line; ``baud`` is the rate to pace them at when the line is paced."""
+    """Bytes for one line, and the baud rate they were paced at (None: unpaced)."""
 
     line: int
     data: bytes
@@ -38,13 +40,16 @@ class Output:
 class _Line:
     """Line state of one connection (§3.4)."""
 
+    pacer: Pacer
     buffer: list[str] = field(default_factory=list)
     echo: bool = False
     started: float | None = None  # time of the first character of the command
     overflow: bool = False
-    pending: str | None = None  # a complete command waiting for its pause
+    pending: str | None = None  # a complete command waiting for its pause or sensors
     run_at: float = 0.0
-    backlog: bytearray = field(default_factory=bytearray)  # received during a pause
+    speed: int | None = None  # the rate the waiting command's answer goes at
+    backlog: bytearray = field(default_factory=bytearray)  # received while a command waits
+    blocks_messages: bool = False  # §6.14.9.2
 
 
 class Engine:
@@ -60,36 +65,49 @@ class Engine:
         self._next_id = 1
 
     # -- lines -----------------------------------------------------------------------------
-    def open_line(self) -> int:
-        """Attach a new line (a connection); returns its id."""
+    def open_line(self, *, paced: bool = False) -> int:
+        """Attach a new line (a connection); returns its id.
+
+        ``paced``: output leaves at ``com speed`` (10 bit times a byte), as on a serial line.
+        """
         line_id = self._next_id
         self._next_id += 1
-        self._lines[line_id] = _Line()
+        self._lines[line_id] = _Line(Pacer(paced))
         return line_id
 
     def close_line(self, line_id: int) -> None:
+        """The line is gone (disconnected): it no longer blocks messages (§6.14.9.2)."""
         self._lines.pop(line_id, None)
+
+    @property
+    def messages_blocked(self) -> bool:
+        """§6.14.9.2: a line that sent a command holds messages back until it disconnects
+        or sends ``write com close``."""
+        return any(line.blocks_messages for line in self._lines.values())
+
+    @property
+    def com_speed(self) -> int:
+        return int(self.state.get("com speed"))
 
     # -- input -----------------------------------------------------------------------------
     def receive(self, line_id: int, data: bytes, now: float) -> list[Output]:
-        """Bytes received on a line at time ``now``; returns what to send."""
+        """Bytes received on a line at time ``now``; returns what to send now."""
         line = self._lines[line_id]
-        out: list[Output] = []
         self.state.run_sampling(now)
-        self._expire(line_id, line, now, out)
+        self._expire(line_id, line, now)
         if line.pending is not None:
+            data = self._flow_control(line, data, now)
             line.backlog.extend(data)
-            return out
-        self._feed(line_id, line, data, now, out)
-        return out
+        else:
+            self._feed(line_id, line, data, now)
+        return self._drain(now)
 
     def advance(self, now: float) -> list[Output]:
-        """Run what is due at ``now``: samples, paused commands, entry timeouts."""
-        out: list[Output] = []
+        """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
         self.state.run_sampling(now)
         for line_id, line in list(self._lines.items()):
-            self._expire(line_id, line, now, out)
-        return out
+            self._expire(line_id, line, now)
+        return self._drain(now)
 
     def next_deadline(self) -> float | None:
         """Clock time at which :meth:`advance` must be called next (None: only on input)."""
@@ -100,23 +118,49 @@ class Engine:
                 deadlines.append(line.run_at)
             elif line.started is not None:
                 deadlines.append(line.started + ENTRY_TIMEOUT)
+            paced = line.pacer.next_deadline()
+            if paced is not None:
+                deadlines.append(paced)
         return min(deadlines, default=None)
 
     # -- internals ---------------------------------------------------------------------------
-    def _expire(self, line_id: int, line: _Line, now: float, out: list[Output]) -> None:
+    def _drain(self, now: float) -> list[Output]:
+        out = []
+        for line_id, line in self._lines.items():
+            for data, baud in line.pacer.take(now):
+                out.append(Output(line_id, data, baud))
+        return out
+
+    def _send(self, line: _Line, data: bytes, now: float, baud: int | None = None) -> None:
+        line.pacer.push(data, baud or self.com_speed, now)
+
+    @staticmethod
+    def _flow_control(line: _Line, data: bytes, now: float) -> bytes:
+        """§6.11.1: XON/XOFF steer the line's output; they are never command text."""
+        if XON not in data and XOFF not in data:
+            return data
+        for byte in data:
+            if byte == XOFF:
+                line.pacer.xoff(now)
+            elif byte == XON:
+                line.pacer.xon(now)
+        return data.replace(bytes([XON]), b"").replace(bytes([XOFF]), b"")
+
+    def _expire(self, line_id: int, line: _Line, now: float) -> None:
         if line.pending is not None and now >= line.run_at:
             command, line.pending = line.pending, None
-            self._run(line_id, command, now, out)
-            backlog, line.backlog = bytes(line.backlog), bytearray()
-            if backlog:
-                self._feed(line_id, line, backlog, now, out)
+            self._run(line_id, line, command, now, line.speed)
+            if line.pending is None:
+                backlog, line.backlog = bytes(line.backlog), bytearray()
+                if backlog:
+                    self._feed(line_id, line, backlog, now)
         if line.started is not None and now - line.started >= ENTRY_TIMEOUT:
-            self._break(line_id, line, out)
+            self._break(line, now)
 
-    def _break(self, line_id: int, line: _Line, out: list[Output]) -> None:
+    def _break(self, line: _Line, now: float) -> None:
         """§3.4.3, §3.4.5: discard the partial command; ``BREAK`` when echo is on."""
         if line.echo:
-            out.append(Output(line_id, b"\r\n" + BREAK))
+            self._send(line, b"\r\n" + BREAK, now)
         self._reset(line)
 
     @staticmethod
@@ -126,34 +170,33 @@ class Engine:
         line.started = None
         line.overflow = False
 
-    def _feed(self, line_id: int, line: _Line, data: bytes, now: float, out: list[Output]) -> None:
+    def _feed(self, line_id: int, line: _Line, data: bytes, now: float) -> None:
+        data = self._flow_control(line, data, now)
         echo = bytearray()
         for index, byte in enumerate(data):
             if byte in (CR, LF):
                 if line.echo:
                     echo += b"\r\n"
                 if echo:
-                    out.append(Output(line_id, bytes(echo)))
+                    self._send(line, bytes(echo), now)
                     echo = bytearray()
                 text = "".join(line.buffer)
                 overflow = line.overflow
                 self._reset(line)
-                self._complete(line_id, line, text, overflow, now, out)
+                self._complete(line_id, line, text, overflow, now)
                 if line.pending is not None:
                     line.backlog.extend(data[index + 1 :])
                     return
             elif byte == ESC:
                 if echo:
-                    out.append(Output(line_id, bytes(echo)))
+                    self._send(line, bytes(echo), now)
                     echo = bytearray()
-                self._break(line_id, line, out)
+                self._break(line, now)
             elif byte in (BS, DEL):
                 if line.buffer:
                     line.buffer.pop()
                     if line.echo:
                         echo += b"\b \b"
-            elif byte in (XON, XOFF):
-                continue  # flow control, not command text (§6.11.1)
             else:
                 if line.started is None:
                     line.started = now
@@ -168,32 +211,41 @@ class Engine:
                 else:
                     line.overflow = True
         if echo:
-            out.append(Output(line_id, bytes(echo)))
+            self._send(line, bytes(echo), now)
 
-    def _complete(
-        self, line_id: int, line: _Line, text: str, overflow: bool, now: float, out: list[Output]
-    ) -> None:
+    def _complete(self, line_id: int, line: _Line, text: str, overflow: bool, now: float) -> None:
         if not text.strip(" "):
             return  # an empty line gets no answer
+        line.blocks_messages = True  # §6.14.9.2: the first command blocks messages
+        speed = self.com_speed  # `write com speed` takes effect after its own OK (§6.11.2)
         pause = None if overflow else self.interpreter.pause_of(text)
         if pause:
-            line.pending = text
-            line.run_at = now + pause
+            line.pending, line.run_at, line.speed = text, now + pause, speed
             return
-        self._run(line_id, text, now, out, overflow=overflow)
+        self._run(line_id, line, text, now, speed, overflow=overflow)
 
     def _run(
-        self, line_id: int, text: str, now: float, out: list[Output], *, overflow: bool = False
+        self,
+        line_id: int,
+        line: _Line,
+        text: str,
+        now: float,
+        speed: int | None,
+        *,
+        overflow: bool = False,
     ) -> None:
+        answer: Answer | None
         try:
             answer = self.interpreter.run_line(text, now, overflow=overflow)
         except NeedWait as wait:  # §6.5.13: the line runs again once its sensors are ready
-            line = self._lines[line_id]
-            line.pending = text
-            line.run_at = now + wait.seconds
+            line.pending, line.run_at, line.speed = text, now + wait.seconds, speed
             return
         except Exception:  # DESIGN.md point 6: never stop the device loop
             log.exception("internal error on line %r", text)
             answer = self.interpreter.error_answer(text)
-        if answer is not None and answer.data:
-            out.append(Output(line_id, answer.data, answer.baud))
+        if answer is None:
+            return
+        if answer.release:
+            line.blocks_messages = False  # `write com close` (§6.11.8)
+        if answer.data:
+            self._send(line, answer.data, now, answer.baud or speed)

@@ -101,6 +101,10 @@ class View(Protocol):
         """Stage the erasure of the record memory (§6.6.5.1, §6.15.1, §6.17.1)."""
         ...
 
+    def release_line(self) -> None:
+        """The line that runs this command stops blocking messages (§6.11.8)."""
+        ...
+
     def measure(self, ch: int) -> str:
         """Measure channel ``ch`` now, formatted; empty when it has no value (§6.5.8)."""
         ...

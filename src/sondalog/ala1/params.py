@@ -359,9 +359,9 @@ def _read_text(view: View, indices: Indices, arg: str | None) -> list[str]:
     return [arg or ""]
 
 
-def _write_action(view: View, indices: Indices, values: list[str]) -> None:
-    """An action with no stored effect yet (``write com close``)."""
-    return None
+def _write_com_close(view: View, indices: Indices, values: list[str]) -> None:
+    """§6.11.8: release the line so that messages may be sent (§6.14.9.2)."""
+    view.release_line()
 
 
 # -- the tree --------------------------------------------------------------------------------
@@ -533,7 +533,7 @@ def _leaves() -> list[Leaf]:
         L("com status sim credit code", RestOfLine(), "RW", "", S + "6.11.7",
           "credit query code and answer prefixes"),
         L("com close", NoValue(), "W", "", S + "6.11.8", "release the line for messages",
-          writer=_write_action, stored=False),
+          writer=_write_com_close, stored=False),
         # §6.12 sms, §6.13 email send
         L("sms command boundary", Text(10), "RW", "##*#", S + "6.12.1",
           "marks a command in an SMS"),

@@ -189,6 +189,7 @@ class Transaction:
         self.reset_all = False
         self.clock: datetime | None = None
         self.waits: list[float] = []
+        self.released = False  # `write com close` ran (§6.11.8)
         self._mark = state.record.mark()
 
     def default(self, key: str) -> str:
@@ -225,6 +226,9 @@ class Transaction:
 
     def clear_record(self) -> None:
         self.record.clear()
+
+    def release_line(self) -> None:
+        self.released = True
 
     # -- measurement and rows ------------------------------------------------------------------
     def measure(self, ch: int) -> str:

@@ -176,3 +176,17 @@ def test_record_memory_rollback_restores_dropped_rows() -> None:
         "20070301090000.2",
     ]
     assert memory.take_changes() is None
+
+
+def test_module_clock_never_runs_back_after_an_accelerated_restart(tmp_path: Path) -> None:
+    db = tmp_path / "ala1.sqlite"
+    first = Module(db=db)
+    first.ok("write date 20070301090000")
+    first.now += 7200  # an accelerated clock ran two hours ahead of the wall clock
+    first.ok("write text/last/")
+    first.store.close()
+    second = Module(db=db, now=first.now - 7000)  # restarted: the wall clock is behind
+    assert second.read("read date") == "20070301110000"
+    second.ok("write text/next/")
+    rows = full_read(second).decode().split("\r\n")
+    assert rows[0] < rows[1]

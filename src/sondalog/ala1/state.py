@@ -57,13 +57,19 @@ class NvStore(Protocol):
         """Durably replace a file area."""
         ...
 
+    def last_seen(self) -> float | None:
+        """The host time of the latest commit, if any."""
+        ...
+
     def commit(
         self,
         changes: dict[str, str | None],
         clock_offset: float | None,
         record: RecordChanges | None = None,
+        seen: float | None = None,
     ) -> None:
-        """Durably apply ``changes`` (None = back to the factory value) in one transaction."""
+        """Durably apply ``changes`` (None = back to the factory value) in one transaction;
+        ``seen`` is the host time of the change."""
         ...
 
 
@@ -93,7 +99,14 @@ class ModuleState:
         self.values = {k: v for k, v in values.items() if k in self.keys}
         if offset is None:
             offset = to_seconds(FACTORY_DATE) - host_now
-            store.commit({}, offset)
+            store.commit({}, offset, seen=host_now)
+        else:
+            seen = store.last_seen()
+            if seen is not None and host_now < seen:
+                # An accelerated clock (--speed) restarted behind the last time the module
+                # saw: its clock continues from there instead of running backwards.
+                offset += seen - host_now
+                store.commit({}, offset, seen=host_now)
         self.clock_offset = offset
         self.counters = [0, 0, 0, 0]
         self.measurer = Measurer(self.hardware)
@@ -163,7 +176,7 @@ class ModuleState:
             self.sampler.run_until(target, self.clock_offset, self._store_row)
             changes = self.record.take_changes()
             if changes is not None:
-                self.store.commit({}, None, changes)
+                self.store.commit({}, None, changes, seen=host_now)
         except BaseException:
             self.record.rollback(mark)
             raise
@@ -299,7 +312,7 @@ class Transaction:
             offset = to_seconds(self.clock) - self.host_now
         record = self.record.take_changes()
         if changes or offset is not None or record is not None:
-            state.store.commit(changes, offset, record)
+            state.store.commit(changes, offset, record, seen=self.host_now)
         for key, value in changes.items():
             if value is None:
                 state.values.pop(key, None)

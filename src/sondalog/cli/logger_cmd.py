@@ -11,7 +11,10 @@ from pathlib import Path
 import click
 
 from sondalog.ala1 import Version
-from sondalog.clock import make_clock
+from sondalog.ala1.hardware import Hardware
+from sondalog.clock import Clock, make_clock
+from sondalog.sim.logger import default_hardware, load_logger_site
+from sondalog.sim.site_bus import SiteError
 from sondalog.transport import DEFAULT_PORT
 from sondalog.transport.instance import (
     IdentityConflict,
@@ -90,12 +93,19 @@ def logger() -> None:
     show_default=True,
     help="Run the module clock this many times faster than real time.",
 )
+@click.option(
+    "--site",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Site file (TOML) describing the simulated sensors (docs/simulation.md).",
+)
 def serve(
     listen: tuple[str, int],
     state_dir: Path,
     protocol: str | None,
     serial_number: str | None,
     speed: float,
+    site: Path | None,
 ) -> None:
     """Serve one virtual ALA1 logger over TCP (§6.11.5.2.4: port 10001).
 
@@ -107,8 +117,15 @@ def serve(
             "1 to 32 printable ASCII characters without spaces", param_hint="--serial-number"
         )
     version = Version(protocol) if protocol is not None else None
+    clock = make_clock(speed)
     try:
-        asyncio.run(_serve(state_dir, listen, version, serial_number, speed))
+        hardware = (
+            load_logger_site(site, clock.now()) if site is not None else default_hardware(0.0)
+        )
+    except SiteError as exc:
+        raise _Refused(str(exc)) from exc
+    try:
+        asyncio.run(_serve(state_dir, listen, version, serial_number, clock, hardware))
     except IdentityConflict as exc:
         raise _Refused(str(exc)) from exc
     except OSError as exc:
@@ -120,7 +137,8 @@ async def _serve(
     listen: tuple[str, int],
     version: Version | None,
     serial_number: str | None,
-    speed: float,
+    clock: Clock,
+    hardware: Hardware,
 ) -> None:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -132,6 +150,12 @@ async def _serve(
         sys.stdout.flush()
 
     running = await start_logger(
-        state_dir, make_clock(speed), listen, version, serial_number, on_listening=announce
+        state_dir,
+        clock,
+        listen,
+        version,
+        serial_number,
+        on_listening=announce,
+        hardware=hardware,
     )
     await serve_until(stop, running)

@@ -48,6 +48,11 @@ class SqliteNvStore:
         offset = self._meta("clock_offset")
         return values, (float(offset) if offset is not None else None)
 
+    def last_seen(self) -> float | None:
+        """The latest host time of any commit (to keep the module clock monotonic)."""
+        seen = self._meta("host_seen")
+        return None if seen is None else float(seen)
+
     def _meta(self, key: str) -> str | None:
         row = self.conn.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
         return None if row is None else str(row[0])
@@ -80,6 +85,7 @@ class SqliteNvStore:
         changes: dict[str, str | None],
         clock_offset: float | None,
         record: RecordChanges | None = None,
+        seen: float | None = None,
     ) -> None:
         conn = self.conn
         conn.execute("BEGIN IMMEDIATE")
@@ -95,6 +101,8 @@ class SqliteNvStore:
                     )
             if clock_offset is not None:
                 conn.execute(_UPSERT_META, ("clock_offset", repr(clock_offset)))
+            if seen is not None:
+                conn.execute(_UPSERT_META, ("host_seen", repr(seen)))
             if record is not None:
                 conn.execute("DELETE FROM record WHERE seq < ?", (record.head_seq,))
                 conn.executemany(

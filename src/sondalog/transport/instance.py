@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity, Version
+from sondalog.ala1.hardware import Hardware
 from sondalog.clock import Clock
 from sondalog.storage.ala1_nv import SqliteNvStore
 from sondalog.transport.runner import EngineHost
@@ -94,13 +95,14 @@ async def start_logger(
     version: Version | None = None,
     serial_number: str | None = None,
     on_listening: Callable[[str, int], None] | None = None,
+    hardware: Hardware | None = None,
 ) -> Logger:
     """Open ``state_dir`` (creating it), start the engine and listen on ``listen``."""
     state_dir.mkdir(parents=True, exist_ok=True)
     identity = load_identity(state_dir, version, serial_number)
     store = SqliteNvStore(state_dir / DATABASE_FILE)
     try:
-        engine = Engine(identity, store, clock.now())
+        engine = Engine(identity, store, clock.now(), hardware)
         host = EngineHost(engine, clock)
         server = await serve_tcp(host, *listen)
         host.start()

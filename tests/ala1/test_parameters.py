@@ -303,8 +303,6 @@ def test_record_status_clear(module: Module) -> None:
     "command",
     [
         "write message 1 run 1",
-        "read special file list xmodem",
-        "write special program xmodem",
     ],
 )
 def test_behaviour_of_later_issues_answers_error(module: Module, command: str) -> None:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from sondalog.ala1.cksum import cksum
 from sondalog.ala1.model import BAUD_RATES, CommandError, Unavailable, View
 from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
+from sondalog.ala1.special import TransferRequest, request
 from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
 from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
@@ -125,6 +126,7 @@ class Answer:
     data: bytes
     baud: int | None = None
     release: bool = False  # the line ran `write com close` (§6.11.8)
+    transfer: TransferRequest | None = None  # an XMODEM transfer follows (§6.16)
 
 
 class Interpreter:
@@ -132,6 +134,7 @@ class Interpreter:
 
     def __init__(self, state: ModuleState) -> None:
         self.state = state
+        self._commands = 0
 
     # -- entry points ------------------------------------------------------------------------
     def pause_of(self, line: str) -> int | None:
@@ -184,6 +187,13 @@ class Interpreter:
         if txn.waits:
             txn.rollback()
             raise NeedWait(max(txn.waits))
+        if txn.transfer is not None:
+            if self._commands != 1:  # decision: a transfer command stands alone on its line
+                txn.rollback()
+                return self._error(line, headers)
+            txn.commit()
+            area, reading = txn.transfer
+            return Answer(b"", headers.comspeed, transfer=request(self.state, area, reading))
         txn.commit()
         return Answer(self._render(lines, headers, txn), headers.comspeed, txn.released)
 
@@ -236,6 +246,7 @@ class Interpreter:
     def _body(self, cur: Cursor, view: Transaction) -> list[str]:
         """§5, §7: run every command of the body, chained, and collect the data lines."""
         lines: list[str] = []
+        self._commands = 0
         switch = self._switch(cur)
         if switch is None:
             raise ParseError("read or write expected")
@@ -248,6 +259,7 @@ class Interpreter:
                 raise ParseError("no progress")
             if first is None:
                 first = first_word
+            self._commands += 1
             lines.extend(self._execute(command, view))
             if cur.at_end():
                 return lines

@@ -13,11 +13,13 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 
+from sondalog.ala1 import special
 from sondalog.ala1.commands import MAX_LINE, Answer, Interpreter
 from sondalog.ala1.hardware import Hardware
-from sondalog.ala1.model import Identity
+from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
+from sondalog.xmodem import XmodemReceiver, XmodemSender
 
 log = logging.getLogger(__name__)
 
@@ -25,6 +27,20 @@ CR, LF, BS, DEL, ESC, XON, XOFF = 0x0D, 0x0A, 0x08, 0x7F, 0x1B, 0x11, 0x13
 #: §3.4.5: a command must be entered within one minute of its first character.
 ENTRY_TIMEOUT = 60.0
 BREAK = b"BREAK\r\n"
+EOT = 0x04
+#: After a completed upload, repeated EOTs (the host lost our last ACK) are still answered.
+TRANSFER_GRACE = 2.0
+
+
+@dataclass
+class _Transfer:
+    """An XMODEM transfer running on a line (§6.16)."""
+
+    command: str  # the command line, for its error response
+    area: str
+    peer: XmodemSender | XmodemReceiver
+    speed: int | None
+    grace_until: float | None = None  # set once the transfer is over
 
 
 @dataclass(slots=True)
@@ -50,6 +66,7 @@ class _Line:
     speed: int | None = None  # the rate the waiting command's answer goes at
     backlog: bytearray = field(default_factory=bytearray)  # received while a command waits
     blocks_messages: bool = False  # §6.14.9.2
+    transfer: _Transfer | None = None
 
 
 class Engine:
@@ -95,7 +112,11 @@ class Engine:
         line = self._lines[line_id]
         self.state.run_sampling(now)
         self._expire(line_id, line, now)
-        if line.pending is not None:
+        if line.transfer is not None:
+            data = self._transfer_input(line, data, now)
+        if not data:
+            pass
+        elif line.pending is not None:
             data = self._flow_control(line, data, now)
             line.backlog.extend(data)
         else:
@@ -118,6 +139,15 @@ class Engine:
                 deadlines.append(line.run_at)
             elif line.started is not None:
                 deadlines.append(line.started + ENTRY_TIMEOUT)
+            if line.transfer is not None:
+                transfer = line.transfer
+                due = (
+                    transfer.peer.next_deadline()
+                    if transfer.grace_until is None
+                    else transfer.grace_until
+                )
+                if due is not None:
+                    deadlines.append(due)
             paced = line.pacer.next_deadline()
             if paced is not None:
                 deadlines.append(paced)
@@ -147,6 +177,13 @@ class Engine:
         return data.replace(bytes([XON]), b"").replace(bytes([XOFF]), b"")
 
     def _expire(self, line_id: int, line: _Line, now: float) -> None:
+        transfer = line.transfer
+        if transfer is not None:
+            if transfer.grace_until is None:
+                self._send(line, transfer.peer.advance(now), now, transfer.speed)
+                self._finish_transfer(line, now)
+            elif now >= transfer.grace_until:
+                line.transfer = None
         if line.pending is not None and now >= line.run_at:
             command, line.pending = line.pending, None
             self._run(line_id, line, command, now, line.speed)
@@ -249,3 +286,58 @@ class Engine:
             line.blocks_messages = False  # `write com close` (§6.11.8)
         if answer.data:
             self._send(line, answer.data, now, answer.baud or speed)
+        if answer.transfer is not None:
+            self._start_transfer(line, text, answer.transfer, now, answer.baud or speed)
+
+    # -- XMODEM (§6.16) ----------------------------------------------------------------------
+    def _start_transfer(
+        self,
+        line: _Line,
+        text: str,
+        request: special.TransferRequest,
+        now: float,
+        speed: int | None,
+    ) -> None:
+        """The module sends nothing before the transfer itself (§6.16)."""
+        peer: XmodemSender | XmodemReceiver
+        if request.send is not None:
+            peer = XmodemSender(request.send, one_k=True)
+        else:
+            peer = XmodemReceiver(max_size=request.max_size)
+        line.transfer = _Transfer(text, request.area, peer, speed)
+        self._send(line, peer.start(now), now, speed)
+
+    def _transfer_input(self, line: _Line, data: bytes, now: float) -> bytes:
+        """Bytes of a running transfer go to XMODEM, not to the command parser; returns
+        what is left for the parser."""
+        transfer = line.transfer
+        assert transfer is not None
+        if transfer.grace_until is not None:
+            if data and all(byte == EOT for byte in data):
+                self._send(line, transfer.peer.receive(data, now), now, transfer.speed)
+                return b""
+            line.transfer = None
+            return data
+        self._send(line, transfer.peer.receive(data, now), now, transfer.speed)
+        self._finish_transfer(line, now)
+        return b""
+
+    def _finish_transfer(self, line: _Line, now: float) -> None:
+        transfer = line.transfer
+        assert transfer is not None
+        peer = transfer.peer
+        if not peer.done:
+            return
+        ok = peer.ok
+        if ok and isinstance(peer, XmodemReceiver):
+            try:
+                special.apply(self.state, transfer.area, peer.data, now)
+            except (CommandError, ValueError) as exc:
+                log.info("transfer of %s refused: %s", transfer.area, exc)
+                ok = False
+        if ok:
+            self._send(line, b"OK\r\n", now, transfer.speed)
+        else:
+            error = self.interpreter.error_answer(transfer.command).data
+            self._send(line, error, now, transfer.speed)
+        transfer.grace_until = now + TRANSFER_GRACE if isinstance(peer, XmodemReceiver) else now

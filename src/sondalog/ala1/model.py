@@ -101,6 +101,10 @@ class View(Protocol):
         """Stage the erasure of the record memory (§6.6.5.1, §6.15.1, §6.17.1)."""
         ...
 
+    def start_transfer(self, area: str, *, reading: bool) -> None:
+        """After this command the line carries an XMODEM transfer of ``area`` (§6.16)."""
+        ...
+
     def release_line(self) -> None:
         """The line that runs this command stops blocking messages (§6.11.8)."""
         ...

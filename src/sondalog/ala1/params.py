@@ -203,6 +203,10 @@ def _serial_number(view: View, indices: Indices) -> str:
     return view.identity.serial_number
 
 
+def _program(view: View, indices: Indices) -> str:
+    return view.identity.program
+
+
 def _limit(attr: str) -> Reader:
     def read(view: View, indices: Indices, arg: str | None) -> list[str]:
         return [str(getattr(view.identity.limits, attr))]
@@ -347,6 +351,25 @@ def _write_global_reset(view: View, indices: Indices, values: list[str]) -> None
     view.clear_record()
 
 
+def _transfer(area: str) -> Reader:
+    """§6.16: the module sends the area by XMODEM after the command."""
+
+    def read(view: View, indices: Indices, arg: str | None) -> list[str]:
+        view.start_transfer(area, reading=True)
+        return []
+
+    return read
+
+
+def _transfer_in(area: str) -> Writer:
+    """§6.16: the module receives the area by XMODEM after the command."""
+
+    def write(view: View, indices: Indices, values: list[str]) -> None:
+        view.start_transfer(area, reading=False)
+
+    return write
+
+
 def _read_nothing(view: View, indices: Indices, arg: str | None) -> list[str]:
     return []
 
@@ -372,7 +395,6 @@ _commands: Callable[[Limits], int] = lambda lim: lim.commands  # noqa: E731
 _addresses: Callable[[Limits], int] = lambda lim: lim.addresses  # noqa: E731
 _U16 = 65535
 
-LATER_XMODEM = "XMODEM transfers (issue: serial-line fidelity, XMODEM and tables)"
 LATER_MESSAGES = "messages (a later issue)"
 
 
@@ -391,8 +413,8 @@ def _leaves() -> list[Leaf]:
           reader=_identity("device"), stored=False),
         L("i snumber", NoValue(), "R", "", S + "6.3.3", "serial number",
           reader=_identity("snumber"), stored=False, default_doc="--serial-number, 000001"),
-        L("i program", NoValue(), "R", "", S + "6.3.4", "program version",
-          reader=_identity("program"), stored=False, default_doc="sondalog VERSION"),
+        L("i program", Text(40), "R", _program, S + "6.3.4",
+          "program version (changed by an upgrade, §6.16.4)", default_doc="sondalog VERSION"),
         L("i name", Text(20), "RW", "", S + "6.3.5", "module name for messages"),
         L("i description", Text(20), "RW", _serial_number, S + "6.3.6", "module label",
           default_doc="the serial number"),
@@ -580,14 +602,15 @@ def _leaves() -> list[Leaf]:
         L("file free size", NoValue(), "R", "", S + "6.15.4", "unused memory",
           reader=_read_free_size, stored=False),
         # §6.16 special
-        L("special file record xmodem", NoValue(), "RW", "", S + "6.16.3",
-          "record area by XMODEM", unavailable=LATER_XMODEM, stored=False),
-        L("special file list xmodem", NoValue(), "RW", "", S + "6.16.1",
-          "table list by XMODEM", unavailable=LATER_XMODEM, stored=False),
-        L("special file data xmodem", NoValue(), "RW", "", S + "6.16.2",
-          "table data by XMODEM", unavailable=LATER_XMODEM, stored=False),
+        L("special file record xmodem", NoValue(), "RW", "", S + "6.16.3", "record area by XMODEM",
+          reader=_transfer("record"), writer=_transfer_in("record"), stored=False),
+        L("special file list xmodem", NoValue(), "RW", "", S + "6.16.1", "table list by XMODEM",
+          reader=_transfer("list"), writer=_transfer_in("list"), stored=False),
+        L("special file data xmodem", NoValue(), "RW", "", S + "6.16.2", "table data by XMODEM",
+          reader=_transfer("data"), writer=_transfer_in("data"), stored=False),
         L("special program xmodem", NoValue(), "W", "", S + "6.16.4",
-          "program upgrade by XMODEM", unavailable=LATER_XMODEM, stored=False),
+          "program upgrade by XMODEM (resets the module)", writer=_transfer_in("program"),
+          stored=False),
         # §6.17 global
         L("global reset", NoValue(), "W", "", S + "6.17.1",
           "factory values (keeps com speed, device, transmitter mode); ends the line",
@@ -606,8 +629,9 @@ def _leaves() -> list[Leaf]:
 
 LEAVES: list[Leaf] = _leaves()
 
-#: Keys kept when ``global reset`` runs (§6.17.1).
-RESET_KEEPS = ("com speed", "com device", "com transmitter mode")
+#: Keys kept when ``global reset`` runs (§6.17.1), and the program version, which a reset
+#: does not change (it is not a setting).
+RESET_KEEPS = ("com speed", "com device", "com transmitter mode", "i program")
 
 
 # -- the keyword trie ------------------------------------------------------------------------

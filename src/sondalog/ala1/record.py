@@ -144,6 +144,13 @@ class RecordMemory:
         self.chars += size
         return row
 
+    def load_rows(self, rows: list[str]) -> None:
+        """Append rows as they are (an image written by XMODEM, §6.16.3)."""
+        for row in rows:
+            self._rows.append(row)
+            self._staged += 1
+            self.chars += len(row) + 2
+
     def clear(self) -> None:
         """§6.6.5.1: erase every row; the state returns to CLEAR."""
         self._head = len(self._rows)

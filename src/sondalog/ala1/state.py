@@ -16,7 +16,7 @@ from typing import Protocol
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
 from sondalog.ala1.measure import Measurer, channel_config, format_value
-from sondalog.ala1.model import Identity
+from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.ala1.sampling import Outputs, Sampler
@@ -203,6 +203,7 @@ class Transaction:
         self.clock: datetime | None = None
         self.waits: list[float] = []
         self.released = False  # `write com close` ran (§6.11.8)
+        self.transfer: tuple[str, bool] | None = None  # (area, reading) of a special command
         self._mark = state.record.mark()
 
     def default(self, key: str) -> str:
@@ -242,6 +243,11 @@ class Transaction:
 
     def release_line(self) -> None:
         self.released = True
+
+    def start_transfer(self, area: str, *, reading: bool) -> None:
+        if self.transfer is not None:
+            raise CommandError("one transfer per line")
+        self.transfer = (area, reading)
 
     # -- measurement and rows ------------------------------------------------------------------
     def measure(self, ch: int) -> str:

@@ -154,3 +154,11 @@ def test_a_transfer_command_stands_alone() -> None:
     m = partitioned()
     m.error("read i version read special file list xmodem")
     m.error("read special file program xmodem")
+
+
+def test_the_first_xmodem_byte_may_arrive_with_the_command() -> None:
+    m = partitioned()
+    upload_tables(m, {"tabulka1": TABLE1})
+    receiver = XmodemReceiver()
+    first = m.feed(b"read special file list xmodem\r" + receiver.start(m.now))
+    assert first.startswith(b"\x01\x01\xfe")  # the first block answers the C at once

@@ -224,6 +224,11 @@ class Engine:
                 if line.pending is not None:
                     line.backlog.extend(data[index + 1 :])
                     return
+                if line.transfer is not None:  # the rest belongs to the XMODEM transfer
+                    rest = self._transfer_input(line, data[index + 1 :], now)
+                    if rest:
+                        self._feed(line_id, line, rest, now)
+                    return
             elif byte == ESC:
                 if echo:
                     self._send(line, bytes(echo), now)

@@ -19,6 +19,8 @@ COMMANDS: tuple[tuple[str, str], ...] = (
     ("sondalog.cli.term_cmd", "term"),
     ("sondalog.cli.bus_cmd", "bus"),
 )
+#: (module, attribute, parent group) of commands that belong to a group.
+SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (("sondalog.cli.tables_cmd", "tables", "logger"),)
 
 
 @click.group()
@@ -39,6 +41,10 @@ def _register() -> None:
                 continue  # command group not built yet
             raise
         cli.add_command(getattr(module, attr))
+    for module_name, attr, parent in SUBCOMMANDS:
+        group = cli.commands.get(parent)
+        if isinstance(group, click.Group):
+            group.add_command(getattr(importlib.import_module(module_name), attr))
 
 
 _register()

@@ -218,21 +218,15 @@ class Interpreter:
     def _named_at(self, text: str) -> str | None:
         """The longest command name that prefixes ``text`` (case-sensitive, §6.8.2)."""
         best: str | None = None
-        for number in range(1, self.state.identity.limits.commands + 1):
-            name = self.state.get(f"command {number} name")
-            if name and text.startswith(name) and (best is None or len(name) > len(best)):
+        for name in self.state.command_names():
+            if text.startswith(name) and (best is None or len(name) > len(best)):
                 best = name
         return best
 
     def _expand(self, name: str, cur: Cursor, headers: Headers, view: View) -> Cursor:
         """§6.8.3: the command's value, with ``&`` replaced by the text after the name."""
         tail = cur.rest()[len(name) :]
-        number = next(
-            n
-            for n in range(1, view.identity.limits.commands + 1)
-            if view.get(f"command {n} name") == name
-        )
-        value = view.get(f"command {number} value")
+        value = view.get(f"command {self.state.command_names()[name]} value")
         if value.endswith("&"):
             value = value[:-1] + tail
         inner = Cursor(value)

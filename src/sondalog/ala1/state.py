@@ -117,6 +117,7 @@ class ModuleState:
         self.outputs = Outputs(self.hardware)
         self.sampler = Sampler(self.measurer, self.outputs)
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
+        self._names: dict[str, int] | None = None
         self.configure(host_now)
 
     # -- time --------------------------------------------------------------------------------
@@ -129,7 +130,19 @@ class ModuleState:
     # -- parameters --------------------------------------------------------------------------
     def get(self, key: str) -> str:
         """A committed value (outside any line)."""
-        return Transaction(self, 0.0).get(key)
+        value = self.values.get(key)
+        return value if value is not None else Transaction(self, 0.0).default(key)
+
+    def command_names(self) -> dict[str, int]:
+        """Named commands (§6.8.2): name -> number, the non-empty names only (cached)."""
+        if self._names is None:
+            names: dict[str, int] = {}
+            for number in range(self.identity.limits.commands, 0, -1):
+                name = self.get(f"command {number} name")
+                if name:
+                    names[name] = number  # the lowest number wins a duplicated name
+            self._names = names
+        return self._names
 
     def begin(self, host_now: float) -> Transaction:
         return Transaction(self, host_now)
@@ -324,6 +337,8 @@ class Transaction:
                 state.values.pop(key, None)
             else:
                 state.values[key] = value
+        if changes:
+            state._names = None  # command names may have changed
         if offset is not None:
             state.clock_offset = offset
         if any(key.startswith(_LIVE_PREFIXES) for key in changes) or self.reset_all:

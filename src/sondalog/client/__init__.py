@@ -3,6 +3,10 @@
 - :class:`Ala1Client` (asyncio) and :class:`Client` (blocking) send command lines and return
   parsed :class:`Response` objects, adding ``check`` and verifying ``sum``/``crcsum`` (§8).
 - :func:`parse_url` turns ``tcp://HOST:PORT`` into an endpoint.
+- :class:`BusMaster` (asyncio) and :class:`BlockingBusMaster` are the master of an HCTMPS1
+  RS-485 bus (docs/hctmps1.md).
+- :mod:`sondalog.client.tables` and :mod:`sondalog.client.transfer`: conversion tables and
+  XMODEM transfers with a logger (§6.16, §10).
 """
 
 from sondalog.client.ala1 import (
@@ -21,26 +25,42 @@ from sondalog.client.ala1 import (
     SumMismatch,
     with_check,
 )
+from sondalog.client.bus import (
+    BlockingBusMaster,
+    BusLink,
+    BusMaster,
+    BusUrlError,
+    DataFrame,
+    NoReply,
+    UnexpectedReply,
+    parse_bus_url,
+)
 from sondalog.client.endpoints import Endpoint, TcpEndpoint, parse_url
-
-# bus master: sondalog.client.bus
 
 __all__ = [
     "Ala1Client",
+    "BlockingBusMaster",
+    "BusLink",
+    "BusMaster",
+    "BusUrlError",
     "ChecksumError",
     "Client",
     "ClientError",
     "CommandFailed",
     "ConnectionLost",
     "CrcMismatch",
+    "DataFrame",
     "Endpoint",
     "IncompleteAnswer",
     "NoAnswer",
+    "NoReply",
     "Request",
     "Response",
     "Status",
     "SumMismatch",
     "TcpEndpoint",
+    "UnexpectedReply",
+    "parse_bus_url",
     "parse_url",
     "with_check",
 ]

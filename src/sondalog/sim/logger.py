@@ -37,7 +37,6 @@ import bisect
 import math
 import random
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,7 +48,7 @@ from sondalog.ala1.hardware import (
     rom_valid,
 )
 from sondalog.sim.signals import Signal, SignalError, build_signal, constant
-from sondalog.sim.site_bus import SiteError
+from sondalog.sim.site_bus import SiteError, read_site_file
 
 INTERNAL_REFERENCE = 2.5
 ADC_LEVELS = 4095
@@ -239,14 +238,7 @@ def default_hardware(start: float) -> SimHardware:
 
 def load_logger_site(path: Path, start: float) -> SimHardware:
     """Read the ``[logger]`` part of the site file at ``path``."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from exc
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SiteError(path, "toml", str(exc)) from exc
+    data, text = read_site_file(path)
     return parse_logger_site(data, start, path, text)
 
 

@@ -155,12 +155,34 @@ class Sampler:
     def run_until(self, target: float, offset: float, sink: RowSink) -> None:
         """Process every event up to module time ``target``; rows go to ``sink``."""
         outputs = self.outputs
+        scheduled = outputs.scheduled
+        runs = list(self.runs.values())
         while True:
-            sample, power, hold = self._events()
+            # one pass: the next sample time, the channels due then, the next power-on
+            sample: int | None = None
+            due: list[ChannelRun] = []
+            power: int | None = None
+            for run in runs:
+                t = run.next_t
+                if t is None:
+                    continue
+                if sample is None or t < sample:
+                    sample, due = t, [run]
+                elif t == sample:
+                    due.append(run)
+                for output, advance in run.cfg.switches:
+                    if (
+                        advance > 0
+                        and run.cfg.number not in scheduled.get(output, ())
+                        and (power is None or t - advance < power)
+                    ):
+                        power = t - advance
+            held = outputs.held_until
+            hold = min(held.values()) if held else None
             if hold is not None and hold <= target and (sample is None or hold <= sample):
-                for output, until in list(outputs.held_until.items()):
+                for output, until in list(held.items()):
                     if until <= hold:
-                        del outputs.held_until[output]
+                        del held[output]
                 outputs.update(hold, offset)
                 continue
             if power is not None and power <= target and (sample is None or power < sample):
@@ -169,7 +191,6 @@ class Sampler:
             if sample is None or sample > target:
                 outputs.update(target, offset)
                 return
-            due = [run for run in self.runs.values() if run.next_t == sample]
             self._sample(sample, due, offset, sink)
 
     def _power_on(self, t: int, offset: float) -> None:

@@ -12,10 +12,10 @@ import contextlib
 import errno
 import logging
 import os
-import tty
 from pathlib import Path
 
 from sondalog.bus.runner import BusPort, VirtualBus
+from sondalog.transport.serialports import PtyLink
 
 log = logging.getLogger(__name__)
 
@@ -63,17 +63,9 @@ class PtyPort:
 
     def __init__(self, bus: VirtualBus, link: Path) -> None:
         self.link = link
-        if link.exists() and not link.is_symlink():
-            raise FileExistsError(f"{link} exists and is not a symlink")
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)
-        os.set_blocking(self._master, False)
-        self.device = os.ttyname(self._slave)
-        tmp = link.with_name(f".{link.name}.{os.getpid()}")
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-        tmp.symlink_to(self.device)
-        tmp.replace(link)  # atomic: the link always points at a live pty
+        self._pty = PtyLink(link, keep_slave=True)
+        self._master = self._pty.master
+        self.device = self._pty.device
         self.port = bus.open_port()
         self.port.on_data = self._send
         asyncio.get_running_loop().add_reader(self._master, self._readable)
@@ -100,11 +92,7 @@ class PtyPort:
         with contextlib.suppress(ValueError, RuntimeError):
             asyncio.get_running_loop().remove_reader(self._master)
         self.port.detach()
-        with contextlib.suppress(OSError):
-            if self.link.is_symlink() and os.readlink(self.link) == self.device:
-                self.link.unlink()
-        os.close(self._master)
-        os.close(self._slave)
+        self._pty.close()
 
 
 async def open_serial(bus: VirtualBus, device: str, baud: int) -> asyncio.Task[None]:

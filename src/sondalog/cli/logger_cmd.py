@@ -6,9 +6,11 @@ from __future__ import annotations
 import asyncio
 import signal
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
+from serial import SerialException
 
 from sondalog.ala1 import Version
 from sondalog.ala1.hardware import Hardware
@@ -99,6 +101,26 @@ def logger() -> None:
     default=None,
     help="Site file (TOML) describing the simulated sensors (docs/simulation.md).",
 )
+@click.option(
+    "--pty",
+    "ptys",
+    metavar="PATH",
+    multiple=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Also serve on a pseudo-terminal reachable through the symlink PATH (repeatable).",
+)
+@click.option(
+    "--serial",
+    "serials",
+    metavar="DEVICE",
+    multiple=True,
+    help="Also serve on a real serial port, 8N1 at com speed (repeatable).",
+)
+@click.option(
+    "--line-rate",
+    is_flag=True,
+    help="Pace TCP answers at com speed too, as on a serial line (pty and serial always are).",
+)
 def serve(
     listen: tuple[str, int],
     state_dir: Path,
@@ -106,11 +128,16 @@ def serve(
     serial_number: str | None,
     speed: float,
     site: Path | None,
+    ptys: tuple[Path, ...],
+    serials: tuple[str, ...],
+    line_rate: bool,
 ) -> None:
-    """Serve one virtual ALA1 logger over TCP (§6.11.5.2.4: port 10001).
+    """Serve one virtual ALA1 logger over TCP (§6.11.5.2.4: port 10001), ptys and serial ports.
 
-    Prints ``listening on HOST:PORT`` once connections are accepted. SIGINT or SIGTERM stop
-    it cleanly.
+    Prints ``listening on HOST:PORT`` once connections are accepted, then one line per pty
+    (``pty PATH -> /dev/pts/N``) and per serial port (``serial DEVICE``). Each line has its own
+    line state; pty and serial lines are paced at com speed (§6.11.2). SIGINT or SIGTERM stop
+    it cleanly and remove the pty symlinks.
     """
     if serial_number is not None and not valid_serial_number(serial_number):
         raise click.BadParameter(
@@ -125,11 +152,34 @@ def serve(
     except SiteError as exc:
         raise _Refused(str(exc)) from exc
     try:
-        asyncio.run(_serve(state_dir, listen, version, serial_number, clock, hardware))
+        asyncio.run(
+            _serve(
+                state_dir,
+                listen,
+                version,
+                serial_number,
+                clock,
+                hardware,
+                _Lines(ptys, serials, line_rate),
+            )
+        )
     except IdentityConflict as exc:
         raise _Refused(str(exc)) from exc
+    except _LineError as exc:
+        raise click.ClickException(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve on {format_address(*listen)}: {exc}") from exc
+
+
+class _LineError(Exception):
+    """A pty or serial line could not be opened."""
+
+
+@dataclass(frozen=True)
+class _Lines:
+    ptys: tuple[Path, ...] = ()
+    serials: tuple[str, ...] = ()
+    line_rate: bool = False
 
 
 async def _serve(
@@ -139,6 +189,7 @@ async def _serve(
     serial_number: str | None,
     clock: Clock,
     hardware: Hardware,
+    lines: _Lines,
 ) -> None:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -149,13 +200,26 @@ async def _serve(
         sys.stdout.write(f"listening on {format_address(host, port)}\n")
         sys.stdout.flush()
 
-    running = await start_logger(
-        state_dir,
-        clock,
-        listen,
-        version,
-        serial_number,
-        on_listening=announce,
-        hardware=hardware,
-    )
+    try:
+        running = await start_logger(
+            state_dir,
+            clock,
+            listen,
+            version,
+            serial_number,
+            on_listening=announce,
+            hardware=hardware,
+            ptys=lines.ptys,
+            serials=lines.serials,
+            line_rate=lines.line_rate,
+        )
+    except (OSError, SerialException) as exc:
+        if isinstance(exc, OSError) and not lines.ptys and not lines.serials:
+            raise
+        raise _LineError(f"cannot open the lines: {exc}") from exc
+    for pty in running.ptys:
+        sys.stdout.write(f"pty {pty.link} -> {pty.device}\n")
+    for port in running.serials:
+        sys.stdout.write(f"serial {port.device} at {port.baud} baud\n")
+    sys.stdout.flush()
     await serve_until(stop, running)

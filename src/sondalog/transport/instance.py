@@ -12,15 +12,17 @@ from __future__ import annotations
 import asyncio
 import json
 import os
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.hardware import Hardware
 from sondalog.clock import Clock
 from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.transport.ptyline import PtyLine
 from sondalog.transport.runner import EngineHost
+from sondalog.transport.serialline import SerialLine
 from sondalog.transport.tcp import TcpServer, serve_tcp
 
 IDENTITY_FILE = "identity.json"
@@ -74,16 +76,22 @@ def load_identity(
 
 @dataclass
 class Logger:
-    """A running virtual logger: engine host plus its TCP servers."""
+    """A running virtual logger: engine host plus its TCP servers, ptys and serial ports."""
 
     identity: Identity
     store: SqliteNvStore
     host: EngineHost
     servers: list[TcpServer]
+    ptys: list[PtyLine] = field(default_factory=list)
+    serials: list[SerialLine] = field(default_factory=list)
 
     async def close(self) -> None:
         for server in self.servers:
             await server.close()
+        for pty in self.ptys:
+            pty.close()
+        for port in self.serials:
+            await port.close()
         await self.host.stop()
         self.store.close()
 
@@ -96,20 +104,40 @@ async def start_logger(
     serial_number: str | None = None,
     on_listening: Callable[[str, int], None] | None = None,
     hardware: Hardware | None = None,
+    ptys: Sequence[Path] = (),
+    serials: Sequence[str] = (),
+    line_rate: bool = False,
 ) -> Logger:
-    """Open ``state_dir`` (creating it), start the engine and listen on ``listen``."""
+    """Open ``state_dir`` (creating it), start the engine and listen on ``listen``.
+
+    Each path in ``ptys`` becomes a pty line (a stable symlink to its slave), each device in
+    ``serials`` a serial line; both are paced at ``com speed``. ``line_rate`` paces the TCP
+    lines too. Every line has its own line state. ``on_listening`` is called once all of
+    them are ready.
+    """
     state_dir.mkdir(parents=True, exist_ok=True)
     identity = load_identity(state_dir, version, serial_number)
     store = SqliteNvStore(state_dir / DATABASE_FILE)
+    logger: Logger | None = None
     try:
         engine = Engine(identity, store, clock.now(), hardware)
         host = EngineHost(engine, clock)
-        server = await serve_tcp(host, *listen)
+        logger = Logger(identity, store, host, [])
+        logger.servers.append(await serve_tcp(host, *listen, paced=line_rate))
+        for path in ptys:
+            logger.ptys.append(PtyLine(host, path))
+        for device in serials:
+            port = SerialLine(host, device)
+            await port.open()
+            logger.serials.append(port)
         host.start()
     except BaseException:
-        store.close()
+        if logger is not None:
+            await logger.close()
+        else:
+            store.close()
         raise
-    logger = Logger(identity, store, host, [server])
+    server = logger.servers[0]
     if on_listening is not None:
         on_listening(*server.address)
     return logger

@@ -24,6 +24,8 @@ log = logging.getLogger(__name__)
 
 #: Where the bytes for one line go (e.g. ``transport.write`` of a TCP connection).
 Sink = Callable[[bytes], None]
+#: Where the outputs of one line go when the rate they were paced at matters (serial ports).
+OutputSink = Callable[[Output], None]
 
 
 class EngineHost:
@@ -32,7 +34,7 @@ class EngineHost:
     def __init__(self, engine: Engine, clock: Clock) -> None:
         self.engine = engine
         self.clock = clock
-        self._sinks: dict[int, Sink] = {}
+        self._sinks: dict[int, OutputSink] = {}
         self._armed: float | None = None
         self._rearm = asyncio.Event()
         self._timer: asyncio.Task[None] | None = None
@@ -54,9 +56,17 @@ class EngineHost:
             self.detach(line_id)
 
     # -- lines -------------------------------------------------------------------------------
-    def attach(self, sink: Sink) -> int:
-        """A new connection: opens an engine line whose output goes to ``sink``."""
-        line_id = self.engine.open_line()
+    def attach(self, sink: Sink, *, paced: bool = False) -> int:
+        """A new connection: opens an engine line whose output goes to ``sink``.
+
+        ``paced``: the engine releases the output at ``com speed`` (serial and pty lines, TCP
+        with ``--line-rate``); the sink just writes what it gets.
+        """
+        return self.attach_output(lambda output: sink(output.data), paced=paced)
+
+    def attach_output(self, sink: OutputSink, *, paced: bool = False) -> int:
+        """Like :meth:`attach`, for a sink that needs each :class:`Output`'s baud rate."""
+        line_id = self.engine.open_line(paced=paced)
         self._sinks[line_id] = sink
         return line_id
 
@@ -86,7 +96,7 @@ class EngineHost:
             if sink is None:
                 continue  # the line went away while its answer was pending
             try:
-                sink(output.data)  # comspeed (output.baud) has no meaning on TCP
+                sink(output)
             except Exception:
                 log.exception("cannot send %r to line %d", output.data, output.line)
 

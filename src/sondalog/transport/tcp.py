@@ -3,6 +3,7 @@
 Every accepted connection is one line of the engine (its own echo and partial command, §3.4);
 each answer goes back to the connection that sent the command. Bytes are passed through
 unchanged in both directions, as ``telnet``/``nc`` would see a real module through the modem.
+With ``paced`` (``--line-rate``) the engine releases answers at ``com speed``.
 """
 
 from __future__ import annotations
@@ -23,9 +24,12 @@ HIGH_WATER = 256 * 1024
 class _LineProtocol(asyncio.Protocol):
     """One TCP connection = one engine line."""
 
-    def __init__(self, host: EngineHost, connections: set[_LineProtocol]) -> None:
+    def __init__(
+        self, host: EngineHost, connections: set[_LineProtocol], paced: bool = False
+    ) -> None:
         self._host = host
         self._connections = connections
+        self._paced = paced
         self._transport: asyncio.Transport | None = None
         self._line: int | None = None
 
@@ -33,7 +37,7 @@ class _LineProtocol(asyncio.Protocol):
         assert isinstance(transport, asyncio.Transport)
         self._transport = transport
         transport.set_write_buffer_limits(high=HIGH_WATER)
-        self._line = self._host.attach(self._send)
+        self._line = self._host.attach(self._send, paced=self._paced)
         self._connections.add(self)
         log.info("line %d: connected from %s", self._line, transport.get_extra_info("peername"))
 
@@ -91,11 +95,14 @@ class TcpServer:
         await self.server.wait_closed()
 
 
-async def serve_tcp(host: EngineHost, address: str, port: int) -> TcpServer:
-    """Listen on ``address:port`` and attach each connection to ``host`` as its own line."""
+async def serve_tcp(host: EngineHost, address: str, port: int, *, paced: bool = False) -> TcpServer:
+    """Listen on ``address:port`` and attach each connection to ``host`` as its own line.
+
+    ``paced`` (``--line-rate``): answers leave at ``com speed`` as on a serial line (§6.11.2).
+    """
     connections: set[_LineProtocol] = set()
     loop = asyncio.get_running_loop()
     server = await loop.create_server(
-        lambda: _LineProtocol(host, connections), address, port, reuse_address=True
+        lambda: _LineProtocol(host, connections, paced), address, port, reuse_address=True
     )
     return TcpServer(server, connections)

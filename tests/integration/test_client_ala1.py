@@ -26,6 +26,7 @@ from sondalog.client import (
     parse_url,
     with_check,
 )
+from sondalog.client.endpoints import SerialEndpoint
 
 
 def test_with_check_matches_the_manual() -> None:
@@ -35,7 +36,21 @@ def test_with_check_matches_the_manual() -> None:
 def test_parse_url() -> None:
     assert parse_url("tcp://127.0.0.1:10001") == TcpEndpoint("127.0.0.1", 10001)
     assert parse_url("TCP://[::1]:5/") == TcpEndpoint("::1", 5)
-    for bad in ("127.0.0.1:10001", "tcp://host", "tcp://host:x", "serial:///dev/ttyS0", "tcp://"):
+    assert parse_url("serial:///dev/ttyS0") == SerialEndpoint("/dev/ttyS0", 9600)
+    assert parse_url("serial:///tmp/ala1?baud=115200") == SerialEndpoint("/tmp/ala1", 115200)
+    assert parse_url("pty:ala1?baud=19200") == SerialEndpoint("ala1", 19200)
+    bad_urls = (
+        "127.0.0.1:10001",
+        "tcp://host",
+        "tcp://host:x",
+        "tcp://",
+        "serial://host/dev/ttyS0",
+        "serial:///dev/ttyS0?baud=fast",
+        "serial:///dev/ttyS0?parity=E",
+        "serial://",
+        "udp://host:1",
+    )
+    for bad in bad_urls:
         with pytest.raises(ValueError):
             parse_url(bad)
 

@@ -13,6 +13,7 @@ within ``--timeout`` seconds (a failed ``check``, a ``quiet`` write) is reported
 makes the exit status 1. The command exits at the end of stdin. Example::
 
     printf 'read i version\\n' | sondalog term tcp://127.0.0.1:10001
+    printf 'read i version\\n' | sondalog term "serial:///tmp/ala1?baud=9600"
 """
 
 from __future__ import annotations
@@ -48,7 +49,10 @@ def _text(data: bytes) -> str:
     help="Seconds to wait for each answer when reading commands from stdin.",
 )
 def term(url: str, timeout: float) -> None:
-    """Talk to an ALA1 logger at URL (tcp://HOST:PORT)."""
+    """Talk to an ALA1 logger at URL (tcp://HOST:PORT, serial:///DEVICE?baud=9600).
+
+    A serial URL also opens the pty of `logger serve --pty PATH`: serial://PATH?baud=9600.
+    """
     try:
         endpoint = parse_url(url)
     except ValueError as exc:

@@ -289,7 +289,8 @@ class Ala1Client:
 
     @classmethod
     async def connect(cls, url: str | Endpoint, timeout: float = DEFAULT_TIMEOUT) -> Ala1Client:
-        """Connect to ``tcp://HOST:PORT`` (see :func:`~sondalog.client.endpoints.parse_url`)."""
+        """Connect to ``tcp://HOST:PORT`` or ``serial:///DEVICE?baud=N`` (see
+        :func:`~sondalog.client.endpoints.parse_url`)."""
         client = cls(parse_url(url) if isinstance(url, str) else url, timeout)
         _, client._stream = await client.endpoint.connect(_Stream)
         return client

@@ -1,9 +1,16 @@
-"""Where a host tool connects to: ``tcp://HOST:PORT`` today, serial and pty URLs later.
+"""Where a host tool connects to: a TCP address, a serial port or a served logger's pty.
 
 :func:`parse_url` turns a URL into an :class:`Endpoint`; an endpoint opens an asyncio
-connection with a given protocol factory. A serial endpoint will do the same with
-``serial_asyncio_fast.create_serial_connection``, so the client does not change when it
-arrives.
+connection with a given protocol factory (``loop.create_connection`` for TCP,
+``serial_asyncio_fast.create_serial_connection`` for serial ports), so the client does not
+care which it talks through.
+
+- ``tcp://HOST:PORT`` (IPv6 as ``tcp://[::1]:10001``)
+- ``serial:///dev/ttyUSB0?baud=9600``: a serial port, 8N1, no flow control in the driver
+  (XON/XOFF are the module's own, §6.11.1); ``baud`` defaults to 9600, the factory
+  ``com speed`` (§6.11.2). The pty symlink of ``sondalog logger serve --pty PATH`` is opened
+  the same way: ``serial:///tmp/ala1?baud=9600``. ``pty://`` is accepted as a synonym, and a
+  relative path may be written ``serial:ala1``.
 """
 
 from __future__ import annotations
@@ -12,12 +19,14 @@ import asyncio
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
-from urllib.parse import urlsplit
+from urllib.parse import parse_qs, unquote, urlsplit
 
 _P = TypeVar("_P", bound=asyncio.Protocol)
 
-#: URL schemes that :func:`parse_url` understands (``serial://``, ``pty://`` come later).
-SCHEMES = ("tcp",)
+#: URL schemes that :func:`parse_url` understands.
+SCHEMES = ("tcp", "serial", "pty")
+#: §6.11.2: the factory ``com speed``.
+DEFAULT_BAUD = 9600
 
 
 class Endpoint(Protocol):
@@ -44,8 +53,54 @@ class TcpEndpoint:
         return f"tcp://{host}:{self.port}"
 
 
+@dataclass(frozen=True)
+class SerialEndpoint:
+    """A logger on a serial port, or on the pty of a served logger (8N1 at ``baud``)."""
+
+    device: str
+    baud: int = DEFAULT_BAUD
+
+    async def connect(self, factory: Callable[[], _P]) -> tuple[asyncio.BaseTransport, _P]:
+        import serial
+        import serial_asyncio_fast  # imported here: only serial endpoints need it
+
+        loop = asyncio.get_running_loop()
+        transport, protocol = await serial_asyncio_fast.create_serial_connection(
+            loop,
+            factory,
+            self.device,
+            baudrate=self.baud,
+            bytesize=serial.EIGHTBITS,
+            parity=serial.PARITY_NONE,
+            stopbits=serial.STOPBITS_ONE,
+            xonxoff=False,
+            rtscts=False,
+        )
+        return transport, protocol  # type: ignore[return-value]
+
+    def __str__(self) -> str:
+        return f"serial://{self.device}?baud={self.baud}"
+
+
+def _serial_endpoint(url: str, path: str, query: str) -> SerialEndpoint:
+    device = unquote(path)
+    if not device or device == "/":
+        raise ValueError(f"expected serial:///DEVICE?baud=N, got {url!r}")
+    try:
+        options = parse_qs(query, keep_blank_values=True, strict_parsing=bool(query))
+    except ValueError as exc:
+        raise ValueError(f"bad query in {url!r}") from exc
+    unknown = set(options) - {"baud"}
+    if unknown:
+        raise ValueError(f"unknown option {sorted(unknown)[0]!r} in {url!r} (only baud)")
+    baud_text = options.get("baud", [str(DEFAULT_BAUD)])[-1]
+    if not baud_text.isdigit() or int(baud_text) <= 0:
+        raise ValueError(f"baud must be a positive number, got {baud_text!r}")
+    return SerialEndpoint(device, int(baud_text))
+
+
 def parse_url(url: str) -> Endpoint:
-    """``tcp://HOST:PORT`` (IPv6 as ``tcp://[::1]:10001``) -> an :class:`Endpoint`.
+    """A URL (see the module docstring) -> an :class:`Endpoint`.
 
     Raises :class:`ValueError` with a message fit for a user.
     """
@@ -54,6 +109,10 @@ def parse_url(url: str) -> Endpoint:
     if scheme not in SCHEMES:
         known = ", ".join(f"{s}://" for s in SCHEMES)
         raise ValueError(f"unsupported URL {url!r}: expected one of {known}")
+    if scheme in ("serial", "pty"):
+        if parts.netloc:
+            raise ValueError(f"expected serial:///DEVICE (three slashes), got {url!r}")
+        return _serial_endpoint(url, parts.path, parts.query)
     try:
         host, port = parts.hostname, parts.port
     except ValueError as exc:

@@ -127,9 +127,11 @@ class Sampler:
         for run in self.runs.values():
             run.schedule(now)
 
-    def _events(self) -> tuple[int | None, int | None, float | None]:
-        """Module times of the next sample, the next switch power-on and hold expiry."""
+    def _scan(self) -> tuple[int | None, list[ChannelRun], int | None, float | None]:
+        """One pass: the next sample time and the channels due then, the next switch
+        power-on, and the next hold expiry (module times)."""
         sample: int | None = None
+        due: list[ChannelRun] = []
         power: int | None = None
         scheduled = self.outputs.scheduled
         for run in self.runs.values():
@@ -137,7 +139,9 @@ class Sampler:
             if t is None:
                 continue
             if sample is None or t < sample:
-                sample = t
+                sample, due = t, [run]
+            elif t == sample:
+                due.append(run)
             for output, advance in run.cfg.switches:
                 if (
                     advance > 0
@@ -145,44 +149,23 @@ class Sampler:
                     and (power is None or t - advance < power)
                 ):
                     power = t - advance
-        hold = min(self.outputs.held_until.values(), default=None)
-        return sample, power, hold
+        held = self.outputs.held_until
+        return sample, due, power, (min(held.values()) if held else None)
 
     def next_event(self) -> float | None:
         """Module time of the next thing the sampler must do."""
-        return min((t for t in self._events() if t is not None), default=None)
+        sample, _, power, hold = self._scan()
+        return min((t for t in (sample, power, hold) if t is not None), default=None)
 
     def run_until(self, target: float, offset: float, sink: RowSink) -> None:
         """Process every event up to module time ``target``; rows go to ``sink``."""
         outputs = self.outputs
-        scheduled = outputs.scheduled
-        runs = list(self.runs.values())
         while True:
-            # one pass: the next sample time, the channels due then, the next power-on
-            sample: int | None = None
-            due: list[ChannelRun] = []
-            power: int | None = None
-            for run in runs:
-                t = run.next_t
-                if t is None:
-                    continue
-                if sample is None or t < sample:
-                    sample, due = t, [run]
-                elif t == sample:
-                    due.append(run)
-                for output, advance in run.cfg.switches:
-                    if (
-                        advance > 0
-                        and run.cfg.number not in scheduled.get(output, ())
-                        and (power is None or t - advance < power)
-                    ):
-                        power = t - advance
-            held = outputs.held_until
-            hold = min(held.values()) if held else None
+            sample, due, power, hold = self._scan()
             if hold is not None and hold <= target and (sample is None or hold <= sample):
-                for output, until in list(held.items()):
+                for output, until in list(outputs.held_until.items()):
                     if until <= hold:
-                        del held[output]
+                        del outputs.held_until[output]
                 outputs.update(hold, offset)
                 continue
             if power is not None and power <= target and (sample is None or power < sample):

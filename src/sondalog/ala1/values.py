@@ -343,25 +343,16 @@ class NoValue(ValueType):
 
 
 @dataclass
-class OptionalInteger(ValueType):
+class OptionalInteger(Integer):
     """An optional integer (the row type after ``write channel value``, §6.5.8)."""
 
-    lo: int = 1
-    hi: int = 9
     kind = "[integer]"
 
     def parse(self, cur: Cursor, ctx: ParseCtx) -> str:
-        if not cur.peek_digit():
-            return ""
-        start = cur.pos
-        value = cur.integer()
-        if not self.lo <= value <= self.hi:
-            cur.pos = start
-            raise ParseError(f"{value} outside {self.lo}..{self.hi}")
-        return str(value)
+        return super().parse(cur, ctx) if cur.peek_digit() else ""
 
     def describe(self, limits: Limits) -> str:
-        return f"optional {self.lo}..{self.hi}"
+        return f"optional {super().describe(limits)}"
 
 
 @dataclass

@@ -29,7 +29,7 @@ from sondalog.transport.serialports import PtyLink, garble, host_speed
 log = logging.getLogger(__name__)
 
 #: How often a hung-up pty is checked for a host opening it.
-HANGUP_POLL = 0.05
+HANGUP_POLL = 0.02
 #: Output a host does not read is kept up to this size, then dropped (nobody listening).
 MAX_BACKLOG = 1024 * 1024
 

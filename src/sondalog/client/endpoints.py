@@ -76,6 +76,7 @@ class SerialEndpoint:
             xonxoff=False,
             rtscts=False,
         )
+        await asyncio.sleep(0)  # connection_made() is scheduled with call_soon: let it run
         return transport, protocol  # type: ignore[return-value]
 
     def __str__(self) -> str:

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 from urllib.parse import parse_qs, unquote, urlsplit
 
+from sondalog.transport.serialports import serial_8n1
+
 _P = TypeVar("_P", bound=asyncio.Protocol)
 
 #: URL schemes that :func:`parse_url` understands.
@@ -61,7 +63,6 @@ class SerialEndpoint:
     baud: int = DEFAULT_BAUD
 
     async def connect(self, factory: Callable[[], _P]) -> tuple[asyncio.BaseTransport, _P]:
-        import serial
         import serial_asyncio_fast  # imported here: only serial endpoints need it
 
         loop = asyncio.get_running_loop()
@@ -70,11 +71,7 @@ class SerialEndpoint:
             factory,
             self.device,
             baudrate=self.baud,
-            bytesize=serial.EIGHTBITS,
-            parity=serial.PARITY_NONE,
-            stopbits=serial.STOPBITS_ONE,
-            xonxoff=False,
-            rtscts=False,
+            **serial_8n1(),
         )
         await asyncio.sleep(0)  # connection_made() is scheduled with call_soon: let it run
         return transport, protocol  # type: ignore[return-value]

@@ -22,6 +22,7 @@ from typing import Any
 
 from sondalog.ala1 import Output
 from sondalog.transport.runner import EngineHost
+from sondalog.transport.serialports import serial_8n1
 
 log = logging.getLogger(__name__)
 
@@ -69,7 +70,6 @@ class SerialLine:
         self._writer = asyncio.create_task(self._write_loop(), name=f"serial out {self.device}")
 
     async def _connect(self) -> _SerialProtocol:
-        import serial
         import serial_asyncio_fast  # imported here: only this line needs it
 
         self._baud = self._host.engine.com_speed
@@ -79,11 +79,7 @@ class SerialLine:
             lambda: _SerialProtocol(self),
             self.device,
             baudrate=self._baud,
-            bytesize=serial.EIGHTBITS,
-            parity=serial.PARITY_NONE,
-            stopbits=serial.STOPBITS_ONE,
-            xonxoff=False,
-            rtscts=False,
+            **serial_8n1(),
         )
         assert isinstance(protocol, _SerialProtocol)
         self._transport = transport

@@ -78,6 +78,20 @@ def host_speed(fd: int) -> int | None:
     return _B_RATES.get(int(attrs[5]))
 
 
+def serial_8n1() -> dict[str, object]:
+    """pyserial settings of an ALA1 line: 8N1, no flow control in the driver (XON/XOFF are
+    the module's own, §6.11.1)."""
+    import serial  # imported here: only serial ports need pyserial
+
+    return {
+        "bytesize": serial.EIGHTBITS,
+        "parity": serial.PARITY_NONE,
+        "stopbits": serial.STOPBITS_ONE,
+        "xonxoff": False,
+        "rtscts": False,
+    }
+
+
 def garble(data: bytes, host_baud: int, module_baud: int) -> bytes:
     """The bytes a module at ``module_baud`` receives when the host sends at ``host_baud``.
 

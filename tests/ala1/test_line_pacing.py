@@ -118,3 +118,13 @@ def test_messages_are_blocked_from_the_first_command_until_com_close_or_disconne
     assert m.engine.messages_blocked
     m.engine.close_line(other)
     assert not m.engine.messages_blocked
+
+
+def test_output_pending_until_the_last_byte_left() -> None:
+    m = Module()
+    line = PacedLine(m)
+    line.send(b"read i version\r")
+    assert m.engine.output_pending(line.line)
+    line.run(T0 + 1)
+    assert not m.engine.output_pending(line.line)
+    assert not m.engine.output_pending(999)  # an unknown line has nothing pending

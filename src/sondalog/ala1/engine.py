@@ -102,6 +102,11 @@ class Engine:
         or sends ``write com close``."""
         return any(line.blocks_messages for line in self._lines.values())
 
+    def output_pending(self, line_id: int) -> bool:
+        """True while a line still has bytes waiting to be sent (paced or stopped by XOFF)."""
+        line = self._lines.get(line_id)
+        return line is not None and line.pacer.pending() > 0
+
     @property
     def com_speed(self) -> int:
         return int(self.state.get("com speed"))

@@ -19,7 +19,7 @@ from typing import TypeVar
 import click
 
 from sondalog.bus.serve import DEFAULT_PORT, BusServer, start_bus_server
-from sondalog.cli.logger_cmd import format_address, parse_listen
+from sondalog.cli.common import format_address, listen_option
 from sondalog.client.bus import (
     DEFAULT_HOST_ID,
     BusError,
@@ -39,13 +39,6 @@ class _Refused(click.ClickException):
     """Bad input found after parsing: exit code 2, like click's usage errors."""
 
     exit_code = 2
-
-
-def _listen(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, int]:
-    try:
-        return parse_listen(value)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), ctx, param) from exc
 
 
 def _url(ctx: click.Context, param: click.Parameter, value: str) -> str:
@@ -80,7 +73,7 @@ def bus() -> None:
     "--listen",
     metavar="HOST:PORT",
     default=f"127.0.0.1:{DEFAULT_PORT}",
-    callback=_listen,
+    callback=listen_option,
     show_default=True,
     help="TCP gateway address; port 0 picks a free port.",
 )

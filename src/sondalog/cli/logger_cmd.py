@@ -14,6 +14,7 @@ from serial import SerialException
 
 from sondalog.ala1 import Version
 from sondalog.ala1.hardware import Hardware
+from sondalog.cli.common import format_address, listen_option
 from sondalog.clock import Clock, make_clock
 from sondalog.sim.logger import default_hardware, load_logger_site
 from sondalog.sim.site_bus import SiteError
@@ -32,29 +33,6 @@ class _Refused(click.ClickException):
     exit_code = 2
 
 
-def parse_listen(value: str) -> tuple[str, int]:
-    """``HOST:PORT`` or ``[IPv6]:PORT`` -> (host, port); raises ValueError."""
-    host, sep, port_text = value.rpartition(":")
-    if not sep or not host:
-        raise ValueError(f"expected HOST:PORT, got {value!r}")
-    if host.startswith("[") and host.endswith("]"):
-        host = host[1:-1]
-    if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
-        raise ValueError(f"port must be a number 0..65535, got {port_text!r}")
-    return host, int(port_text)
-
-
-def format_address(host: str, port: int) -> str:
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
-
-
-def _listen_option(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, int]:
-    try:
-        return parse_listen(value)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), ctx, param) from exc
-
-
 @click.group()
 def logger() -> None:
     """Virtual ALA1 data loggers."""
@@ -65,7 +43,7 @@ def logger() -> None:
     "--listen",
     metavar="HOST:PORT",
     default=f"127.0.0.1:{DEFAULT_PORT}",
-    callback=_listen_option,
+    callback=listen_option,
     show_default=True,
     help="Address to accept TCP connections on; port 0 picks a free port.",
 )

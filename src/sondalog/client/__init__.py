@@ -2,7 +2,7 @@
 
 - :class:`Ala1Client` (asyncio) and :class:`Client` (blocking) send command lines and return
   parsed :class:`Response` objects, adding ``check`` and verifying ``sum``/``crcsum`` (§8).
-- :func:`parse_url` turns ``tcp://HOST:PORT`` into an endpoint.
+- :func:`parse_url` turns ``tcp://HOST:PORT`` or ``serial:///dev/ttyX?baud=N`` into an endpoint.
 - :class:`BusMaster` (asyncio) and :class:`BlockingBusMaster` are the master of an HCTMPS1
   RS-485 bus (docs/hctmps1.md).
 - :mod:`sondalog.client.tables` and :mod:`sondalog.client.transfer`: conversion tables and
@@ -35,7 +35,7 @@ from sondalog.client.bus import (
     UnexpectedReply,
     parse_bus_url,
 )
-from sondalog.client.endpoints import Endpoint, TcpEndpoint, parse_url
+from sondalog.client.endpoints import Endpoint, SerialEndpoint, TcpEndpoint, parse_url
 
 __all__ = [
     "Ala1Client",
@@ -56,6 +56,7 @@ __all__ = [
     "NoReply",
     "Request",
     "Response",
+    "SerialEndpoint",
     "Status",
     "SumMismatch",
     "TcpEndpoint",

@@ -15,7 +15,7 @@ from datetime import datetime, timedelta
 from typing import Protocol
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
-from sondalog.ala1.measure import Measurer, channel_config, format_value
+from sondalog.ala1.measure import Input, Measurer, channel_config, format_value
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.record import RecordChanges, RecordMemory
@@ -293,11 +293,8 @@ class Transaction:
         self._detect(cfg.inputs[0], ch)
         return format_value(cfg, state.measurer.value(cfg, self.host_now, window))
 
-    def _detect(self, inp: object, ch: int) -> None:
+    def _detect(self, inp: Input, ch: int) -> None:
         """§6.4.3.1.1: a detection address learns the sensor's ROM code."""
-        from sondalog.ala1.measure import Input
-
-        assert isinstance(inp, Input)
         if inp.device_type != "DS18B20" or inp.address & 0xFF or not inp.address:
             return
         found = self.state.hardware.ds18b20(inp.device_address, inp.address, self.host_now)
@@ -306,9 +303,10 @@ class Transaction:
 
     def channel_state(self, ch: int) -> tuple[str, str]:
         run = self.state.sampler.runs.get(ch)
-        if run is None or not run.sampled:
-            return "", run.recorded or "" if run else ""
-        return format_value(run.cfg, run.sample), run.recorded or ""
+        if run is None:
+            return "", ""
+        sample = format_value(run.cfg, run.sample) if run.sampled else ""
+        return sample, run.recorded or ""
 
     def append_row(self, row_type: int, body: str) -> None:
         """Store a row of type ``row_type`` written now (§9)."""

@@ -42,10 +42,6 @@ class Pacer:
             self._stopped_at = None
             self._free_at = max(self._free_at, now)
 
-    @property
-    def stopped(self) -> bool:
-        return self._stopped_at is not None
-
     def _check_override(self, now: float) -> None:
         if self._stopped_at is not None and now - self._stopped_at >= FLOW_OVERRIDE:
             self._free_at = max(self._free_at, self._stopped_at + FLOW_OVERRIDE)

@@ -47,11 +47,6 @@ class ChannelRun:
         else:
             self.next_t = start + math.ceil((now - start) / cfg.period) * cfg.period
 
-    @property
-    def switches(self) -> tuple[tuple[int, int], ...]:
-        """(output, advance) of the inputs that have a switch (§6.5.13)."""
-        return self.cfg.switches
-
 
 def _stamp_seconds(stamp: str) -> int:
     from sondalog.ala1.state import to_seconds
@@ -182,7 +177,7 @@ class Sampler:
         for run in self.runs.values():
             if run.next_t is None:
                 continue
-            for output, advance in run.switches:
+            for output, advance in run.cfg.switches:
                 if advance > 0 and run.next_t - advance <= t:
                     scheduled.setdefault(output, set()).add(run.cfg.number)
         self.outputs.update(float(t), offset)

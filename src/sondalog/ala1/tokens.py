@@ -9,7 +9,6 @@ and leaves the cursor where it was.
 
 from __future__ import annotations
 
-import calendar
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
@@ -314,6 +313,3 @@ def period_seconds(digits: str) -> int | None:
         return (mm * 24 + ss) * 3600
     return hh * 3600 + mm * 60 + ss
 
-
-def days_in_month(year: int, month: int) -> int:
-    return calendar.monthrange(year, month)[1]

@@ -137,21 +137,14 @@ class Interpreter:
         self._commands = 0
 
     # -- entry points ------------------------------------------------------------------------
-    def pause_of(self, line: str) -> int | None:
-        """The ``pause`` header of ``line`` if its header parses (§8.5.1), else None."""
-        cur = Cursor(line)
-        headers = Headers()
-        try:
-            self._headers(cur, headers)
-        except ParseError:
-            return None
-        return headers.pause
-
-    def run_line(self, line: str, host_now: float, *, overflow: bool = False) -> Answer | None:
+    def run_line(
+        self, line: str, host_now: float, *, overflow: bool = False, paused: bool = False
+    ) -> Answer | None:
         """Execute one command line; None means the module stays silent.
 
-        Raises :class:`NeedWait` when a measurement must wait for a switch or a conversion;
-        nothing has run then, and the caller runs the line again after the wait.
+        Raises :class:`NeedWait` for a ``pause`` header (§8.5.1; unless ``paused``: the pause
+        is over) or when a measurement must wait for a switch or a conversion; nothing has
+        run then, and the caller runs the line again after the wait.
 
         ``overflow``: the line had more than 120 characters; the extra ones were dropped and
         the answer is the error response for the first 120 (spec notes §1).
@@ -173,6 +166,8 @@ class Interpreter:
             return None
         if failed:
             return self._error(line, headers)
+        if headers.pause and not paused:
+            raise NeedWait(headers.pause)
         txn = self.state.begin(host_now)
         try:
             if named is not None:

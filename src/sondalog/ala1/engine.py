@@ -191,7 +191,7 @@ class Engine:
                 line.transfer = None
         if line.pending is not None and now >= line.run_at:
             command, line.pending = line.pending, None
-            self._run(line_id, line, command, now, line.speed)
+            self._run(line_id, line, command, now, line.speed, paused=True)
             if line.pending is None:
                 backlog, line.backlog = bytes(line.backlog), bytearray()
                 if backlog:
@@ -265,10 +265,6 @@ class Engine:
             return  # an empty line gets no answer
         line.blocks_messages = True  # §6.14.9.2: the first command blocks messages
         speed = self.com_speed  # `write com speed` takes effect after its own OK (§6.11.2)
-        pause = None if overflow else self.interpreter.pause_of(text)
-        if pause:
-            line.pending, line.run_at, line.speed = text, now + pause, speed
-            return
         self._run(line_id, line, text, now, speed, overflow=overflow)
 
     def _run(
@@ -280,11 +276,12 @@ class Engine:
         speed: int | None,
         *,
         overflow: bool = False,
+        paused: bool = False,
     ) -> None:
         answer: Answer | None
         try:
-            answer = self.interpreter.run_line(text, now, overflow=overflow)
-        except NeedWait as wait:  # §6.5.13: the line runs again once its sensors are ready
+            answer = self.interpreter.run_line(text, now, overflow=overflow, paused=paused)
+        except NeedWait as wait:  # §8.5.1 pause, §6.5.13 sensors: the line runs again later
             line.pending, line.run_at, line.speed = text, now + wait.seconds, speed
             return
         except Exception:  # DESIGN.md point 6: never stop the device loop

@@ -312,4 +312,3 @@ def period_seconds(digits: str) -> int | None:
     if hh == 99:
         return (mm * 24 + ss) * 3600
     return hh * 3600 + mm * 60 + ss
-

@@ -1,0 +1,61 @@
+"""The collector's store schema: the contract shared by the collector, its sinks and the web.
+
+One row per reading, unique on ``(logger, time, counter, channel)`` so that inserts are
+idempotent: a record row seen twice (by download and by a data message) is stored once.
+
+- ``logger``: the logger's ``i snumber`` (for an HCTMPS1 module: ``bus:<NAME>``).
+- ``channel``: the channel number; 0 for a text row (row type 3..9, §6.8.1).
+- ``time``: ISO 8601 ``YYYY-MM-DDTHH:MM:SS`` of the logger's own clock (local, drifting);
+  ``utc`` the same instant in UTC when the logger's time zone is configured, else NULL.
+- ``counter``: the row's ``.c`` counter (the rows written in one second, §6.8).
+- ``type``: the record row type (1 scheduled, 2 ``write channel value``, 3..9 text).
+- ``value``: the number, or NULL for "no valid value" (an empty field); ``text`` for text rows.
+- ``name``/``unit``: the channel's name and unit as the logger reported them.
+"""
+
+from __future__ import annotations
+
+SCHEMA_VERSION = 1
+
+#: SQLite DDL of schema version 1 (PostgreSQL uses the same columns with its own types).
+SQLITE_DDL = """
+CREATE TABLE IF NOT EXISTS readings (
+    logger  TEXT    NOT NULL,
+    channel INTEGER NOT NULL,
+    time    TEXT    NOT NULL,
+    counter INTEGER NOT NULL,
+    type    INTEGER NOT NULL,
+    value   REAL,
+    text    TEXT,
+    name    TEXT,
+    unit    TEXT,
+    utc     TEXT,
+    PRIMARY KEY (logger, time, counter, channel)
+) WITHOUT ROWID;
+CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
+CREATE TABLE IF NOT EXISTS sources (
+    name         TEXT PRIMARY KEY,
+    url          TEXT NOT NULL,
+    kind         TEXT NOT NULL,
+    logger       TEXT,
+    state        TEXT NOT NULL DEFAULT 'new',
+    last_contact TEXT,
+    last_error   TEXT,
+    offset_s     REAL,
+    cursor       TEXT,
+    record_fill  TEXT,
+    signal       REAL,
+    credit       REAL
+);
+CREATE TABLE IF NOT EXISTS events (
+    id     INTEGER PRIMARY KEY AUTOINCREMENT,
+    time   TEXT NOT NULL,
+    source TEXT NOT NULL,
+    kind   TEXT NOT NULL,
+    text   TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS meta (
+    key   TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
+"""

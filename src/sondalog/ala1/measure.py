@@ -15,7 +15,7 @@ from decimal import Decimal
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.model import View
 from sondalog.ala1.tables import Curve, Surface, TableError, TableSet
-from sondalog.ala1.tokens import NumberFormat, period_seconds
+from sondalog.ala1.tokens import NUMBER_LIMIT, NumberFormat, period_seconds
 
 #: Highest countable frequency of the MSP430TA input (§6.5.6.2.2).
 TIMER_MAX_HZ = 50_000.0
@@ -204,8 +204,11 @@ class Measurer:
         return None
 
 
+_VALUE_LIMIT = float(NUMBER_LIMIT)
+
+
 def format_value(cfg: ChannelConfig, value: float | None) -> str:
     """A value in the channel's format; no value is an empty field (spec notes §7)."""
-    if value is None or not math.isfinite(value):
-        return ""
+    if value is None or not math.isfinite(value) or abs(value) >= _VALUE_LIMIT:
+        return ""  # beyond what a reading can show: no valid value (docs/decisions.md)
     return cfg.format.render(Decimal(repr(value)))

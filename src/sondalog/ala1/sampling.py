@@ -9,6 +9,7 @@ switched off after it, unless an on-demand read holds it (``command channel swit
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -91,6 +92,30 @@ class Outputs:
 
 RowSink = Callable[[int, list[str]], None]
 
+log = logging.getLogger("sondalog.ala1.sampling")
+
+
+class FaultLog:
+    """Internal errors of channels, logged at most once a minute per channel and cause."""
+
+    INTERVAL = 60.0
+
+    def __init__(self) -> None:
+        self._last: dict[tuple[int, str], float] = {}
+
+    def report(self, channel: int, exc: Exception, host_t: float) -> None:
+        key = (channel, type(exc).__name__)
+        last = self._last.get(key)
+        if last is not None and 0 <= host_t - last < self.INTERVAL:
+            return
+        self._last[key] = host_t
+        log.error(
+            "channel %d: internal error while sampling (%s: %s); no valid value",
+            channel,
+            type(exc).__name__,
+            exc,
+        )
+
 
 class Sampler:
     """Runs the channels' schedules and decides which values reach the record."""
@@ -98,6 +123,7 @@ class Sampler:
     def __init__(self, measurer: Measurer, outputs: Outputs) -> None:
         self.measurer = measurer
         self.outputs = outputs
+        self.faults = FaultLog()
         self.runs: dict[int, ChannelRun] = {}
         self.max_number = 1
 
@@ -109,7 +135,13 @@ class Sampler:
         for cfg in configs:
             run = old.get(cfg.number)
             if run is None or _sampling_changed(run.cfg, cfg):
-                run = ChannelRun(cfg)
+                fresh = ChannelRun(cfg)
+                if run is not None:
+                    # §6.5.9, §6.5.16.3: the last sample and the last recorded value stay
+                    # until a new sample replaces them; only the schedule starts again.
+                    fresh.sample, fresh.sampled = run.sample, run.sampled
+                    fresh.recorded, fresh.event_active = run.recorded, run.event_active
+                run = fresh
                 run.schedule(now)
             else:
                 run.cfg = cfg
@@ -195,11 +227,21 @@ class Sampler:
         for run in due:
             cfg = run.cfg
             window = float(t - run.last_t) if run.last_t is not None else float(cfg.period)
-            value = self.measurer.value(cfg, host_t, window)
             run.last_t = t
             run.next_t = t + cfg.period
-            run.sample, run.sampled = value, True
-            written = self._decide(run, value)
+            try:
+                value = self.measurer.value(cfg, host_t, window)
+                run.sample, run.sampled = value, True
+                written = self._decide(run, value)
+            except Exception as exc:
+                # Defence in depth (issue 9): one channel's failure is that channel's "no
+                # valid value" at this instant; the other channels and the timer go on.
+                self.faults.report(cfg.number, exc, host_t)
+                run.sample, run.sampled = None, True
+                try:
+                    written = self._decide(run, None)
+                except Exception:
+                    written = None
             if written is not None and cfg.number <= self.max_number:
                 fields[cfg.number] = written
         if switched:

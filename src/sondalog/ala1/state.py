@@ -10,6 +10,7 @@ store transaction before the answer is released.
 
 from __future__ import annotations
 
+import logging
 import math
 from datetime import datetime, timedelta
 from typing import Protocol
@@ -23,6 +24,8 @@ from sondalog.ala1.sampling import Outputs, Sampler
 from sondalog.ala1.tables import TableSet
 from sondalog.ala1.tokens import format_stamp, period_seconds
 
+log = logging.getLogger("sondalog.ala1.state")
+
 _EPOCH = datetime(1970, 1, 1)
 #: The clock of a new virtual module (§11 factory value of ``date``).
 FACTORY_DATE = datetime(2000, 1, 1)
@@ -34,8 +37,15 @@ def to_seconds(moment: datetime) -> float:
     return (moment - _EPOCH).total_seconds()
 
 
+#: The calendar's ends (§4.3.2: four-digit years). The module clock holds at either end
+#: instead of overflowing (docs/decisions.md "The end of the calendar").
+CLOCK_MIN = to_seconds(datetime(1, 1, 1))
+CLOCK_MAX = to_seconds(datetime(9999, 12, 31, 23, 59, 59))
+
+
 def from_seconds(seconds: float) -> datetime:
-    return _EPOCH + timedelta(seconds=math.floor(seconds))
+    """The date of module ``seconds``, held within the calendar (never an overflow)."""
+    return _EPOCH + timedelta(seconds=math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX)))
 
 
 class NvStore(Protocol):
@@ -118,11 +128,32 @@ class ModuleState:
         self.sampler = Sampler(self.measurer, self.outputs)
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
+        self._repair(host_now)
         self.configure(host_now)
+
+    def _repair(self, host_now: float) -> None:
+        """Values in the memory that cannot be used go back to their factory values, each
+        reported; the module never starts mute (issue 9, DESIGN.md point 6)."""
+        view = Transaction(self, host_now)
+        bad: dict[str, str | None] = {}
+        for key, value in self.values.items():
+            info = self.keys[key]
+            try:
+                info.leaf.vtype.check_stored(value, view, info.indices)
+            except Exception as exc:
+                log.error(
+                    "stored %s = %r cannot be used (%s): factory value restored", key, value, exc
+                )
+                bad[key] = None
+        if bad:
+            self.store.commit(bad, None, seen=host_now)
+            for key in bad:
+                del self.values[key]
 
     # -- time --------------------------------------------------------------------------------
     def module_seconds(self, host_now: float) -> float:
-        return host_now + self.clock_offset
+        """The module clock; it stops at the end of year 9999 (and never precedes year 1)."""
+        return min(max(host_now + self.clock_offset, CLOCK_MIN), CLOCK_MAX)
 
     def module_time(self, host_now: float) -> datetime:
         return from_seconds(self.module_seconds(host_now))
@@ -200,7 +231,9 @@ class ModuleState:
 
     def next_event_host(self) -> float | None:
         event = self.sampler.next_event()
-        return None if event is None else event - self.clock_offset
+        if event is None or event > CLOCK_MAX:
+            return None  # past the end of the calendar nothing is ever due
+        return event - self.clock_offset
 
 
 class Transaction:
@@ -291,7 +324,12 @@ class Transaction:
         run = state.sampler.runs.get(ch)
         window = now - run.last_t if run and run.last_t is not None else float(cfg.period or 1)
         self._detect(cfg.inputs[0], ch)
-        return format_value(cfg, state.measurer.value(cfg, self.host_now, window))
+        try:
+            value = state.measurer.value(cfg, self.host_now, window)
+        except Exception as exc:  # defence in depth: no valid value (issue 9)
+            state.sampler.faults.report(ch, exc, self.host_now)
+            value = None
+        return format_value(cfg, value)
 
     def _detect(self, inp: Input, ch: int) -> None:
         """§6.4.3.1.1: a detection address learns the sensor's ROM code."""

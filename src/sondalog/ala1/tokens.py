@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
-from decimal import Decimal
+from decimal import ROUND_HALF_UP, Context, Decimal
 
 
 class ParseError(ValueError):
@@ -36,10 +36,19 @@ class NumberFormat:
         return cls(int(text[0]), int(text[2]))
 
     def render(self, value: Decimal | float | int) -> str:
-        """Format ``value``: round half away from zero, pad left to the width (§4.3.5)."""
+        """Format ``value``: round half away from zero, pad left to the width (§4.3.5).
+
+        Any finite value renders: the rounding context is as wide as the value needs, so no
+        stored or computed number can make a read fail (issue 9). Writes are limited to
+        :data:`NUMBER_LIMIT` and computed values beyond it read as no value, so in practice
+        at most 15 integer digits appear."""
         dec = value if isinstance(value, Decimal) else Decimal(str(value))
+        if not dec.is_finite():
+            raise ParseError(f"{value} is not a number")
         quantum = Decimal(1).scaleb(-self.decimals)
-        rounded = dec.quantize(quantum, rounding="ROUND_HALF_UP")
+        digits = max(dec.adjusted(), 0) + self.decimals + 2
+        context = _WIDE if digits <= _WIDE.prec else Context(prec=digits)
+        rounded = dec.quantize(quantum, rounding=ROUND_HALF_UP, context=context)
         if rounded == 0:
             rounded = abs(rounded)  # never print "-0.0"
         text = f"{rounded:.{self.decimals}f}"
@@ -47,6 +56,10 @@ class NumberFormat:
 
 
 _DIGITS = frozenset("0123456789")
+#: Written numbers must stay below this magnitude: 15 integer digits (sondalog decision,
+#: docs/decisions.md "Number limits"), what a reading shows with room for 9 decimals.
+NUMBER_LIMIT = Decimal(10) ** 15
+_WIDE = Context(prec=40)
 
 
 class Cursor:

@@ -12,7 +12,15 @@ from dataclasses import dataclass, field
 from decimal import Decimal
 
 from sondalog.ala1.model import TOTAL_MEMORY, Limits, View
-from sondalog.ala1.tokens import Cursor, NumberFormat, ParseError, format_stamp
+from sondalog.ala1.tokens import (
+    NUMBER_LIMIT,
+    Cursor,
+    NumberFormat,
+    ParseError,
+    check_period,
+    format_stamp,
+    parse_stamp,
+)
 
 #: Indices that select one parameter instance: ``{"ch": 3, "tab": 1}``.
 Indices = dict[str, int]
@@ -37,6 +45,11 @@ class ValueType:
 
     def render(self, stored: str, view: View, indices: Indices) -> str:
         return stored
+
+    def check_stored(self, stored: str, view: View, indices: Indices) -> None:
+        """Raise when a value loaded from the memory cannot be used (issue 9: a value that
+        cannot be read back is repaired to its factory value at start)."""
+        self.render(stored, view, indices)
 
     def describe(self, limits: Limits) -> str:
         """Human text of the limits for the generated reference (docs/protocol.md)."""
@@ -98,6 +111,12 @@ class Integer(ValueType):
             cur.pos = start
             raise ParseError(f"{value} outside {self.lo}..{self.high(ctx.view.identity.limits)}")
         return str(value)
+
+    def check_stored(self, stored: str, view: View, indices: Indices) -> None:
+        if stored == "" and isinstance(self, OptionalInteger):
+            return
+        if not self.lo <= int(stored) <= self.high(view.identity.limits):
+            raise ValueError(f"{stored} outside {self.lo}..{self.high(view.identity.limits)}")
 
     def describe(self, limits: Limits) -> str:
         return f"{self.lo}..{self.high(limits)}"
@@ -176,14 +195,22 @@ class Number(ValueType):
         start = cur.pos
         value = cur.number()
         if value not in self.special and (
-            (self.lo is not None and value < self.lo) or (self.hi is not None and value > self.hi)
+            (self.lo is not None and value < self.lo)
+            or (self.hi is not None and value > self.hi)
+            or abs(value) >= NUMBER_LIMIT
         ):
             cur.pos = start
             raise ParseError(f"{value} out of range")
-        return str(value)
+        return format(value, "f")  # plain digits, never an exponent form
 
     def render(self, stored: str, view: View, indices: Indices) -> str:
         return self.fmt(view, indices).render(Decimal(stored))
+
+    def check_stored(self, stored: str, view: View, indices: Indices) -> None:
+        value = Decimal(stored)
+        if not value.is_finite() or abs(value) >= NUMBER_LIMIT:
+            raise ValueError(f"{stored} is not a number below 10^15")
+        self.render(stored, view, indices)
 
     def describe(self, limits: Limits) -> str:
         parts = []
@@ -192,6 +219,8 @@ class Number(ValueType):
         if self.hi is not None:
             parts.append(f"<= {self.hi}")
         parts.extend(f"or {s}" for s in self.special)
+        if self.hi is None:
+            parts.append("magnitude < 10^15")
         parts.append(f"read in format {self.fmt_doc}")
         return ", ".join(parts)
 
@@ -218,6 +247,9 @@ class Date(ValueType):
     def parse(self, cur: Cursor, ctx: ParseCtx) -> str:
         return format_stamp(cur.date(ctx.view.now(), full=ctx.multi))
 
+    def check_stored(self, stored: str, view: View, indices: Indices) -> None:
+        parse_stamp(stored)
+
     def describe(self, limits: Limits) -> str:
         return "YYYYMMDDhhmmss; 2..12 digits fill from the clock"
 
@@ -231,6 +263,9 @@ class Period(ValueType):
 
     def parse(self, cur: Cursor, ctx: ParseCtx) -> str:
         return cur.period(full=ctx.multi, allow_month=self.month)
+
+    def check_stored(self, stored: str, view: View, indices: Indices) -> None:
+        check_period(stored, allow_month=self.month)
 
     def describe(self, limits: Limits) -> str:
         extra = ", 999901 = one month" if self.month else ""

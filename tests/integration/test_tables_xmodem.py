@@ -157,8 +157,12 @@ def test_sx_uploads_a_table_list_to_the_logger(
         sock.sendall(b"read special file list xmodem\r")
         received = tmp_path / "got"
         done = subprocess.run(
-            ["rx", "-c", received.name], stdin=sock, stdout=sock, stderr=subprocess.PIPE,
-            timeout=60, cwd=tmp_path,
+            ["rx", "-c", received.name],
+            stdin=sock,
+            stdout=sock,
+            stderr=subprocess.PIPE,
+            timeout=60,
+            cwd=tmp_path,
         )  # fmt: skip  (restricted rx refuses absolute paths)
         assert done.returncode == 0, done.stderr
         assert received.read_bytes().rstrip(b"\x1a") == b"tabulka1 36\n"

@@ -19,7 +19,7 @@ from typing import TypeVar
 import click
 
 from sondalog.bus.serve import DEFAULT_PORT, BusServer, start_bus_server
-from sondalog.cli.common import format_address, listen_option
+from sondalog.cli.common import allow_remote_option, format_address, listen_option
 from sondalog.client.bus import (
     DEFAULT_HOST_ID,
     BusError,
@@ -69,6 +69,7 @@ def bus() -> None:
 
 
 @bus.command()
+@allow_remote_option
 @click.option(
     "--listen",
     metavar="HOST:PORT",

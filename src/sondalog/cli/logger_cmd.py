@@ -14,7 +14,7 @@ from serial import SerialException
 
 from sondalog.ala1 import Version
 from sondalog.ala1.hardware import Hardware
-from sondalog.cli.common import format_address, listen_option
+from sondalog.cli.common import allow_remote_option, format_address, listen_option
 from sondalog.clock import Clock, make_clock
 from sondalog.sim.logger import default_hardware, load_logger_site
 from sondalog.sim.site_bus import SiteError
@@ -39,6 +39,7 @@ def logger() -> None:
 
 
 @logger.command()
+@allow_remote_option
 @click.option(
     "--listen",
     metavar="HOST:PORT",

@@ -13,9 +13,11 @@ offending bytes and the loop carries on (DESIGN.md point 6).
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import logging
 from collections.abc import Callable
+from typing import Protocol
 
 from sondalog.ala1 import Engine, Output
 from sondalog.clock import Clock
@@ -26,6 +28,28 @@ log = logging.getLogger(__name__)
 Sink = Callable[[bytes], None]
 #: Where the outputs of one line go when the rate they were paced at matters (serial ports).
 OutputSink = Callable[[Output], None]
+#: A line's input beyond this many unprocessed bytes pauses its transport; below LOW resumes.
+PENDING_HIGH = 64 * 1024
+PENDING_LOW = 16 * 1024
+#: The most bytes of one line run per turn when no line end comes sooner.
+SLICE = 512
+
+
+class FlowControl(Protocol):
+    """What a transport offers to be paused while its line's input waits (asyncio's API)."""
+
+    def pause_reading(self) -> None: ...
+
+    def resume_reading(self) -> None: ...
+
+
+def _slice_end(pending: bytearray) -> int:
+    """End of the next slice: through the first CR or LF, at most :data:`SLICE` bytes."""
+    window = min(len(pending), SLICE)
+    cr = pending.find(b"\r", 0, window)
+    lf = pending.find(b"\n", 0, window)
+    ends = [i for i in (cr, lf) if i >= 0]
+    return min(ends) + 1 if ends else window
 
 
 class EngineHost:
@@ -38,6 +62,10 @@ class EngineHost:
         self._armed: float | None = None
         self._rearm = asyncio.Event()
         self._timer: asyncio.Task[None] | None = None
+        self._pending: dict[int, bytearray] = {}  # line -> input not yet run
+        self._ready: collections.deque[int] = collections.deque()  # lines with input, in turn
+        self._flows: dict[int, FlowControl] = {}
+        self._pump_scheduled = False
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -56,23 +84,31 @@ class EngineHost:
             self.detach(line_id)
 
     # -- lines -------------------------------------------------------------------------------
-    def attach(self, sink: Sink, *, paced: bool = False) -> int:
+    def attach(self, sink: Sink, *, paced: bool = False, flow: FlowControl | None = None) -> int:
         """A new connection: opens an engine line whose output goes to ``sink``.
 
         ``paced``: the engine releases the output at ``com speed`` (serial and pty lines, TCP
         with ``--line-rate``); the sink just writes what it gets.
         """
-        return self.attach_output(lambda output: sink(output.data), paced=paced)
+        return self.attach_output(lambda output: sink(output.data), paced=paced, flow=flow)
 
-    def attach_output(self, sink: OutputSink, *, paced: bool = False) -> int:
-        """Like :meth:`attach`, for a sink that needs each :class:`Output`'s baud rate."""
+    def attach_output(
+        self, sink: OutputSink, *, paced: bool = False, flow: FlowControl | None = None
+    ) -> int:
+        """Like :meth:`attach`, for a sink that needs each :class:`Output`'s baud rate.
+
+        ``flow``: the transport to pause while this line's unprocessed input piles up."""
         line_id = self.engine.open_line(paced=paced)
         self._sinks[line_id] = sink
+        if flow is not None:
+            self._flows[line_id] = flow
         return line_id
 
     def detach(self, line_id: int) -> None:
         """The connection is gone: its partial command and pending output are dropped."""
         self._sinks.pop(line_id, None)
+        self._pending.pop(line_id, None)
+        self._flows.pop(line_id, None)
         try:
             self.engine.close_line(line_id)
         except Exception:
@@ -80,14 +116,54 @@ class EngineHost:
         self._check_deadline()
 
     def feed(self, line_id: int, data: bytes) -> None:
-        """Bytes received on a line: run them through the engine and send the answers."""
+        """Bytes received on a line: queued, then run through the engine one command line
+        per line and turn of the event loop, round-robin (issue 9: fair service)."""
+        if line_id not in self._sinks:
+            return
+        pending = self._pending.get(line_id)
+        if pending is None:
+            self._pending[line_id] = bytearray(data)
+            self._ready.append(line_id)
+        else:
+            pending += data
+        flow = self._flows.get(line_id)
+        if flow is not None and len(self._pending[line_id]) > PENDING_HIGH:
+            flow.pause_reading()
+        if not self._pump_scheduled:
+            self._pump_scheduled = True
+            asyncio.get_running_loop().call_soon(self._pump)
+
+    def _pump(self) -> None:
+        """One round: one slice (up to and including a line end) of every line with input."""
+        self._pump_scheduled = False
+        for _ in range(len(self._ready)):
+            line_id = self._ready.popleft()
+            pending = self._pending.get(line_id)
+            if pending is None:
+                continue
+            cut = _slice_end(pending)
+            chunk = bytes(pending[:cut])
+            del pending[:cut]
+            if pending:
+                self._ready.append(line_id)
+            else:
+                del self._pending[line_id]
+            flow = self._flows.get(line_id)
+            if flow is not None and len(pending) <= PENDING_LOW:
+                flow.resume_reading()
+            self._receive(line_id, chunk)
+        self._check_deadline()
+        if self._ready and not self._pump_scheduled:
+            self._pump_scheduled = True
+            asyncio.get_running_loop().call_soon(self._pump)
+
+    def _receive(self, line_id: int, data: bytes) -> None:
         try:
             outputs = self.engine.receive(line_id, data, self.clock.now())
         except Exception:
             log.exception("internal error on line %d receiving %r", line_id, data)
             outputs = []
         self._dispatch(outputs)
-        self._check_deadline()
 
     # -- internals ---------------------------------------------------------------------------
     def _dispatch(self, outputs: list[Output]) -> None:

@@ -37,7 +37,7 @@ class _LineProtocol(asyncio.Protocol):
         assert isinstance(transport, asyncio.Transport)
         self._transport = transport
         transport.set_write_buffer_limits(high=HIGH_WATER)
-        self._line = self._host.attach(self._send, paced=self._paced)
+        self._line = self._host.attach(self._send, paced=self._paced, flow=transport)
         self._connections.add(self)
         log.info("line %d: connected from %s", self._line, transport.get_extra_info("peername"))
 

@@ -30,7 +30,7 @@ from sondalog.client.bus import (
 )
 from sondalog.clock import make_clock
 from sondalog.hctmps1.framing import BROADCAST, FrameError, is_valid_id
-from sondalog.sim.site_bus import SiteError
+from sondalog.sim.sitefile import SiteError
 
 T = TypeVar("T")
 

@@ -17,7 +17,7 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
 from sondalog.clock import Clock, make_clock
 from sondalog.sim.logger import default_hardware, load_logger_site
-from sondalog.sim.site_bus import SiteError
+from sondalog.sim.sitefile import SiteError
 from sondalog.transport import DEFAULT_PORT
 from sondalog.transport.instance import (
     IdentityConflict,

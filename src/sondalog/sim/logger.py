@@ -48,7 +48,7 @@ from sondalog.ala1.hardware import (
     rom_valid,
 )
 from sondalog.sim.signals import Signal, SignalError, build_signal, constant
-from sondalog.sim.site_bus import SiteError, read_site_file
+from sondalog.sim.sitefile import SiteError, locate, read_site_file
 
 INTERNAL_REFERENCE = 2.5
 ADC_LEVELS = 4095
@@ -389,42 +389,3 @@ def _known(table: Mapping[str, object], keys: set[str], where: str, fail: object
         if key not in keys:
             assert callable(fail)
             raise fail(f"{where}.{key}", f"unknown key (known: {', '.join(sorted(keys))})")
-
-
-_HEADER = re.compile(r"^\s*(\[\[?)\s*([A-Za-z0-9_.]+)\s*\]\]?")
-
-
-def locate(text: str | None, where: str) -> int | None:
-    """Best-effort line number of a dotted field (``logger.analog[1].signal.period``)."""
-    if text is None:
-        return None
-    lines = text.splitlines()
-    parts = re.findall(r"([A-Za-z0-9_]+)(?:\[(\d+)\])?", where)
-    # the table header: the longest prefix that names a [table] or the n-th [[array]]
-    section_line, consumed = None, 0
-    for depth in range(len(parts), 0, -1):
-        name = ".".join(p[0] for p in parts[:depth])
-        index = parts[depth - 1][1]
-        headers = [
-            n
-            for n, line in enumerate(lines)
-            if (m := _HEADER.match(line))
-            and m.group(2) == name
-            and (m.group(1) == "[[") == bool(index)
-        ]
-        if headers:
-            pick = int(index) if index else 0
-            if pick < len(headers):
-                section_line, consumed = headers[pick], depth
-                break
-    if section_line is None:
-        return None
-    remaining = [p[0] for p in parts[consumed:]]
-    if not remaining:
-        return section_line + 1
-    for n in range(section_line + 1, len(lines)):
-        if _HEADER.match(lines[n]):
-            break
-        if re.match(rf"\s*{re.escape(remaining[0])}\s*=", lines[n]):
-            return n + 1
-    return section_line + 1

@@ -20,8 +20,6 @@ The signal tables are those of :mod:`sondalog.sim.signals`. A wrong file is reje
 
 from __future__ import annotations
 
-import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,22 +28,10 @@ from sondalog.hctmps1.framing import is_valid_id
 from sondalog.hctmps1.module import DEFAULT_CYCLE
 from sondalog.hctmps1.variants import Kind, variant_for
 from sondalog.sim.signals import Signal, SignalError, build_signal
+from sondalog.sim.sitefile import SiteError, locate, read_site_file
 
 _BUS_KEYS = {"baud", "noise", "seed", "modules"}
 _MODULE_KEYS = {"id", "kind", "cycle", "signal"}
-
-
-class SiteError(ValueError):
-    """A site file is wrong: ``path``, the dotted ``field`` and the ``line`` if known."""
-
-    def __init__(self, path: Path | None, field: str, message: str, line: int | None = None):
-        where = str(path) if path is not None else "<site>"
-        if line is not None:
-            where += f":{line}"
-        super().__init__(f"{where}: {field}: {message}")
-        self.path = path
-        self.field = field
-        self.line = line
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,18 +74,6 @@ def default_bus_site(start: float) -> BusSite:
     )
 
 
-def read_site_file(path: Path) -> tuple[dict[str, object], str]:
-    """The parsed TOML of a site file and its text (for line numbers in errors)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from exc
-    try:
-        return tomllib.loads(text), text
-    except tomllib.TOMLDecodeError as exc:
-        raise SiteError(path, "toml", str(exc)) from exc
-
-
 def load_bus_site(path: Path, start: float) -> BusSite:
     """Read and check the bus part of the site file at ``path``."""
     data, text = read_site_file(path)
@@ -115,7 +89,7 @@ def parse_bus_site(
     """Check the ``[bus]`` table of an already parsed site file."""
 
     def fail(field: str, message: str) -> SiteError:
-        return SiteError(path, field, message, _locate(text, field))
+        return SiteError(path, field, message, locate(text, field))
 
     bus = data.get("bus")
     if not isinstance(bus, Mapping):
@@ -172,48 +146,3 @@ def parse_bus_site(
             raise fail(f"{where}.signal.{exc.field}", exc.message) from None
         modules.append(ModuleSite(module_id, kind, signal, float(cycle)))
     return BusSite(tuple(modules), baud, float(noise), seed, path)
-
-
-_HEADER = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_.\s\"]+?)\s*\]\]?")
-
-
-def _locate(text: str | None, field: str) -> int | None:
-    """Best-effort line number of ``field`` (``bus.modules[2].signal.period``) in ``text``."""
-    if text is None:
-        return None
-    lines = text.splitlines()
-    match = re.match(r"bus\.modules\[(\d+)\](.*)", field)
-    headers = [
-        (n, m.group(1).replace(" ", ""))
-        for n, line in enumerate(lines)
-        if (m := _HEADER.match(line))
-    ]
-    if match is None:
-        start = next((n for n, name in headers if name == "bus"), None)
-        prefix = "bus"
-        rest = field[len("bus.") :] if field.startswith("bus.") else ""
-    else:
-        starts = [
-            n for n, name in headers if name == "bus.modules" and lines[n].lstrip().startswith("[[")
-        ]
-        index = int(match.group(1))
-        start = starts[index] if index < len(starts) else None
-        prefix = "bus.modules"
-        rest = match.group(2).lstrip(".")
-    if start is None:
-        return None
-    end = next(
-        (
-            n
-            for n, name in headers
-            if n > start and (name == prefix or not name.startswith(prefix + "."))
-        ),
-        len(lines),
-    )
-    key = re.split(r"[.\[]", rest)[-1] if rest else ""
-    if key:
-        pattern = re.compile(rf"(^|[\s{{,]){re.escape(key)}\s*=")
-        for n in range(start, end):
-            if pattern.search(lines[n]):
-                return n + 1
-    return start + 1

@@ -31,7 +31,7 @@ bench: $(STAMP)
 	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
 
 docs: $(STAMP)
-	$(BIN)/python -m sondalog.ala1.docgen > docs/protocol.md
+	$(BIN)/python -m sondalog.app.docgen > docs/protocol.md
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache state

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity
-from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 
 COMMANDS: dict[str, bytes] = {
     "read date": b"read date\r",

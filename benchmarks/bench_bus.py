@@ -23,9 +23,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from sondalog.bus.core import DEFAULT_TURNAROUND
 from sondalog.client.bus import BusMaster
 from sondalog.hctmps1 import encode_frame
+from sondalog.world.bus import DEFAULT_TURNAROUND
 
 
 def site_text(modules: int, baud: int) -> str:

@@ -18,9 +18,9 @@ from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.record import row_key
-from sondalog.sim.logger import Analog, SimHardware
-from sondalog.sim.signals import RandomWalk, sine
-from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.backends.sim.logger import Analog, SimHardware
+from sondalog.backends.sim.signals import RandomWalk, sine
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 
 T0 = 1_000_000_000.0
 ADDRESSES = (16, 17, 18, 19, 20, 24)

@@ -13,10 +13,10 @@ import sys
 from datetime import datetime
 from pathlib import Path
 
+from sondalog.app.logger import Logger, start_logger
 from sondalog.client import Ala1Client, Request, Response
-from sondalog.clock import RealClock
-from sondalog.transport import DEFAULT_PORT
-from sondalog.transport.instance import Logger, start_logger
+from sondalog.io import DEFAULT_PORT
+from sondalog.io.clock import RealClock
 
 STATE_DIR = Path("state/demo")
 HOST = "127.0.0.1"

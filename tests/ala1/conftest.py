@@ -9,7 +9,7 @@ import pytest
 
 from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.hardware import Hardware
-from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 
 T0 = 1_000_000_000.0
 

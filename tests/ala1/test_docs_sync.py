@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sondalog.ala1.docgen import render
 from sondalog.ala1.params import LEAVES
+from sondalog.app.docgen import render
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "protocol.md"
 

@@ -1,6 +1,6 @@
 """The manual's examples that measure or read the record (§6.4-§6.8, §7-§10), byte for byte.
 
-Each test wires a simulated module (sondalog.sim.logger) so that its channels measure the
+Each test wires a simulated module (sondalog.backends.sim.logger) so that its channels measure the
 values the manual shows, then runs the manual's exchange.
 """
 
@@ -12,9 +12,9 @@ from conftest import T0, Module
 
 from sondalog.ala1.hardware import rom_code
 from sondalog.ala1.measure import channel_config
-from sondalog.ala1.tables import build_files
-from sondalog.sim.logger import Analog, PulseSource, SimHardware, Thermometer
-from sondalog.sim.signals import Schedule, constant
+from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware, Thermometer
+from sondalog.backends.sim.signals import Schedule, constant
+from sondalog.protocol.tables import build_files
 
 
 def steps(*values: float, every: float = 3600.0, first: float = 1800.0) -> Schedule:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from conftest import T0, Module
 
-from sondalog.sim.logger import Analog, PulseSource, SimHardware
-from sondalog.sim.signals import Schedule, constant
+from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware
+from sondalog.backends.sim.signals import Schedule, constant
 
 
 def module_with(signal: object, *, fmt: str = "0.2") -> tuple[Module, SimHardware]:

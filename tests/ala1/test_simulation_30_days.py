@@ -14,8 +14,8 @@ from decimal import ROUND_HALF_UP, Decimal
 
 from conftest import T0, Module
 
-from sondalog.sim.logger import Analog, PulseSource, SimHardware
-from sondalog.sim.signals import RandomWalk, Schedule, sine
+from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware
+from sondalog.backends.sim.signals import RandomWalk, Schedule, sine
 
 START = datetime(2007, 3, 1, 0, 0, 0)  # module time at T0 + 1
 DAYS = 30

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from conftest import Module
 
-from sondalog.ala1.tables import build_files
-from sondalog.sim.logger import Analog, SimHardware
-from sondalog.sim.signals import constant
-from sondalog.xmodem import XmodemReceiver, XmodemSender
+from sondalog.backends.sim.logger import Analog, SimHardware
+from sondalog.backends.sim.signals import constant
+from sondalog.protocol.tables import build_files
+from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
 
 TABLE1 = b"100.8 550.9\n351.65 1000\n893 1790.53\n"
 TABLE2 = b"3\n100.8 550.9\n351.65 1000\n893 1790.53\n4\n100.7 560\n351 1008\n890 1800.2\n"

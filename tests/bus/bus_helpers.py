@@ -3,7 +3,7 @@
 ``VirtualTimeLoop`` is a normal selector event loop whose ``time()`` is a counter: when the
 loop would block waiting for a timer and no I/O is ready, the counter jumps to the timer
 instead. Everything built on the loop's time (``asyncio.sleep``, ``wait_for``, and the bus's
-:class:`~sondalog.bus.runner.LoopClock`) then runs in virtual time: a minute of 9600-baud bus
+:class:`~sondalog.io.bus_runner.LoopClock`) then runs in virtual time: a minute of 9600-baud bus
 traffic takes milliseconds and never depends on the machine's speed. Only for tests without
 real I/O.
 """
@@ -22,9 +22,9 @@ from collections.abc import Callable, Coroutine
 from pathlib import Path
 from typing import Any, TypeVar
 
-from sondalog.bus.core import BusCore
-from sondalog.bus.runner import LoopClock, VirtualBus
 from sondalog.hctmps1 import HUM, TEMP, Hctmps1Module, MemoryEeprom, ModuleConfig, slot_time
+from sondalog.io.bus_runner import LoopClock, VirtualBus
+from sondalog.world.bus import BusCore
 
 T = TypeVar("T")
 START = 1_000_000.0

@@ -7,11 +7,11 @@ import asyncio
 import pytest
 from bus_helpers import START, make_module, ramp, run_virtual, start_bus, stop
 
-from sondalog.bus.core import DEFAULT_TURNAROUND, BusCore
-from sondalog.bus.runner import VirtualBus
 from sondalog.client.bus import BusMaster, NoReply
-from sondalog.clock import SteppedClock
 from sondalog.hctmps1 import encode_frame
+from sondalog.io.bus_runner import VirtualBus
+from sondalog.io.clock import SteppedClock
+from sondalog.world.bus import DEFAULT_TURNAROUND, BusCore
 
 
 def test_scan_finds_ten_modules_despite_collisions() -> None:

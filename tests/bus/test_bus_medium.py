@@ -7,9 +7,9 @@ import random
 import pytest
 from bus_helpers import START, make_module
 
-from sondalog.bus.core import DEFAULT_TURNAROUND, BusCore
-from sondalog.bus.medium import Medium, byte_time
 from sondalog.hctmps1 import FrameDecoder, encode_frame
+from sondalog.world.bus import DEFAULT_TURNAROUND, BusCore
+from sondalog.world.medium import Medium, byte_time
 
 
 def test_a_byte_takes_ten_bit_times() -> None:

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from sondalog.backends.sim.signals import SignalError, build_signal
+from sondalog.backends.sim.site_bus import SiteError, default_bus_site, load_bus_site
+from sondalog.backends.store.eeprom import FILE_NAME, EepromDatabase
 from sondalog.hctmps1 import EepromImage, Kind
-from sondalog.sim.signals import SignalError, build_signal
-from sondalog.sim.site_bus import SiteError, default_bus_site, load_bus_site
-from sondalog.storage.eeprom import FILE_NAME, EepromDatabase
 
 S = 5000.0  # start time of the simulation
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from sondalog.ala1.hardware import rom_valid
-from sondalog.sim.logger import load_logger_site
-from sondalog.sim.site_bus import SiteError
+from sondalog.backends.sim.logger import load_logger_site
+from sondalog.backends.sim.site_bus import SiteError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sondalog.ala1.virtual import VirtualLogger
+from sondalog.app.virtual import VirtualLogger
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from sondalog.xmodem import checksum8, crc16
-from sondalog.xmodem.frames import SOH, STX, frame, frame_length
+from sondalog.protocol.xmodem import checksum8, crc16
+from sondalog.protocol.xmodem.frames import SOH, STX, frame, frame_length
 
 
 def test_crc16_is_crc16_xmodem() -> None:

@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from xmodem_line import Fault, Wire, run
 
-from sondalog.xmodem import XmodemReceiver, XmodemSender
-from sondalog.xmodem.frames import ACK, CAN, CRC_START, NAK, SUB
+from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
+from sondalog.protocol.xmodem.frames import ACK, CAN, CRC_START, NAK, SUB
 
 PAD = bytes([SUB])
 

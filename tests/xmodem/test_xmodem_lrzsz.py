@@ -18,8 +18,8 @@ import pytest
 from xmodem_line import End
 from xmodem_pump import pump
 
-from sondalog.xmodem import XmodemReceiver, XmodemSender
-from sondalog.xmodem.frames import ACK, SOH, STX, SUB
+from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
+from sondalog.protocol.xmodem.frames import ACK, SOH, STX, SUB
 
 pytestmark = pytest.mark.skipif(
     shutil.which("sx") is None or shutil.which("rx") is None,

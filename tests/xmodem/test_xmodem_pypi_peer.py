@@ -13,8 +13,8 @@ import random
 import pytest
 from xmodem_pump import PackagePeer, pump
 
-from sondalog.xmodem import XmodemReceiver, XmodemSender
-from sondalog.xmodem.frames import SOH, STX, SUB
+from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
+from sondalog.protocol.xmodem.frames import SOH, STX, SUB
 
 SIZES = [1, 128, 1024, 1000, 100_003]
 MODES = ["checksum", "crc", "1k"]

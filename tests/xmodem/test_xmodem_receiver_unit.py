@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from sondalog.xmodem import XmodemReceiver
-from sondalog.xmodem.frames import ACK, CAN, EOT, NAK, SUB, frame
+from sondalog.protocol.xmodem import XmodemReceiver
+from sondalog.protocol.xmodem.frames import ACK, CAN, EOT, NAK, SUB, frame
 
 C = b"C"
 ACK_ = bytes([ACK])

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from sondalog.xmodem import XmodemSender
-from sondalog.xmodem.frames import ACK, CAN, EOT, NAK, SOH, STX, SUB, frame
+from sondalog.protocol.xmodem import XmodemSender
+from sondalog.protocol.xmodem.frames import ACK, CAN, EOT, NAK, SOH, STX, SUB, frame
 
 ACK_ = bytes([ACK])
 NAK_ = bytes([NAK])

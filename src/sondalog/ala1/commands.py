@@ -9,13 +9,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from sondalog.ala1.cksum import cksum
 from sondalog.ala1.model import BAUD_RATES, CommandError, Unavailable, View
 from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
 from sondalog.ala1.special import TransferRequest, request
 from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
 from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
+from sondalog.protocol.cksum import cksum
 
 #: A command line is at most 120 characters (§3.4.1, §7).
 MAX_LINE = 120

@@ -19,7 +19,7 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
-from sondalog.xmodem import XmodemReceiver, XmodemSender
+from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
 
 log = logging.getLogger(__name__)
 

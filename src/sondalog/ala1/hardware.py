@@ -1,8 +1,8 @@
 """The module's hardware as the ALA1 core sees it (DESIGN.md point 4, §6.4, §6.7, §12).
 
-A backend implements :class:`Hardware`: the simulation (:mod:`sondalog.sim.logger`) and, on a
-Linux board, real inputs. The core cannot tell them apart. All times are host-clock seconds
-(the physical world's time; the module clock is the core's own business).
+A backend implements :class:`Hardware`: the simulation (:mod:`sondalog.backends.sim.logger`)
+and, on a Linux board, real inputs. The core cannot tell them apart. All times are host-clock
+seconds (the physical world's time; the module clock is the core's own business).
 
 Readings are *normalised*: the device calibration of §6.4.4 turns them into physical units
 with the factory constants (an ADC reading is a fraction of the 2.5 V internal reference; a

@@ -14,8 +14,8 @@ from decimal import Decimal
 
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.model import View
-from sondalog.ala1.tables import Curve, Surface, TableError, TableSet
 from sondalog.ala1.tokens import NUMBER_LIMIT, NumberFormat, period_seconds
+from sondalog.protocol.tables import Curve, Surface, TableError, TableSet
 
 #: Highest countable frequency of the MSP430TA input (§6.5.6.2.2).
 TIMER_MAX_HZ = 50_000.0

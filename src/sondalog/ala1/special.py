@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from sondalog.ala1.model import CommandError
 from sondalog.ala1.params import RESET_KEEPS
 from sondalog.ala1.state import ModuleState
-from sondalog.ala1.tables import TableError, parse_list
+from sondalog.protocol.tables import TableError, parse_list
 
 SUB = 0x1A
 #: First line of a sondalog program upgrade image (§6.16.4; docs/decisions.md).

@@ -21,8 +21,8 @@ from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.ala1.sampling import Outputs, Sampler
-from sondalog.ala1.tables import TableSet
 from sondalog.ala1.tokens import format_stamp, period_seconds
+from sondalog.protocol.tables import TableSet
 
 log = logging.getLogger("sondalog.ala1.state")
 

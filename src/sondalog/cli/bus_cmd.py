@@ -1,7 +1,7 @@
 """``sondalog bus ...``: serve a virtual RS-485 bus of HCTMPS1 modules, and talk to one.
 
-Parsing only (DESIGN.md point 7): the bus lives in :mod:`sondalog.bus`, the host side in
-:mod:`sondalog.client.bus`. Bad input exits with code 2, a bus that does not answer with 1.
+Parsing only (DESIGN.md point 7): the bus lives in :mod:`sondalog.world.bus` and
+:mod:`sondalog.app.bus`, the host side in :mod:`sondalog.client.bus`. Bad input exits with code 2, a bus that does not answer with 1.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from typing import TypeVar
 
 import click
 
-from sondalog.bus.serve import DEFAULT_PORT, BusServer, start_bus_server
+from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
 from sondalog.client.bus import (
     DEFAULT_HOST_ID,
@@ -28,9 +28,9 @@ from sondalog.client.bus import (
     DataFrame,
     parse_bus_url,
 )
-from sondalog.clock import make_clock
-from sondalog.hctmps1.framing import BROADCAST, FrameError, is_valid_id
-from sondalog.sim.sitefile import SiteError
+from sondalog.io.clock import make_clock
+from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id
+from sondalog.sitefile import SiteError
 
 T = TypeVar("T")
 

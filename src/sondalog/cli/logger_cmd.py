@@ -1,5 +1,5 @@
 """``sondalog logger ...``: serve a virtual ALA1 data logger (parsing only; the work is in
-:mod:`sondalog.transport.instance`)."""
+:mod:`sondalog.app.logger`)."""
 
 from __future__ import annotations
 
@@ -14,17 +14,17 @@ from serial import SerialException
 
 from sondalog.ala1 import Version
 from sondalog.ala1.hardware import Hardware
-from sondalog.cli.common import allow_remote_option, format_address, listen_option
-from sondalog.clock import Clock, make_clock
-from sondalog.sim.logger import default_hardware, load_logger_site
-from sondalog.sim.sitefile import SiteError
-from sondalog.transport import DEFAULT_PORT
-from sondalog.transport.instance import (
+from sondalog.app.logger import (
     IdentityConflict,
     serve_until,
     start_logger,
     valid_serial_number,
 )
+from sondalog.backends.sim.logger import default_hardware, load_logger_site
+from sondalog.cli.common import allow_remote_option, format_address, listen_option
+from sondalog.io import DEFAULT_PORT
+from sondalog.io.clock import Clock, make_clock
+from sondalog.sitefile import SiteError
 
 
 class _Refused(click.ClickException):

@@ -38,8 +38,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 
-from sondalog.ala1.cksum import cksum
 from sondalog.client.endpoints import Endpoint, parse_url
+from sondalog.protocol.cksum import cksum
 
 #: §3.4.1: the module keeps at most this many characters of a command line.
 MAX_LINE = 120

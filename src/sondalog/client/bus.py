@@ -21,8 +21,14 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 from urllib.parse import parse_qs, urlsplit
 
-from sondalog.hctmps1.framing import BROADCAST, Frame, FrameDecoder, encode_frame, is_valid_id
-from sondalog.hctmps1.module import slot_time
+from sondalog.protocol.hctmps1_frames import (
+    BROADCAST,
+    Frame,
+    FrameDecoder,
+    encode_frame,
+    is_valid_id,
+    slot_time,
+)
 
 log = logging.getLogger(__name__)
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 from urllib.parse import parse_qs, unquote, urlsplit
 
-from sondalog.transport.serialports import serial_8n1
+from sondalog.io.serial_ports import serial_8n1
 
 _P = TypeVar("_P", bound=asyncio.Protocol)
 

@@ -11,7 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.ala1.tables import (
+from sondalog.client.ala1 import Ala1Client
+from sondalog.client.transfer import Progress, TransferFailed, download, upload
+from sondalog.protocol.tables import (
     Surface,
     TableError,
     build_files,
@@ -19,8 +21,6 @@ from sondalog.ala1.tables import (
     parse_table,
     split_tables,
 )
-from sondalog.client.ala1 import Ala1Client
-from sondalog.client.transfer import Progress, TransferFailed, download, upload
 
 MAX_NAME = 10
 

@@ -1,6 +1,6 @@
 """XMODEM transfers with a logger over any client connection (§6.16).
 
-The command goes out as a line; then the pure XMODEM peer (:mod:`sondalog.xmodem`) runs on
+The command goes out as a line; then the pure XMODEM peer (:mod:`sondalog.protocol.xmodem`) runs on
 the same connection with the event loop's clock; then the logger's final answer (``OK`` or
 the error response) is read.
 """
@@ -11,7 +11,7 @@ import asyncio
 from collections.abc import Callable
 
 from sondalog.client.ala1 import Ala1Client, ClientError
-from sondalog.xmodem import XmodemReceiver, XmodemSender
+from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
 
 Progress = Callable[[int, int], None]
 _ACK, _CAN = 0x06, 0x18

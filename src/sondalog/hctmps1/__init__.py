@@ -2,20 +2,10 @@
 
 The pure module core (:class:`Hctmps1Module`), its framing (:func:`encode_frame`,
 :class:`FrameDecoder`), the two variants and the EEPROM image. Transports live in
-:mod:`sondalog.bus`. Behaviour: ``shared/spec/hctmps1.md`` and the seed command table.
+:mod:`sondalog.world.bus` and :mod:`sondalog.io`. Behaviour: docs/hctmps1.md.
 """
 
-from sondalog.hctmps1.crc import crc16_modbus
 from sondalog.hctmps1.eeprom import EepromImage, EepromStore, MemoryEeprom
-from sondalog.hctmps1.framing import (
-    BROADCAST,
-    Frame,
-    FrameDecoder,
-    FrameError,
-    encode_frame,
-    is_valid_id,
-    parse_frame,
-)
 from sondalog.hctmps1.module import (
     COMMAND_NAMES,
     CONNECT_COMMANDS,
@@ -24,9 +14,19 @@ from sondalog.hctmps1.module import (
     Hctmps1Module,
     ModuleConfig,
     Output,
-    slot_time,
 )
 from sondalog.hctmps1.variants import HUM, TEMP, Kind, SensorSource, Variant, variant_for
+from sondalog.protocol.hctmps1_frames import (
+    BROADCAST,
+    Frame,
+    FrameDecoder,
+    FrameError,
+    encode_frame,
+    is_valid_id,
+    parse_frame,
+    slot_time,
+)
+from sondalog.protocol.modbus_crc import crc16_modbus
 
 __all__ = [
     "BROADCAST",

@@ -3,7 +3,7 @@
 The EEPROM holds the module ID, the password, the supervisor list and the measured
 variable's symbol. The core reads it at power-up and on ``REINIT`` and writes it on
 ``SAVEEE`` through an :class:`EepromStore`; :class:`MemoryEeprom` keeps it in memory (tests,
-a bus without ``--state``), :class:`sondalog.storage.eeprom.SqliteEeprom` in SQLite.
+a bus without ``--state``), :class:`sondalog.backends.store.eeprom.SqliteEeprom` in SQLite.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The HCTMPS1 module core: bytes and time in, bytes and the next deadline out.
 
 This is the sans-I/O heart of the sensor server (DESIGN.md points 1 and 2). A transport (the
-virtual RS-485 bus of :mod:`sondalog.bus`) hands every received chunk of bytes and the current
+virtual RS-485 bus of :mod:`sondalog.world.bus`) hands every received chunk of bytes and the current
 clock time to :meth:`Hctmps1Module.handle`; it gets back the bytes to transmit now and the
 time at which the module wants to be called again (a measurement completing, a delayed
 broadcast reply falling due). The module never reads a clock, never sleeps and never touches
@@ -25,8 +25,14 @@ from sondalog.hctmps1.eeprom import (
     EepromImage,
     EepromStore,
 )
-from sondalog.hctmps1.framing import Frame, FrameDecoder, encode_frame, is_valid_id
 from sondalog.hctmps1.variants import SensorSource, Variant
+from sondalog.protocol.hctmps1_frames import (
+    Frame,
+    FrameDecoder,
+    encode_frame,
+    is_valid_id,
+    slot_time,
+)
 
 log = logging.getLogger(__name__)
 
@@ -43,8 +49,6 @@ QUEUE_MAX = 32
 MAX_TEMPORARY = 8
 #: A broadcast is answered after 0 to ``BROADCAST_SLOTS - 1`` frame slots (§2).
 BROADCAST_SLOTS = 16
-#: A slot is the time of one frame of this many bytes (§2).
-SLOT_BYTES = 80
 #: Measurement cycle (§4 "Values").
 DEFAULT_CYCLE = 10.0
 
@@ -65,11 +69,6 @@ def is_valid_password(text: str) -> bool:
 def is_valid_symbol(text: str) -> bool:
     """1 to 8 characters of ``A-Z a-z 0-9 _`` (§4)."""
     return 1 <= len(text) <= 8 and all(c in _SYMBOL_CHARS for c in text)
-
-
-def slot_time(baud: int) -> float:
-    """Seconds of one broadcast reply slot: an 80-byte frame of 10-bit bytes (§2)."""
-    return SLOT_BYTES * 10 / baud
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,8 +9,8 @@ value becomes the text of ``RPV.{value}``:
   one decimal (``48.5``).
 
 The signal itself comes from a :class:`SensorSource`, a callable giving the physical value at
-a time, so the simulated signals of :mod:`sondalog.sim.signals` and a Linux hardware backend
-are interchangeable (DESIGN.md point 4).
+a time, so the simulated signals of :mod:`sondalog.backends.sim.signals` and a Linux
+hardware backend are interchangeable (DESIGN.md point 4).
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from sondalog.hctmps1.crc import crc16_modbus
+from sondalog.protocol.modbus_crc import crc16_modbus
 
 #: Broadcast destination (§2).
 BROADCAST = "*"
@@ -137,3 +137,12 @@ def _parse_resync(line: bytes) -> Frame | None:
             return frame
         start = line.find(b":", start + 1)
     return None
+
+
+#: A slot is the time of one frame of this many bytes (§2).
+SLOT_BYTES = 80
+
+
+def slot_time(baud: int) -> float:
+    """Seconds of one broadcast reply slot: an 80-byte frame of 10-bit bytes (§2)."""
+    return SLOT_BYTES * 10 / baud

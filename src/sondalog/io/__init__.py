@@ -5,7 +5,7 @@ engine's timers; :func:`serve_tcp` attaches TCP connections to it, one line per 
 (§6.11.5.2.4: the ALA GPRS modem's TCP server on port 10001).
 """
 
-from sondalog.transport.runner import EngineHost, Sink
-from sondalog.transport.tcp import DEFAULT_PORT, TcpServer, serve_tcp
+from sondalog.io.host import EngineHost, Sink
+from sondalog.io.tcp import DEFAULT_PORT, TcpServer, serve_tcp
 
 __all__ = ["DEFAULT_PORT", "EngineHost", "Sink", "TcpServer", "serve_tcp"]

@@ -14,7 +14,7 @@ A site file is TOML. The bus reads its ``[bus]`` table and ignores other top-lev
     cycle = 10.0       # optional measurement cycle, seconds
     signal = { model = "sine", mean = 21.0, amplitude = 2.0, period = 86400 }
 
-The signal tables are those of :mod:`sondalog.sim.signals`. A wrong file is rejected with a
+The signal tables are those of :mod:`sondalog.backends.sim.signals`. A wrong file is rejected with a
 :class:`SiteError` naming the file, the field and, where it can be found, the line.
 """
 
@@ -24,11 +24,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.hctmps1.framing import is_valid_id
+from sondalog.backends.sim.signals import Signal, SignalError, build_signal
 from sondalog.hctmps1.module import DEFAULT_CYCLE
 from sondalog.hctmps1.variants import Kind, variant_for
-from sondalog.sim.signals import Signal, SignalError, build_signal
-from sondalog.sim.sitefile import SiteError, locate, read_site_file
+from sondalog.protocol.hctmps1_frames import is_valid_id
+from sondalog.sitefile import SiteError, locate, read_site_file
 
 _BUS_KEYS = {"baud", "noise", "seed", "modules"}
 _MODULE_KEYS = {"id", "kind", "cycle", "signal"}

@@ -1,6 +1,6 @@
 """Generate ``docs/protocol.md`` from the parameter table (DESIGN.md point 3).
 
-Run ``python -m sondalog.ala1.docgen > docs/protocol.md`` (``make docs``); a test keeps the
+Run ``python -m sondalog.app.docgen > docs/protocol.md`` (``make docs``); a test keeps the
 committed file in sync with the table.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 from sondalog.ala1.model import LIMITS, Identity, Version
 from sondalog.ala1.params import INDEX_SPECS, LEAVES, Leaf
 from sondalog.ala1.state import ModuleState
-from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 
 _ACCESS = {"R": "read", "W": "write", "RW": "read/write"}
 

@@ -5,12 +5,13 @@ from __future__ import annotations
 import random
 from pathlib import Path
 
-from sondalog.bus.core import BusCore
+from sondalog.backends.sim.site_bus import BusSite
+from sondalog.backends.store.eeprom import EepromDatabase
 from sondalog.hctmps1.eeprom import EepromStore, MemoryEeprom
-from sondalog.hctmps1.module import Hctmps1Module, ModuleConfig, slot_time
+from sondalog.hctmps1.module import Hctmps1Module, ModuleConfig
 from sondalog.hctmps1.variants import variant_for
-from sondalog.sim.site_bus import BusSite
-from sondalog.storage.eeprom import EepromDatabase
+from sondalog.protocol.hctmps1_frames import slot_time
+from sondalog.world.bus import BusCore
 
 DEFAULT_BAUD = 9600
 

@@ -10,10 +10,10 @@ from pathlib import Path
 
 from sondalog.ala1.engine import Engine
 from sondalog.ala1.model import Identity, Version
-from sondalog.clock import SteppedClock
-from sondalog.sim.logger import SimHardware, default_hardware, load_logger_site
-from sondalog.sim.signals import Signal
-from sondalog.storage.ala1_nv import SqliteNvStore
+from sondalog.backends.sim.logger import SimHardware, default_hardware, load_logger_site
+from sondalog.backends.sim.signals import Signal
+from sondalog.backends.store.ala1_nv import SqliteNvStore
+from sondalog.io.clock import SteppedClock
 
 #: Host-clock start of a virtual logger's world (any fixed value; the module clock is set
 #: with ``write date``).
@@ -71,7 +71,7 @@ class VirtualLogger:
         return b"".join(o.data for o in self.engine.advance(now) if o.line == self.line)
 
     def set_signal(self, what: str, signal: Signal | float) -> None:
-        """Change the world: see :meth:`sondalog.sim.logger.SimHardware.set_signal`."""
+        """Change the world: see :meth:`sondalog.backends.sim.logger.SimHardware.set_signal`."""
         self.hardware.set_signal(what, signal)
 
     def write_file(self, area: str, data: bytes) -> None:

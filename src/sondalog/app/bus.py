@@ -1,7 +1,7 @@
 """``sondalog bus serve``: a virtual RS-485 bus with its modules and ports (the library side).
 
 :func:`start_bus_server` loads the site (or the default ``T1`` + ``H1``), opens the EEPROM
-database in the state directory, puts the modules on a :class:`~sondalog.bus.core.BusCore`,
+database in the state directory, puts the modules on a :class:`~sondalog.world.bus.BusCore`,
 runs it on the clock and opens the ports: TCP always, a pty and a serial line on request.
 """
 
@@ -13,13 +13,13 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.bus.build import build_bus
-from sondalog.bus.core import BusCore
-from sondalog.bus.ports import PtyPort, open_serial, serve_tcp
-from sondalog.bus.runner import VirtualBus
-from sondalog.clock import Clock
-from sondalog.sim.site_bus import default_bus_site, load_bus_site
-from sondalog.storage.eeprom import EepromDatabase
+from sondalog.app.bus_build import build_bus
+from sondalog.backends.sim.site_bus import default_bus_site, load_bus_site
+from sondalog.backends.store.eeprom import EepromDatabase
+from sondalog.io.bus_ports import PtyPort, open_serial, serve_tcp
+from sondalog.io.bus_runner import VirtualBus
+from sondalog.io.clock import Clock
+from sondalog.world.bus import BusCore
 
 log = logging.getLogger(__name__)
 
@@ -71,7 +71,7 @@ async def start_bus_server(
     noise: float | None = None,
     seed: int | None = None,
 ) -> BusServer:
-    """Start a bus; raises :class:`~sondalog.sim.site_bus.SiteError` for a bad site file."""
+    """Start a bus; raises :class:`~sondalog.sitefile.SiteError` for a bad site file."""
     now = clock.now()
     bus_site = load_bus_site(site, now) if site is not None else default_bus_site(now)
     core, database = build_bus(bus_site, now, baud, state_dir, noise, seed)

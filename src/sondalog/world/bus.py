@@ -1,6 +1,6 @@
 """The virtual bus as a discrete-event model: a medium, modules and host ports (pure).
 
-:class:`BusCore` owns a :class:`~sondalog.bus.medium.Medium` and the
+:class:`BusCore` owns a :class:`~sondalog.world.medium.Medium` and the
 :class:`~sondalog.hctmps1.Hctmps1Module` cores attached to it. Hosts reach it through *ports*
 (node numbers): :meth:`BusCore.write` puts a host's bytes on the line, :meth:`BusCore.advance`
 runs every event up to a time, in time order and each at its own time, and returns what the
@@ -17,8 +17,8 @@ import random
 from collections import defaultdict
 from dataclasses import dataclass
 
-from sondalog.bus.medium import Medium
 from sondalog.hctmps1.module import Hctmps1Module
+from sondalog.world.medium import Medium
 
 #: Module reply turnaround, seconds (docs/hctmps1.md "Decisions").
 DEFAULT_TURNAROUND = 0.002

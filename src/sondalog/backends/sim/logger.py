@@ -27,8 +27,8 @@ The ``[logger]`` part of a site file (TOML) describes what is wired to the modul
     signal = { model = "constant", value = 18 }   # channel type 12
     credit = { model = "ramp", start = 250, rate = -0.001 }  # channel type 11
 
-Signals are those of :mod:`sondalog.sim.signals`, evaluated at host-clock time. A wrong file
-is rejected with a :class:`~sondalog.sim.site_bus.SiteError` naming file, line and field.
+Signals are those of :mod:`sondalog.backends.sim.signals`, evaluated at host-clock time. A
+wrong file is rejected with a :class:`~sondalog.sitefile.SiteError` naming file, line and field.
 """
 
 from __future__ import annotations
@@ -47,8 +47,8 @@ from sondalog.ala1.hardware import (
     rom_code,
     rom_valid,
 )
-from sondalog.sim.signals import Signal, SignalError, build_signal, constant
-from sondalog.sim.sitefile import SiteError, locate, read_site_file
+from sondalog.backends.sim.signals import Signal, SignalError, build_signal, constant
+from sondalog.sitefile import SiteError, locate, read_site_file
 
 INTERNAL_REFERENCE = 2.5
 ADC_LEVELS = 4095

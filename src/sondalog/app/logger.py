@@ -18,12 +18,12 @@ from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.hardware import Hardware
-from sondalog.clock import Clock
-from sondalog.storage.ala1_nv import SqliteNvStore
-from sondalog.transport.ptyline import PtyLine
-from sondalog.transport.runner import EngineHost
-from sondalog.transport.serialline import SerialLine
-from sondalog.transport.tcp import TcpServer, serve_tcp
+from sondalog.backends.store.ala1_nv import SqliteNvStore
+from sondalog.io.clock import Clock
+from sondalog.io.host import EngineHost
+from sondalog.io.pty import PtyLine
+from sondalog.io.serial_line import SerialLine
+from sondalog.io.tcp import TcpServer, serve_tcp
 
 IDENTITY_FILE = "identity.json"
 DATABASE_FILE = "ala1.sqlite"

@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 import logging
 
-from sondalog.transport.runner import EngineHost
+from sondalog.io.host import EngineHost
 
 log = logging.getLogger(__name__)
 

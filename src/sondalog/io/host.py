@@ -1,6 +1,6 @@
 """Drive one pure ALA1 engine from asyncio (DESIGN.md points 1, 2 and 6).
 
-The host owns the :class:`~sondalog.ala1.Engine` and a :class:`~sondalog.clock.Clock`. It
+The host owns the :class:`~sondalog.ala1.Engine` and a :class:`~sondalog.io.clock.Clock`. It
 passes ``clock.now()`` with every call, routes each :class:`~sondalog.ala1.Output` to the sink
 of its line, and runs a timer task that sleeps until :meth:`Engine.next_deadline` and then
 calls :meth:`Engine.advance` (``pause`` headers, §8.5.1; the 60 s entry timeout, §3.4.5). The
@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 from sondalog.ala1 import Engine, Output
-from sondalog.clock import Clock
+from sondalog.io.clock import Clock
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """External ports of the virtual bus: TCP gateway, pty with a stable symlink, serial line.
 
-Each is a thin adapter between a byte stream and a :class:`~sondalog.bus.runner.BusPort`.
+Each is a thin adapter between a byte stream and a :class:`~sondalog.io.bus_runner.BusPort`.
 Every TCP connection is its own node on the bus, as if each client had its own TCP-to-RS-485
 gateway: it does not hear its own bytes, but hears every other node, other hosts included.
 """
@@ -14,8 +14,8 @@ import logging
 import os
 from pathlib import Path
 
-from sondalog.bus.runner import BusPort, VirtualBus
-from sondalog.transport.serialports import PtyLink
+from sondalog.io.bus_runner import BusPort, VirtualBus
+from sondalog.io.serial_ports import PtyLink
 
 log = logging.getLogger(__name__)
 

@@ -21,8 +21,8 @@ import logging
 from typing import Any
 
 from sondalog.ala1 import Output
-from sondalog.transport.runner import EngineHost
-from sondalog.transport.serialports import serial_8n1
+from sondalog.io.host import EngineHost
+from sondalog.io.serial_ports import serial_8n1
 
 log = logging.getLogger(__name__)
 

@@ -11,7 +11,7 @@ the master is polled every :data:`HANGUP_POLL` seconds for a new host.
 
 Baud rate: a pty carries bytes at any rate, so the host's setting is read from the slave
 (``TCGETS2``) whenever bytes arrive. When it differs from the module's ``com speed`` the
-module receives garbage, as on a real line (:func:`~sondalog.transport.serialports.garble`).
+module receives garbage, as on a real line (:func:`~sondalog.io.serial_ports.garble`).
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ import os
 import select
 from pathlib import Path
 
-from sondalog.transport.runner import EngineHost
-from sondalog.transport.serialports import PtyLink, garble, host_speed
+from sondalog.io.host import EngineHost
+from sondalog.io.serial_ports import PtyLink, garble, host_speed
 
 log = logging.getLogger(__name__)
 

@@ -1,4 +1,4 @@
-"""Run a :class:`~sondalog.bus.core.BusCore` on a clock, with asyncio ports (DESIGN.md 1, 2).
+"""Run a :class:`~sondalog.world.bus.BusCore` on a clock, with asyncio ports (DESIGN.md 1, 2).
 
 :class:`VirtualBus` is the thin asyncio adapter: it sleeps on the clock until the core's next
 deadline or until a port writes, runs the core up to the clock's time and hands received bytes
@@ -16,8 +16,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from sondalog.bus.core import BusCore
-from sondalog.clock import Clock
+from sondalog.io.clock import Clock
+from sondalog.world.bus import BusCore
 
 log = logging.getLogger(__name__)
 

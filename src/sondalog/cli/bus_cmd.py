@@ -1,7 +1,8 @@
 """``sondalog bus ...``: serve a virtual RS-485 bus of HCTMPS1 modules, and talk to one.
 
 Parsing only (DESIGN.md point 7): the bus lives in :mod:`sondalog.world.bus` and
-:mod:`sondalog.app.bus`, the host side in :mod:`sondalog.client.bus`. Bad input exits with code 2, a bus that does not answer with 1.
+:mod:`sondalog.app.bus`, the host side in :mod:`sondalog.client.bus`. Bad input exits with
+code 2, a bus that does not answer with 1.
 """
 
 from __future__ import annotations

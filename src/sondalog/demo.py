@@ -15,8 +15,8 @@ from pathlib import Path
 
 from sondalog.app.logger import Logger, start_logger
 from sondalog.client import Ala1Client, Request, Response
-from sondalog.io import DEFAULT_PORT
 from sondalog.io.clock import RealClock
+from sondalog.io.tcp import DEFAULT_PORT
 
 STATE_DIR = Path("state/demo")
 HOST = "127.0.0.1"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from conftest import T0, Module
 
-from sondalog.ala1 import Output
+from sondalog.protocol.device import LineSend as Output
 
 
 class PacedLine:

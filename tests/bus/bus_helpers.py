@@ -11,7 +11,6 @@ real I/O.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import random
 import select
 import selectors
@@ -23,7 +22,8 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from sondalog.hctmps1 import HUM, TEMP, Hctmps1Module, MemoryEeprom, ModuleConfig, slot_time
-from sondalog.io.bus_runner import LoopClock, VirtualBus
+from sondalog.io.clock import LoopClock
+from sondalog.io.host import DeviceHost
 from sondalog.world.bus import BusCore
 
 T = TypeVar("T")
@@ -80,16 +80,11 @@ def make_module(
     )
 
 
-async def start_bus(core: BusCore) -> tuple[VirtualBus, asyncio.Task[None]]:
-    """Run ``core`` on the loop's clock (started at START)."""
-    bus = VirtualBus(core, LoopClock(START))
-    return bus, asyncio.create_task(bus.run())
-
-
-async def stop(task: asyncio.Task[None]) -> None:
-    task.cancel()
-    with contextlib.suppress(asyncio.CancelledError):
-        await task
+async def start_bus(core: BusCore) -> DeviceHost:
+    """Serve ``core`` with the runtime on the loop's clock (started at START)."""
+    host = DeviceHost(core, LoopClock(START))
+    host.start()
+    return host
 
 
 class ServedBus:

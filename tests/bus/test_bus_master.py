@@ -5,12 +5,12 @@ from __future__ import annotations
 import asyncio
 
 import pytest
-from bus_helpers import START, make_module, ramp, run_virtual, start_bus, stop
+from bus_helpers import START, make_module, ramp, run_virtual, start_bus
 
 from sondalog.client.bus import BusMaster, NoReply
 from sondalog.hctmps1 import encode_frame
-from sondalog.io.bus_runner import VirtualBus
 from sondalog.io.clock import SteppedClock
+from sondalog.io.host import DeviceHost
 from sondalog.world.bus import DEFAULT_TURNAROUND, BusCore
 
 
@@ -19,10 +19,10 @@ def test_scan_finds_ten_modules_despite_collisions() -> None:
         core = BusCore(9600)
         for i in range(10):
             core.add_module(make_module(f"M{i}", seed=100 + i, humidity=i % 2 == 1))
-        bus, task = await start_bus(core)
-        async with BusMaster(bus.open_port()) as master:
+        bus = await start_bus(core)
+        async with BusMaster(bus.link()) as master:
             found = await master.scan()
-        await stop(task)
+        await bus.stop()
         return found, core.medium.collisions
 
     found, collisions = run_virtual(main)
@@ -38,10 +38,10 @@ def test_scan_is_complete_for_other_seeds(seed: int) -> None:
         core = BusCore(9600)
         for i in range(10):
             core.add_module(make_module(f"S{i}", seed=seed * 1000 + i))
-        bus, task = await start_bus(core)
-        async with BusMaster(bus.open_port()) as master:
+        bus = await start_bus(core)
+        async with BusMaster(bus.link()) as master:
             found = await master.scan()
-        await stop(task)
+        await bus.stop()
         return found
 
     assert len(run_virtual(main)) == 10
@@ -55,9 +55,9 @@ def test_polling_32_modules_collects_every_queued_frame_exactly_once() -> None:
         ids = [f"N{i:02d}" for i in range(32)]
         for i, mid in enumerate(ids):
             core.add_module(make_module(mid, seed=i, signal=ramp(0.1 + i / 100)))
-        bus, task = await start_bus(core)
+        bus = await start_bus(core)
         expected: dict[str, list[str]] = {mid: [] for mid in ids}
-        async with BusMaster(bus.open_port()) as master:
+        async with BusMaster(bus.link()) as master:
             for mid in ids:
                 assert await master.csservon(mid, "PC")
                 assert await master.csservon(mid, "LOG1")
@@ -70,7 +70,7 @@ def test_polling_32_modules_collects_every_queued_frame_exactly_once() -> None:
                 expected[mid] = [q.body[len("RPV.") :] for q in module.queue]
             frames = await master.poll(ids)
             assert all(not core.module(mid).queue for mid in ids)
-        await stop(task)
+        await bus.stop()
         got: dict[str, list[str]] = {mid: [] for mid in ids}
         for frame in frames:
             got[frame.module].append(frame.value)
@@ -87,8 +87,8 @@ def test_typed_helpers_round_trip() -> None:
         core = BusCore(9600)
         core.add_module(make_module("T1", seed=1))
         core.add_module(make_module("H1", seed=2, humidity=True, signal=lambda t: 48.5))
-        bus, task = await start_bus(core)
-        async with BusMaster(bus.open_port(), "HOST") as m:
+        bus = await start_bus(core)
+        async with BusMaster(bus.link(), "HOST") as m:
             assert await m.hello("H1") == "HCTMPS1-hum server (SHT11)"
             assert await m.getver("T1") == "HVER*1_00*V-2013.SVER*1_1*VI-2018"
             assert await m.pv("T1") == 21.5
@@ -130,7 +130,7 @@ def test_typed_helpers_round_trip() -> None:
                 await m.listsup("T5")
             assert not await m.connect("T5", "0000")  # the saved password is pw2
             assert await m.connect("T5", "pw2")
-        await stop(task)
+        await bus.stop()
 
     run_virtual(main)
 
@@ -139,16 +139,16 @@ def test_retries_recover_from_a_lost_reply() -> None:
     async def main() -> tuple[str, int]:
         core = BusCore(9600)
         core.add_module(make_module("T1", seed=1))
-        bus, task = await start_bus(core)
-        jammer = bus.open_port()
+        bus = await start_bus(core)
+        jammer = bus.link()
         request = encode_frame("T1", "PC", "HELLO")
         # Another node talks over the module's first answer; the retry gets through.
         reply_starts = len(request) * 10 / 9600 + DEFAULT_TURNAROUND
         loop = asyncio.get_running_loop()
         loop.call_later(reply_starts + 0.005, jammer.write, b"\x00" * 8)
-        async with BusMaster(bus.open_port()) as master:
+        async with BusMaster(bus.link()) as master:
             text = await master.hello("T1")
-        await stop(task)
+        await bus.stop()
         return text, core.medium.collisions
 
     text, collisions = run_virtual(main)
@@ -160,10 +160,10 @@ def test_noise_on_the_line_is_survived_with_retries() -> None:
     async def main() -> list[float]:
         core = BusCore(9600, bit_error_rate=2e-4)
         core.add_module(make_module("T1", seed=1))
-        bus, task = await start_bus(core)
-        async with BusMaster(bus.open_port(), retries=5) as master:
+        bus = await start_bus(core)
+        async with BusMaster(bus.link(), retries=5) as master:
             values = [await master.pv("T1") for _ in range(50)]
-        await stop(task)
+        await bus.stop()
         assert core.medium.bit_errors > 0
         return values
 
@@ -175,11 +175,10 @@ def test_bus_runs_on_a_stepped_clock() -> None:
         clock = SteppedClock(START)
         core = BusCore(9600)
         core.add_module(make_module("T1", seed=1))
-        bus = VirtualBus(core, clock)
-        task = asyncio.create_task(bus.run())
-        port = bus.open_port()
+        bus = DeviceHost(core, clock)
+        bus.start()
         chunks: list[bytes] = []
-        port.on_data = chunks.append
+        port = bus.link(chunks.append)
         port.write(encode_frame("*", "PC", "HELLO"))
         for _ in range(20):
             await asyncio.sleep(0)
@@ -189,6 +188,6 @@ def test_bus_runs_on_a_stepped_clock() -> None:
             for _ in range(5):
                 await asyncio.sleep(0)
         assert b"".join(chunks) == encode_frame("PC", "T1", "RHELLO.HCTMPS1-temp server (DS18B20)")
-        await stop(task)
+        await bus.stop()
 
     asyncio.run(main())

@@ -88,8 +88,8 @@ def test_reply_timing_on_the_bus_core() -> None:
     reply = encode_frame("PC", "T1", "RHELLO.HCTMPS1-temp server (DS18B20)")
     bt = 10 / 9600
     arrival = START + len(request) * bt + DEFAULT_TURNAROUND + len(reply) * bt
-    assert core.advance(arrival - 1e-6) == {}
-    assert core.advance(arrival + 1e-9) == {host: reply}
+    assert core.run_until(arrival - 1e-6) == {}
+    assert core.run_until(arrival + 1e-9) == {host: reply}
 
 
 def test_a_host_does_not_hear_itself_but_hears_other_hosts() -> None:
@@ -97,7 +97,7 @@ def test_a_host_does_not_hear_itself_but_hears_other_hosts() -> None:
     one, two = core.add_port(), core.add_port()
     data = encode_frame("XX", "PC", "HELLO")
     core.write(one, data, START)
-    assert core.advance(START + 1) == {two: data}
+    assert core.run_until(START + 1) == {two: data}
 
 
 def test_modules_ignore_each_others_replies() -> None:
@@ -106,6 +106,6 @@ def test_modules_ignore_each_others_replies() -> None:
     core.add_module(make_module("T2", seed=2))
     host = core.add_port()
     core.write(host, encode_frame("T1", "PC", "PV"), START)
-    got = core.advance(START + 1)
+    got = core.run_until(START + 1)
     assert got == {host: encode_frame("PC", "T1", "RPV.21.50")}
     assert core.medium.collisions == 0

@@ -19,6 +19,7 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
+from sondalog.protocol.device import Event, LineSend
 from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
 
 log = logging.getLogger(__name__)
@@ -41,15 +42,6 @@ class _Transfer:
     peer: XmodemSender | XmodemReceiver
     speed: int | None
     grace_until: float | None = None  # set once the transfer is over
-
-
-@dataclass(slots=True)
-class Output:
-    """Bytes for one line, and the baud rate they were paced at (None: unpaced)."""
-
-    line: int
-    data: bytes
-    baud: int | None = None
 
 
 @dataclass
@@ -111,8 +103,17 @@ class Engine:
     def com_speed(self) -> int:
         return int(self.state.get("com speed"))
 
+    def line_speed(self) -> int:
+        """§6.11.2: every line of the module runs at ``com speed``."""
+        return self.com_speed
+
+    def handle(self, event: Event, now: float) -> list[LineSend]:
+        """Typed events (messages and the modem add theirs); none are known yet."""
+        log.warning("event %r not handled by the ALA1 engine", event)
+        return []
+
     # -- input -----------------------------------------------------------------------------
-    def receive(self, line_id: int, data: bytes, now: float) -> list[Output]:
+    def receive(self, line_id: int, data: bytes, now: float) -> list[LineSend]:
         """Bytes received on a line at time ``now``; returns what to send now."""
         line = self._lines[line_id]
         self.state.run_sampling(now)
@@ -128,7 +129,7 @@ class Engine:
             self._feed(line_id, line, data, now)
         return self._drain(now)
 
-    def advance(self, now: float) -> list[Output]:
+    def advance(self, now: float) -> list[LineSend]:
         """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
         self.state.run_sampling(now)
         for line_id, line in list(self._lines.items()):
@@ -159,11 +160,11 @@ class Engine:
         return min(deadlines, default=None)
 
     # -- internals ---------------------------------------------------------------------------
-    def _drain(self, now: float) -> list[Output]:
+    def _drain(self, now: float) -> list[LineSend]:
         out = []
         for line_id, line in self._lines.items():
             for data, baud in line.pacer.take(now):
-                out.append(Output(line_id, data, baud))
+                out.append(LineSend(line_id, data, baud))
         return out
 
     def _send(self, line: _Line, data: bytes, now: float, baud: int | None = None) -> None:

@@ -1,13 +1,15 @@
-"""``sondalog bus serve``: a virtual RS-485 bus with its modules and ports (the library side).
+"""``sondalog bus serve``: a virtual RS-485 bus with its modules and ports (the wiring).
 
 :func:`start_bus_server` loads the site (or the default ``T1`` + ``H1``), opens the EEPROM
 database in the state directory, puts the modules on a :class:`~sondalog.world.bus.BusCore`,
-runs it on the clock and opens the ports: TCP always, a pty and a serial line on request.
+serves it with the one runtime (:class:`~sondalog.io.host.DeviceHost`) and opens the lines:
+TCP always (each connection its own node, as if each client had its own TCP-to-RS-485
+gateway: it does not hear its own bytes, but hears every other node), a pty and a serial line
+on request.
 """
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import logging
 from dataclasses import dataclass
@@ -16,9 +18,11 @@ from pathlib import Path
 from sondalog.app.bus_build import build_bus
 from sondalog.backends.sim.site_bus import default_bus_site, load_bus_site
 from sondalog.backends.store.eeprom import EepromDatabase
-from sondalog.io.bus_ports import PtyPort, open_serial, serve_tcp
-from sondalog.io.bus_runner import VirtualBus
 from sondalog.io.clock import Clock
+from sondalog.io.host import DeviceHost
+from sondalog.io.pty import PtyLine
+from sondalog.io.serial_line import SerialLine
+from sondalog.io.tcp import TcpServer, serve_tcp
 from sondalog.world.bus import BusCore
 
 log = logging.getLogger(__name__)
@@ -32,29 +36,24 @@ class BusServer:
     """A running bus and everything attached to it."""
 
     core: BusCore
-    bus: VirtualBus
-    server: asyncio.Server
-    runner: asyncio.Task[None]
+    host: DeviceHost
+    server: TcpServer
     database: EepromDatabase | None
-    pty: PtyPort | None = None
-    serial: asyncio.Task[None] | None = None
+    pty: PtyLine | None = None
+    serial: SerialLine | None = None
 
     @property
     def address(self) -> tuple[str, int]:
-        host, port = self.server.sockets[0].getsockname()[:2]
-        return str(host), int(port)
+        return self.server.address
 
     async def close(self) -> None:
-        self.server.close()
         with contextlib.suppress(Exception):
-            await asyncio.wait_for(self.server.wait_closed(), 1.0)
+            await self.server.close()
         if self.pty is not None:
             self.pty.close()
-        for task in (self.serial, self.runner):
-            if task is not None:
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError, Exception):
-                    await task
+        if self.serial is not None:
+            await self.serial.close()
+        await self.host.stop()
         if self.database is not None:
             self.database.close()
 
@@ -75,22 +74,21 @@ async def start_bus_server(
     now = clock.now()
     bus_site = load_bus_site(site, now) if site is not None else default_bus_site(now)
     core, database = build_bus(bus_site, now, baud, state_dir, noise, seed)
-    bus = VirtualBus(core, clock)
-    runner = asyncio.create_task(bus.run(), name="bus")
-    server: asyncio.Server | None = None
+    host = DeviceHost(core, clock)
+    host.start()
     running: BusServer | None = None
     try:
-        server = await serve_tcp(bus, *listen)
-        running = BusServer(core, bus, server, runner, database)
+        running = BusServer(core, host, await serve_tcp(host, *listen), database)
         if pty is not None:
-            running.pty = PtyPort(bus, pty)
+            running.pty = PtyLine(host, pty, keep_slave=True)
         if serial is not None:
-            running.serial = await open_serial(bus, serial, core.baud)
+            running.serial = SerialLine(host, serial)
+            await running.serial.open()
     except BaseException:
         if running is not None:
             await running.close()
         else:
-            runner.cancel()
+            await host.stop()
             if database is not None:
                 database.close()
         raise

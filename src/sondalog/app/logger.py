@@ -20,7 +20,7 @@ from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.hardware import Hardware
 from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.io.clock import Clock
-from sondalog.io.host import EngineHost
+from sondalog.io.host import DeviceHost
 from sondalog.io.pty import PtyLine
 from sondalog.io.serial_line import SerialLine
 from sondalog.io.tcp import TcpServer, serve_tcp
@@ -80,7 +80,7 @@ class Logger:
 
     identity: Identity
     store: SqliteNvStore
-    host: EngineHost
+    host: DeviceHost
     servers: list[TcpServer]
     ptys: list[PtyLine] = field(default_factory=list)
     serials: list[SerialLine] = field(default_factory=list)
@@ -121,7 +121,7 @@ async def start_logger(
     logger: Logger | None = None
     try:
         engine = Engine(identity, store, clock.now(), hardware)
-        host = EngineHost(engine, clock)
+        host = DeviceHost(engine, clock)
         logger = Logger(identity, store, host, [])
         logger.servers.append(await serve_tcp(host, *listen, paced=line_rate))
         for path in ptys:

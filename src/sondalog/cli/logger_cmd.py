@@ -22,8 +22,8 @@ from sondalog.app.logger import (
 )
 from sondalog.backends.sim.logger import default_hardware, load_logger_site
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
-from sondalog.io import DEFAULT_PORT
 from sondalog.io.clock import Clock, make_clock
+from sondalog.io.tcp import DEFAULT_PORT
 from sondalog.sitefile import SiteError
 
 

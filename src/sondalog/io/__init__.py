@@ -1,11 +1,8 @@
-"""Transports: thin asyncio adapters between byte streams and the pure cores (DESIGN.md point 1).
+"""The only asyncio, socket and tty code (DESIGN.md point 1): the clock, the one runtime
+(:class:`~sondalog.io.host.DeviceHost`, serving any pure device core) and its transports: TCP
+(:mod:`~sondalog.io.tcp`), pty (:mod:`~sondalog.io.pty`) and serial lines
+(:mod:`~sondalog.io.serial_line`), and in-process links.
 
-:class:`EngineHost` owns one ALA1 :class:`~sondalog.ala1.Engine` and its clock and runs the
-engine's timers; :func:`serve_tcp` attaches TCP connections to it, one line per connection
-(§6.11.5.2.4: the ALA GPRS modem's TCP server on port 10001).
+Import the modules themselves; this package imports nothing, so that ``sondalog --help``
+stays fast.
 """
-
-from sondalog.io.host import EngineHost, Sink
-from sondalog.io.tcp import DEFAULT_PORT, TcpServer, serve_tcp
-
-__all__ = ["DEFAULT_PORT", "EngineHost", "Sink", "TcpServer", "serve_tcp"]

@@ -9,6 +9,7 @@ and hand that value to the core, and they sleep until the core's next deadline w
   year of module time passes in minutes. Time that passes while the process is stopped is
   counted at 1x when the next process starts (the module's battery-backed clock kept going).
 - :class:`SteppedClock`: only moves when a test calls :meth:`SteppedClock.advance`.
+- :class:`LoopClock`: follows the event loop's own time (virtual time in tests).
 """
 
 from __future__ import annotations
@@ -86,6 +87,27 @@ class SteppedClock:
         while self._now < deadline:
             self._changed.clear()
             await self._changed.wait()
+
+
+class LoopClock:
+    """Clock seconds that follow the event loop's own time.
+
+    Starts at the wall clock and then runs with ``loop.time()``. In production that is the
+    monotonic clock; a test running a virtual-time event loop gets a bus that runs in virtual
+    time, with the host's asyncio timeouts on the same time base.
+    """
+
+    def __init__(self, start: float | None = None) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._offset = (time.time() if start is None else start) - self._loop.time()
+
+    def now(self) -> float:
+        return self._loop.time() + self._offset
+
+    async def sleep_until(self, deadline: float) -> None:
+        delay = deadline - self.now()
+        if delay > 0:
+            await asyncio.sleep(delay)
 
 
 def _loop_running() -> bool:

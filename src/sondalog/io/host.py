@@ -1,10 +1,15 @@
-"""Drive one pure ALA1 engine from asyncio (DESIGN.md points 1, 2 and 6).
+"""The one runtime: drive any pure device core from asyncio (DESIGN.md points 1, 2 and 6).
 
-The host owns the :class:`~sondalog.ala1.Engine` and a :class:`~sondalog.io.clock.Clock`. It
-passes ``clock.now()`` with every call, routes each :class:`~sondalog.ala1.Output` to the sink
-of its line, and runs a timer task that sleeps until :meth:`Engine.next_deadline` and then
-calls :meth:`Engine.advance` (``pause`` headers, §8.5.1; the 60 s entry timeout, §3.4.5). The
-timer is re-armed whenever input changes the engine's next deadline.
+A :class:`DeviceHost` owns a :class:`~sondalog.protocol.device.Device` (the ALA1 engine, the
+RS-485 bus with its modules, ...) and a :class:`~sondalog.io.clock.Clock`. It passes
+``clock.now()`` with every call, routes each :class:`~sondalog.protocol.device.LineSend` to
+the sink of its line and every other effect to the handler registered for its type, and runs
+the one timer task: it sleeps until :meth:`Device.next_deadline` and then calls
+:meth:`Device.advance`. The timer is re-armed whenever input changes the next deadline.
+
+Transports (:mod:`sondalog.io.tcp`, :mod:`~sondalog.io.pty`, :mod:`~sondalog.io.serial_line`,
+an in-process :class:`LocalLink`) attach lines to a host. Input is served fairly: one command
+line per line and turn of the event loop, round-robin (issue 9).
 
 No protocol logic lives here: bytes in, bytes out. An internal exception is logged with the
 offending bytes and the loop carries on (DESIGN.md point 6).
@@ -16,18 +21,20 @@ import asyncio
 import collections
 import contextlib
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
-from sondalog.ala1 import Engine, Output
 from sondalog.io.clock import Clock
+from sondalog.protocol.device import Device, Effect, Event, LineSend
 
 log = logging.getLogger(__name__)
 
 #: Where the bytes for one line go (e.g. ``transport.write`` of a TCP connection).
 Sink = Callable[[bytes], None]
 #: Where the outputs of one line go when the rate they were paced at matters (serial ports).
-OutputSink = Callable[[Output], None]
+OutputSink = Callable[[LineSend], None]
+#: What takes the effects of one type that are not line bytes (messages, modem, mail...).
+EffectHandler = Callable[[Effect], None]
 #: A line's input beyond this many unprocessed bytes pauses its transport; below LOW resumes.
 PENDING_HIGH = 64 * 1024
 PENDING_LOW = 16 * 1024
@@ -52,12 +59,13 @@ def _slice_end(pending: bytearray) -> int:
     return min(ends) + 1 if ends else window
 
 
-class EngineHost:
-    """One engine, its clock, its timers, and the sinks of its attached lines."""
+class DeviceHost:
+    """One device core, its clock, its timers, and the sinks of its attached lines."""
 
-    def __init__(self, engine: Engine, clock: Clock) -> None:
-        self.engine = engine
+    def __init__(self, device: Device, clock: Clock) -> None:
+        self.device = device
         self.clock = clock
+        self._handlers: dict[type[Effect], EffectHandler] = {}
         self._sinks: dict[int, OutputSink] = {}
         self._armed: float | None = None
         self._rearm = asyncio.Event()
@@ -98,7 +106,7 @@ class EngineHost:
         """Like :meth:`attach`, for a sink that needs each :class:`Output`'s baud rate.
 
         ``flow``: the transport to pause while this line's unprocessed input piles up."""
-        line_id = self.engine.open_line(paced=paced)
+        line_id = self.device.open_line(paced=paced)
         self._sinks[line_id] = sink
         if flow is not None:
             self._flows[line_id] = flow
@@ -110,7 +118,7 @@ class EngineHost:
         self._pending.pop(line_id, None)
         self._flows.pop(line_id, None)
         try:
-            self.engine.close_line(line_id)
+            self.device.close_line(line_id)
         except Exception:
             log.exception("internal error closing line %d", line_id)
         self._check_deadline()
@@ -159,15 +167,44 @@ class EngineHost:
 
     def _receive(self, line_id: int, data: bytes) -> None:
         try:
-            outputs = self.engine.receive(line_id, data, self.clock.now())
+            outputs = self.device.receive(line_id, data, self.clock.now())
         except Exception:
             log.exception("internal error on line %d receiving %r", line_id, data)
             outputs = []
         self._dispatch(outputs)
 
     # -- internals ---------------------------------------------------------------------------
-    def _dispatch(self, outputs: list[Output]) -> None:
-        for output in outputs:
+    def on_effect(self, kind: type[Effect], handler: EffectHandler) -> None:
+        """Route effects of type ``kind`` (other than line bytes) to ``handler``."""
+        self._handlers[kind] = handler
+
+    def post(self, event: Event) -> None:
+        """A typed event for the device (an SMS arrived, a call, ...), at the clock's now."""
+        try:
+            effects = self.device.handle(event, self.clock.now())
+        except Exception:
+            log.exception("internal error handling %r", event)
+            effects = []
+        self._dispatch(effects)
+        self._check_deadline()
+
+    def link(self, on_data: Sink | None = None) -> LocalLink:
+        """An in-process line (a bus master or a client in the same process); received
+        bytes go to ``on_data`` when given, else to :meth:`LocalLink.receive`."""
+        return LocalLink(self, on_data)
+
+    def _dispatch(self, effects: Sequence[Effect]) -> None:
+        for output in effects:
+            if not isinstance(output, LineSend):
+                handler = self._handlers.get(type(output))
+                if handler is None:
+                    log.warning("no handler for %r", output)
+                    continue
+                try:
+                    handler(output)
+                except Exception:
+                    log.exception("handler of %r failed", output)
+                continue
             sink = self._sinks.get(output.line)
             if sink is None:
                 continue  # the line went away while its answer was pending
@@ -178,14 +215,14 @@ class EngineHost:
 
     def _check_deadline(self) -> None:
         """Wake the timer task when the engine's next deadline moved."""
-        if self.engine.next_deadline() != self._armed:
+        if self.device.next_deadline() != self._armed:
             self._rearm.set()
 
     async def _run_timers(self) -> None:
         while True:
             self._rearm.clear()
             try:
-                deadline = self.engine.next_deadline()
+                deadline = self.device.next_deadline()
             except Exception:
                 log.exception("internal error computing the next deadline")
                 deadline = None
@@ -198,7 +235,7 @@ class EngineHost:
             now = self.clock.now()
             if now >= deadline:
                 try:
-                    outputs = self.engine.advance(now)
+                    outputs = self.device.advance(now)
                 except Exception:
                     log.exception("internal error running timers at %r", now)
                     outputs = []
@@ -214,3 +251,36 @@ class EngineHost:
             for task in (sleeper, waker):
                 task.cancel()
             await asyncio.gather(sleeper, waker, return_exceptions=True)
+
+
+class LocalLink:
+    """A line of a :class:`DeviceHost` for a peer in the same process.
+
+    It has the byte-link interface of :mod:`sondalog.client` (``send``, ``receive``,
+    ``close``), so a bus master or an ALA1 client can talk to a device without a socket."""
+
+    def __init__(self, host: DeviceHost, on_data: Sink | None = None) -> None:
+        self._host = host
+        self._queue: asyncio.Queue[bytes] = asyncio.Queue()
+        self.closed = False
+        self.line = host.attach(on_data or self._queue.put_nowait)
+
+    def write(self, data: bytes) -> None:
+        """Send ``data`` on the line now."""
+        if not self.closed:
+            self._host.feed(self.line, data)
+
+    async def send(self, data: bytes) -> None:
+        self.write(data)
+
+    async def receive(self) -> bytes:
+        """The next bytes received; b"" once closed."""
+        if self.closed and self._queue.empty():
+            return b""
+        return await self._queue.get()
+
+    async def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self._host.detach(self.line)
+            self._queue.put_nowait(b"")

@@ -1,17 +1,18 @@
-"""A pseudo-terminal line of an ALA1 engine (``logger serve --pty PATH``).
+"""A pseudo-terminal line of a device (``logger serve --pty PATH``, ``bus serve --pty PATH``).
 
 The pty's slave is reachable through the stable symlink PATH, so a terminal program or legacy
 host software opens it like a COM port. The line is paced (§6.11.2: output at ``com speed``,
-10 bit times a byte; the pacing is the engine's, this adapter writes what it gets).
+10 bit times a byte; the pacing is the core's, this adapter writes what it gets).
 
-Connection: the server does not keep the slave open, so the master sees a hang-up whenever no
-host has it open. A host opening the slave connects a new engine line (its own line state);
-closing it disconnects that line, which releases message blocking (§6.14.9.2). While hung up
-the master is polled every :data:`HANGUP_POLL` seconds for a new host.
+Connection: by default the server does not keep the slave open, so the master sees a hang-up
+whenever no host has it open. A host opening the slave connects a new line (its own line
+state); closing it disconnects that line, which releases message blocking (§6.14.9.2). While
+hung up the master is polled every :data:`HANGUP_POLL` seconds for a new host. With
+``keep_slave`` (a bus, where a host closing its port changes nothing) the line stays attached.
 
 Baud rate: a pty carries bytes at any rate, so the host's setting is read from the slave
-(``TCGETS2``) whenever bytes arrive. When it differs from the module's ``com speed`` the
-module receives garbage, as on a real line (:func:`~sondalog.io.serial_ports.garble`).
+(``TCGETS2``) whenever bytes arrive. When it differs from the device's line speed the device
+receives garbage, as on a real line (:func:`~sondalog.io.serial_ports.garble`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import os
 import select
 from pathlib import Path
 
-from sondalog.io.host import EngineHost
+from sondalog.io.host import DeviceHost
 from sondalog.io.serial_ports import PtyLink, garble, host_speed
 
 log = logging.getLogger(__name__)
@@ -35,11 +36,11 @@ MAX_BACKLOG = 1024 * 1024
 
 
 class PtyLine:
-    """One pty attached to an :class:`EngineHost` as a paced line."""
+    """One pty attached to a :class:`DeviceHost` as a paced line."""
 
-    def __init__(self, host: EngineHost, link: Path) -> None:
+    def __init__(self, host: DeviceHost, link: Path, *, keep_slave: bool = False) -> None:
         self._host = host
-        self._pty = PtyLink(link, keep_slave=False)
+        self._pty = PtyLink(link, keep_slave=keep_slave)
         self._loop = asyncio.get_running_loop()
         self._line: int | None = None
         self._backlog = bytearray()
@@ -103,7 +104,7 @@ class PtyLine:
         if self._line is None:
             return
         theirs = host_speed(self._pty.master)
-        ours = self._host.engine.com_speed
+        ours = self._host.device.line_speed()
         if theirs is not None and theirs != ours:
             log.debug("line %d: host sends at %d baud, module at %d", self._line, theirs, ours)
             data = garble(data, theirs, ours)

@@ -1,12 +1,13 @@
-"""A real serial port as a line of an ALA1 engine (``logger serve --serial DEVICE``).
+"""A real serial port as a line of a device (``logger serve --serial``, ``bus serve --serial``).
 
-The port is opened at ``com speed``, 8N1, without hardware or software flow control in the
-driver: XON/XOFF are the engine's (§6.11.1). The line is paced by the engine; this adapter
-writes what it gets and sets the port's rate to the rate each piece was paced at
-(:attr:`~sondalog.ala1.Output.baud`: a ``comspeed`` answer, §8.5.2) and back to ``com speed``
-when the output is idle (a written ``com speed`` after its ``OK``, §6.11.2). Before the rate
-changes, the bytes already written are drained (``tcdrain``) so that none leaves at the wrong
-rate. A baud mismatch with the host is the hardware's business here: the UART makes garbage.
+The port is opened at the device's line speed (ALA1 ``com speed``, the bus baud rate), 8N1,
+without hardware or software flow control in the driver: XON/XOFF are the engine's (§6.11.1).
+The line is paced by the core; this adapter writes what it gets and sets the port's rate to
+the rate each piece was paced at (:attr:`~sondalog.protocol.device.LineSend.baud`: a
+``comspeed`` answer, §8.5.2) and back to the line speed when the output is idle (a written
+``com speed`` after its ``OK``, §6.11.2). Before the rate changes, the bytes already written
+are drained (``tcdrain``) so that none leaves at the wrong rate. A baud mismatch with the host
+is the hardware's business here: the UART makes garbage.
 
 A serial port has no connect/disconnect: the line opens with the port. When the device goes
 away (a USB adapter unplugged) the line disconnects and the port is reopened every
@@ -20,9 +21,9 @@ import contextlib
 import logging
 from typing import Any
 
-from sondalog.ala1 import Output
-from sondalog.io.host import EngineHost
+from sondalog.io.host import DeviceHost
 from sondalog.io.serial_ports import serial_8n1
+from sondalog.protocol.device import LineSend
 
 log = logging.getLogger(__name__)
 
@@ -46,15 +47,15 @@ class _SerialProtocol(asyncio.Protocol):
 
 
 class SerialLine:
-    """One serial device attached to an :class:`EngineHost` as a paced line."""
+    """One serial device attached to an :class:`DeviceHost` as a paced line."""
 
-    def __init__(self, host: EngineHost, device: str) -> None:
+    def __init__(self, host: DeviceHost, device: str) -> None:
         self._host = host
         self.device = device
         self._line: int | None = None
         self._transport: Any = None  # serial_asyncio_fast.SerialTransport
-        self._baud = host.engine.com_speed
-        self._outputs: asyncio.Queue[Output] = asyncio.Queue()
+        self._baud = host.device.line_speed()
+        self._outputs: asyncio.Queue[LineSend] = asyncio.Queue()
         self._runner: asyncio.Task[None] | None = None
         self._writer: asyncio.Task[None] | None = None
 
@@ -72,7 +73,7 @@ class SerialLine:
     async def _connect(self) -> _SerialProtocol:
         import serial_asyncio_fast  # imported here: only this line needs it
 
-        self._baud = self._host.engine.com_speed
+        self._baud = self._host.device.line_speed()
         loop = asyncio.get_running_loop()
         transport, protocol = await serial_asyncio_fast.create_serial_connection(
             loop,
@@ -117,11 +118,11 @@ class SerialLine:
             try:
                 output = await asyncio.wait_for(self._outputs.get(), IDLE)
             except TimeoutError:  # the answer is over: listen at com speed again
-                await self._set_baud(self._host.engine.com_speed)
+                await self._set_baud(self._host.device.line_speed())
                 output = await self._outputs.get()
             if output.line != self._line or self._transport is None:
                 continue
-            await self._set_baud(output.baud or self._host.engine.com_speed)
+            await self._set_baud(output.baud or self._host.device.line_speed())
             self._transport.write(output.data)
 
     async def _set_baud(self, baud: int) -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 import logging
 
-from sondalog.io.host import EngineHost
+from sondalog.io.host import DeviceHost
 
 log = logging.getLogger(__name__)
 
@@ -25,7 +25,7 @@ class _LineProtocol(asyncio.Protocol):
     """One TCP connection = one engine line."""
 
     def __init__(
-        self, host: EngineHost, connections: set[_LineProtocol], paced: bool = False
+        self, host: DeviceHost, connections: set[_LineProtocol], paced: bool = False
     ) -> None:
         self._host = host
         self._connections = connections
@@ -75,7 +75,7 @@ class _LineProtocol(asyncio.Protocol):
 
 
 class TcpServer:
-    """A listening TCP server attached to one :class:`EngineHost`."""
+    """A listening TCP server attached to one :class:`DeviceHost`."""
 
     def __init__(self, server: asyncio.Server, connections: set[_LineProtocol]) -> None:
         self.server = server
@@ -95,7 +95,7 @@ class TcpServer:
         await self.server.wait_closed()
 
 
-async def serve_tcp(host: EngineHost, address: str, port: int, *, paced: bool = False) -> TcpServer:
+async def serve_tcp(host: DeviceHost, address: str, port: int, *, paced: bool = False) -> TcpServer:
     """Listen on ``address:port`` and attach each connection to ``host`` as its own line.
 
     ``paced`` (``--line-rate``): answers leave at ``com speed`` as on a serial line (§6.11.2).

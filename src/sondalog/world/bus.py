@@ -18,6 +18,7 @@ from collections import defaultdict
 from dataclasses import dataclass
 
 from sondalog.hctmps1.module import Hctmps1Module
+from sondalog.protocol.device import Event, LineSend
 from sondalog.world.medium import Medium
 
 #: Module reply turnaround, seconds (docs/hctmps1.md "Decisions").
@@ -80,7 +81,7 @@ class BusCore:
 
     def write(self, port: int, data: bytes, now: float) -> dict[int, bytes]:
         """A host sends ``data`` at ``now``; returns what ports received up to ``now``."""
-        received = self.advance(now)
+        received = self.run_until(now)
         if data:
             self.medium.transmit(port, data, max(now, self.now))
         return received
@@ -93,13 +94,33 @@ class BusCore:
             deadlines.append(medium)
         return min(deadlines) if deadlines else None
 
-    def advance(self, now: float) -> dict[int, bytes]:
+    def run_until(self, now: float) -> dict[int, bytes]:
         """Run every event due by ``now``; return the bytes each port received."""
         received: dict[int, bytearray] = defaultdict(bytearray)
         while (when := self.next_deadline()) is not None and when <= now:
             self._run(when, received)
         self.now = max(self.now, now)
         return {port: bytes(data) for port, data in received.items()}
+
+    # -- the Device contract (sondalog.protocol.device): lines are host ports ----------------
+    def open_line(self, *, paced: bool = False) -> int:
+        """A host port; the medium itself times every byte, so ``paced`` changes nothing."""
+        return self.add_port()
+
+    def close_line(self, line: int) -> None:
+        self.remove_port(line)
+
+    def line_speed(self) -> int:
+        return self.baud
+
+    def receive(self, line: int, data: bytes, now: float) -> list[LineSend]:
+        return _sends(self.write(line, data, now))
+
+    def handle(self, event: Event, now: float) -> list[LineSend]:
+        return []
+
+    def advance(self, now: float) -> list[LineSend]:
+        return _sends(self.run_until(now))
 
     def _run(self, when: float, received: dict[int, bytearray]) -> None:
         self.now = max(self.now, when)
@@ -119,3 +140,7 @@ class BusCore:
         attached.deadline = out.deadline
         if out.data:
             self.medium.transmit(attached.node, out.data, when + self.turnaround)
+
+
+def _sends(received: dict[int, bytes]) -> list[LineSend]:
+    return [LineSend(port, data) for port, data in received.items()]

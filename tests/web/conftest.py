@@ -98,12 +98,16 @@ def store(tmp_path: Path) -> Path:
         "INSERT INTO sources (name, url, kind, logger, state, last_error) VALUES "
         "('bus', 'tcp://127.0.0.1:2', 'bus', 'bus:M1', 'offline', 'connection refused')",
     )
-    for i in range(120):
-        execute(
-            path,
+    conn = sqlite3.connect(path)
+    with conn:
+        conn.executemany(
             "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-            (f"2026-03-01T10:{i // 60:02d}:{i % 60:02d}", "field", "sms", f"message {i}"),
+            [
+                (f"2026-03-01T10:{i // 60:02d}:{i % 60:02d}", "field", "sms", f"message {i}")
+                for i in range(120)
+            ],
         )
+    conn.close()
     return path
 
 

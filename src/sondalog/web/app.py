@@ -59,6 +59,8 @@ class Settings:
     max_points: int = 2000
     default_span_s: int = 7 * 86400
     heartbeat_s: float = 15.0
+    #: Set by :func:`~sondalog.web.serve` when stopping: live streams end.
+    stopping: bool = False
 
 
 def create_app(
@@ -210,8 +212,9 @@ class Api:
 
         def work(c: sqlite3.Connection) -> dict[str, Any]:
             last = store.last_time(c, logger)
+            first = store.first_time(c, logger)
             to = hi or last or "1970-01-01T00:00:00"
-            frm = lo or shift(to, -span)
+            frm = lo or max(shift(to, -span), min(first or to, to))
             chans = store.channels(c, logger)
             got, width = series.load(c, logger, chans, frm, to, points)
             return {
@@ -222,7 +225,7 @@ class Api:
                 "x_to": to_epoch(to),
                 "following": hi is None,
                 "last": last,
-                "first": store.first_time(c, logger),
+                "first": first,
                 "downsampled": width is not None,
                 "bucket_s": width,
                 "series": [s.as_json() for s in got],
@@ -285,7 +288,7 @@ class Api:
         since, seen = shift(after, 1), set[tuple[int, int]]()
         idle = 0.0
         yield "retry: 2000\nevent: ready\ndata: {}\n\n"
-        while True:
+        while not self.settings.stopping:
             rows = await self._db(partial(store.newer, logger=logger, since=since, limit=5000))
             fresh = [r for r in rows if not (r[0] == since and (r[1], r[2]) in seen)]
             if fresh:

@@ -89,6 +89,7 @@ async def serve(
     if token is not None:
         settings.token = check_token(token)
     check_listen(host, allow_remote=allow_remote, token=settings.token)
+    settings.stopping = False
     sock = bind(host, port)
     bound = sock.getsockname()
     config = uvicorn.Config(
@@ -109,6 +110,7 @@ async def serve(
                 on_listen(str(bound[0]), int(bound[1]))
         await asyncio.shield(inner)
     except asyncio.CancelledError:
+        settings.stopping = True  # live streams end at their next poll
         server.should_exit = True
         with contextlib.suppress(asyncio.CancelledError):
             await inner

@@ -78,7 +78,7 @@ function options(d) {
   const axes = [{}];
   units.forEach((u, i) => {
     scales[`u${i}`] = { auto: true };
-    axes.push({ scale: `u${i}`, label: u, side: i === 1 ? 1 : 3, show: i < 2, grid: { show: i === 0 } });
+    axes.push({ scale: `u${i}`, label: u, side: i % 2 ? 1 : 3, grid: { show: i === 0 } });
   });
   const series = [{ label: "time" }];
   d.series.forEach((s, i) => {

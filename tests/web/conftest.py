@@ -161,6 +161,6 @@ class Running:
 
 @pytest.fixture
 def server(store: Path) -> Iterator[Running]:
-    running = Running(create_app(store, poll_interval=0.2))
+    running = Running(create_app(store, poll_interval=0.2, overview_refresh=0.3))
     yield running
     running.stop()

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import Running, insert
+from conftest import Running, execute, insert
 
 CHROMIUM = "/usr/bin/chromium"
 ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
@@ -59,7 +59,7 @@ def plots(page: Any) -> dict[str, Any]:
     return json.loads(got)  # type: ignore[no-any-return]
 
 
-def test_overview_and_log_pages(browser: Any, server: Running) -> None:
+def test_overview_and_log_pages(browser: Any, server: Running, store: Path) -> None:
     page = browser.new_page(viewport={"width": 390, "height": 844})  # a phone
     console = Console(page)
     page.goto(server.url + "/")
@@ -70,6 +70,13 @@ def test_overview_and_log_pages(browser: Any, server: Running) -> None:
     assert page.evaluate("document.activeElement.textContent") == "Skip to content"
     # no horizontal scrolling of the page itself on a phone
     assert page.evaluate("document.documentElement.scrollWidth <= window.innerWidth")
+    # the overview refreshes itself: a source falling into trouble shows up
+    execute(
+        store, "UPDATE sources SET state = 'offline', last_error = 'timeout' WHERE name = 'field'"
+    )
+    page.locator("body").click(position={"x": 5, "y": 5})  # focus out of <main>
+    page.wait_for_selector("section.card.trouble >> text=timeout", timeout=5000)
+    assert page.locator("section.card.trouble").count() == 2
     page.get_by_role("link", name="Log").click()
     page.wait_for_url("**/log")
     assert page.locator("tbody tr").count() == 50

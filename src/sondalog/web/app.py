@@ -59,6 +59,7 @@ class Settings:
     max_points: int = 2000
     default_span_s: int = 7 * 86400
     heartbeat_s: float = 15.0
+    overview_refresh_s: float = 10.0
     #: Set by :func:`~sondalog.web.serve` when stopping: live streams end.
     stopping: bool = False
 
@@ -69,14 +70,21 @@ def create_app(
     token: str | None = None,
     poll_interval: float = 1.0,
     max_points: int = 2000,
+    overview_refresh: float = 10.0,
 ) -> Starlette:
     """The dashboard for the store at ``store_path`` (read-only; it may not exist yet).
 
     ``token``: require it on every request (see :mod:`sondalog.web.auth`);
     ``poll_interval``: seconds between the live stream's looks at the store;
-    ``max_points``: the most points per series one plot request sends.
+    ``max_points``: the most points per series one plot request sends;
+    ``overview_refresh``: seconds between the overview page's refreshes.
     """
+    if poll_interval <= 0 or overview_refresh <= 0:
+        raise ValueError("poll_interval and overview_refresh must be more than 0 seconds")
+    if max_points < 10:
+        raise ValueError(f"max_points must be 10 or more, got {max_points}")
     settings = Settings(Path(store_path), check_token(token), poll_interval, max_points)
+    settings.overview_refresh_s = overview_refresh
     api = Api(settings)
     routes = [
         Route("/", api.page_overview),
@@ -171,7 +179,8 @@ class Api:
     # pages
 
     async def page_overview(self, request: Request) -> Response:
-        return HTMLResponse(pages.overview(await self._db(overview.overview)))
+        data = await self._db(overview.overview)
+        return HTMLResponse(pages.overview(data, refresh_s=self.settings.overview_refresh_s))
 
     async def page_plot(self, request: Request) -> Response:
         logger = request.path_params["logger"]

@@ -27,7 +27,7 @@ def logger_url(logger: str) -> str:
     return "/loggers/" + quote(logger, safe="")
 
 
-def page(title: str, body: str, *, head: str = "", current: str = "") -> str:
+def page(title: str, body: str, *, head: str = "", current: str = "", main_attrs: str = "") -> str:
     def nav(href: str, label: str) -> str:
         aria = ' aria-current="page"' if current == href else ""
         return f'<a href="{href}"{aria}>{label}</a>'
@@ -46,7 +46,7 @@ def page(title: str, body: str, *, head: str = "", current: str = "") -> str:
 <a class="skip" href="#main">Skip to content</a>
 <header><span class="brand">sondalog</span>
 <nav aria-label="Main">{nav("/", "Overview")} {nav("/log", "Log")}</nav></header>
-<main id="main">
+<main id="main"{main_attrs}>
 {body}
 </main>
 </body>
@@ -69,7 +69,7 @@ def _source(s: dict[str, Any]) -> str:
     )
 
 
-def overview(data: dict[str, Any]) -> str:
+def overview(data: dict[str, Any], *, refresh_s: float = 10.0) -> str:
     cards: list[str] = []
     for lg in data["loggers"]:
         cls = "card trouble" if lg["trouble"] else "card"
@@ -118,7 +118,13 @@ def overview(data: dict[str, Any]) -> str:
     if not cards:
         cards.append("<p>The store has no loggers yet.</p>")
     body = "<h1>Overview</h1>" + "".join(cards)
-    return page("Overview", body, current="/")
+    return page(
+        "Overview",
+        body,
+        current="/",
+        head='<script type="module" src="/static/overview.js"></script>',
+        main_attrs=f' data-refresh="{refresh_s:g}"',
+    )
 
 
 def plot(logger: str, channels: list[dict[str, Any]]) -> str:

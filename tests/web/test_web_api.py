@@ -57,6 +57,7 @@ def test_overview_lists_loggers_modules_and_trouble(server: Running) -> None:
     assert status == 200
     assert 'class="card trouble"' in page and "connection refused" in page
     assert "Temp" in page and "°C" in page and "123.5" in page
+    assert "5 % full (1,234 characters), CLEAR" in page
     assert 'href="/loggers/bus%3AM1"' in page
 
 

@@ -54,6 +54,16 @@ def page(title: str, body: str, *, head: str = "", current: str = "", main_attrs
 """
 
 
+def record_fill(status: str) -> str:
+    """``record status`` (``chars,fraction,STATE``, §6.6.5) in words."""
+    parts = status.split(",")
+    try:
+        chars, fraction, state = int(parts[0]), float(parts[1]), parts[2]
+    except (IndexError, ValueError):
+        return _e(status)
+    return _e(f"{fraction * 100:.0f} % full ({chars:,} characters), {state}")
+
+
 def _source(s: dict[str, Any]) -> str:
     trouble = (
         f'<p class="alert"><strong>Trouble:</strong> state {_e(s["state"])}'
@@ -93,7 +103,7 @@ def overview(data: dict[str, Any], *, refresh_s: float = 10.0) -> str:
             ("Last contact", _e(lg["last_contact"]) or "—"),
         ]
         if lg["record_fill"] is not None:
-            facts.append(("Record", _e(lg["record_fill"])))
+            facts.append(("Record", record_fill(str(lg["record_fill"]))))
         if lg["signal"] is not None:
             facts.append(("GSM signal", _num(lg["signal"])))
         if lg["credit"] is not None:

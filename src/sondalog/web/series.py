@@ -1,11 +1,12 @@
 """A logger's plot data: one series per channel, at most ``max_points`` points each.
 
-A range with few rows is sent as it is. A larger one is cut into ``max_points // 2`` equal
-buckets and each series sends its smallest and largest value per bucket (min/max
+A range with at most ``max_points`` rows per channel is sent as it is (unless the gaps'
+nulls would take a series over the budget). A larger one is cut into ``max_points // 2``
+equal buckets and each series sends its smallest and largest value per bucket (min/max
 downsampling: peaks survive any zoom level); a type-6 channel (bars, §6.5.6.4) sends its
-largest count per bucket. A "no valid value" reading (NULL) stays a gap, and so does a pause
-in the data longer than three times the series' usual step: a ``null`` is put there so the
-line breaks instead of bridging it. Each series carries its own times (``t``, seconds on the
+largest count per bucket. A "no valid value" reading (NULL) stays a gap, and so does a
+pause in the data longer than three times the series' usual step: a ``null`` is put there
+so the line breaks instead of bridging it. Each series carries its own times (``t``, seconds on the
 logger's clock read as UTC) and values (``v``); the browser joins them.
 """
 
@@ -73,19 +74,23 @@ def load(
 ) -> tuple[list[Series], float | None]:
     """The series of ``logger`` in ``[lo, hi]`` and the bucket width (None: not downsampled)."""
     by_ch = {c.channel: Series(c) for c in chans}
-    # raw when every series has at most max_points // 2 rows (nulls then fit in max_points);
-    # past this many rows in all, some channel has more (pigeonhole), so stop counting there
-    cap = (max_points // 2) * max(1, len(by_ch)) + 1
+    # raw when every series has at most max_points rows; past this many rows in all, some
+    # channel has more (pigeonhole), so counting stops there
+    cap = max_points * max(1, len(by_ch)) + 1
     per_channel, capped = store.counts(conn, logger, lo, hi, cap)
     for ch in per_channel:
         if ch not in by_ch:
             by_ch[ch] = Series(store.Channel(ch, None, None))
     largest = max(per_channel.values(), default=0)
-    if not capped and largest * 2 <= max_points:
+    width: float | None = None
+    if not capped and largest <= max_points:
         _raw(conn, logger, lo, hi, by_ch)
-        width = None
-    else:
-        width = _downsampled(conn, logger, lo, hi, max_points // 2, by_ch)
+        if all(len(s.t) <= max_points for s in by_ch.values()):
+            return [by_ch[k] for k in sorted(by_ch)], None
+        for s in by_ch.values():  # the gaps' nulls went over the budget
+            s.t.clear()
+            s.v.clear()
+    width = _downsampled(conn, logger, lo, hi, max_points // 2, by_ch)
     return [by_ch[k] for k in sorted(by_ch)], width
 
 

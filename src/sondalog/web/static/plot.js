@@ -75,12 +75,22 @@ function size() {
 function options(d) {
   const units = [...new Set(d.series.map((s) => s.unit || ""))];
   const scales = { x: { time: true, range: () => [d.x_from, Math.max(d.x_to, lastX())] } };
-  const axes = [{}];
+  // 24-hour ISO-like tick labels, as the logger writes its times
+  const axes = [{
+    values: [
+      [86400 * 365, "{YYYY}", null, null, null, null, null, null, 1],
+      [86400 * 28, "{YYYY}-{MM}", null, null, null, null, null, null, 1],
+      [86400, "{MM}-{DD}", "\n{YYYY}", null, null, null, null, null, 1],
+      [3600, "{HH}:{mm}", "\n{YYYY}-{MM}-{DD}", null, "\n{MM}-{DD}", null, null, null, 1],
+      [60, "{HH}:{mm}", "\n{YYYY}-{MM}-{DD}", null, "\n{MM}-{DD}", null, null, null, 1],
+      [1, "{HH}:{mm}:{ss}", "\n{YYYY}-{MM}-{DD}", null, "\n{MM}-{DD}", null, null, null, 1],
+    ],
+  }];
   units.forEach((u, i) => {
     scales[`u${i}`] = { auto: true };
     axes.push({ scale: `u${i}`, label: u, side: i % 2 ? 1 : 3, grid: { show: i === 0 } });
   });
-  const series = [{ label: "time" }];
+  const series = [{ label: "time", value: (u, ts) => (ts == null ? "--" : iso(ts).replace("T", " ")) }];
   d.series.forEach((s, i) => {
     const color = COLORS[i % COLORS.length];
     const one = { label: label(s), stroke: color, scale: `u${units.indexOf(s.unit || "")}`, width: 1.5 };

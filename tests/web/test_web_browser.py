@@ -130,6 +130,12 @@ def test_plot_live_and_range_selection(browser: Any, server: Running, store: Pat
     assert got["from"] > "2026-03-01T00:00:00" and got["to"] < "2026-03-02T00:00:00"
     assert 0 < got["points"][0] < 144
     assert page.locator("#plot").get_attribute("data-live") is None  # a fixed range
+    # a channel can be hidden with its (keyboard-usable) checkbox
+    page.get_by_label("2: Level [cm]").focus()
+    page.keyboard.press("Space")
+    assert page.evaluate("window.__plots['1001'].uplot.series[2].show") is False
+    page.get_by_label("2: Level [cm]").check()
+    assert page.evaluate("window.__plots['1001'].uplot.series[2].show") is True
     # the keyboard path: presets are buttons
     page.get_by_role("button", name="Last day").focus()
     page.keyboard.press("Enter")
@@ -139,5 +145,10 @@ def test_plot_live_and_range_selection(browser: Any, server: Running, store: Pat
     page.go_back()
     page.wait_for_selector("#plot[data-state=ready]")
     assert plots(page)["to"] < "2026-03-02T00:00:00"
+    # readable on a phone: nothing wider than the screen
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.reload()
+    page.wait_for_selector("#plot[data-state=ready]")
+    assert page.evaluate("document.documentElement.scrollWidth <= window.innerWidth")
     assert console.errors == []
     page.close()

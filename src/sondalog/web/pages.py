@@ -139,8 +139,10 @@ def overview(data: dict[str, Any], *, refresh_s: float = 10.0) -> str:
 
 def plot(logger: str, channels: list[dict[str, Any]]) -> str:
     legend = "".join(
-        f"<li>{c['channel']}: {_e(c['name'])} {('[' + _e(c['unit']) + ']') if c['unit'] else ''}"
-        f"{' (events, bars)' if c['kind'] == 'bars' else ''}</li>"
+        f'<li><input type="checkbox" id="show-{c["channel"]}" data-channel="{c["channel"]}"'
+        f' checked> <label for="show-{c["channel"]}">{c["channel"]}: {_e(c["name"])}'
+        f"{(' [' + _e(c['unit']) + ']') if c['unit'] else ''}"
+        f"{' (events, bars)' if c['kind'] == 'bars' else ''}</label></li>"
         for c in channels
     )
     body = f"""<h1>{_e(logger)}</h1>
@@ -162,7 +164,7 @@ def plot(logger: str, channels: list[dict[str, Any]]) -> str:
  aria-label="Plot of {_e(logger)}: one series per channel; drag across it to zoom"></div>
 <p class="hint">Drag across the plot to show that range; the browser's Back button returns.
 Times are the logger's own clock.</p>
-<h2>Channels</h2><ul class="legend">{legend}</ul>"""
+<fieldset class="legend"><legend>Channels shown</legend><ul>{legend}</ul></fieldset>"""
     head = (
         '<link rel="stylesheet" href="/static/vendor/uplot/uPlot.min.css">\n'
         '<script src="/static/vendor/uplot/uPlot.iife.min.js"></script>\n'

@@ -93,7 +93,14 @@ function options(d) {
   const series = [{ label: "time", value: (u, ts) => (ts == null ? "--" : iso(ts).replace("T", " ")) }];
   d.series.forEach((s, i) => {
     const color = COLORS[i % COLORS.length];
-    const one = { label: label(s), stroke: color, scale: `u${units.indexOf(s.unit || "")}`, width: 1.5 };
+    const box = document.getElementById(`show-${s.channel}`);
+    const one = {
+      label: label(s),
+      stroke: color,
+      scale: `u${units.indexOf(s.unit || "")}`,
+      width: 1.5,
+      show: box ? box.checked : true,
+    };
     if (s.kind === "bars") {
       one.fill = `${color}66`;
       one.paths = uPlot.paths.bars({ size: [0.6, 8] });
@@ -217,6 +224,13 @@ for (const b of form.querySelectorAll("button[data-span]")) {
   b.addEventListener("click", () => {
     const end = current && current.last ? Date.parse(`${current.last}Z`) / 1000 : Date.now() / 1000;
     navigate(iso(end - Number(b.dataset.span)), null);
+  });
+}
+for (const box of document.querySelectorAll("input[data-channel]")) {
+  box.addEventListener("change", () => {
+    if (!plot || !current) return;
+    const i = current.series.findIndex((s) => s.channel === Number(box.dataset.channel));
+    if (i >= 0) plot.setSeries(i + 1, { show: box.checked });
   });
 }
 liveIn.addEventListener("change", () => (liveIn.checked ? startLive() : stopLive()));

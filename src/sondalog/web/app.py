@@ -1,0 +1,315 @@
+"""The dashboard's starlette application: pages, JSON API, CSV and live stream.
+
+Routes (see ``docs/dashboard.md``): ``/`` overview, ``/loggers/{logger}`` plot, ``/log``
+events; ``/api/loggers``, ``/api/loggers/{logger}``, ``/api/loggers/{logger}/series``,
+``/api/loggers/{logger}/readings.csv``, ``/api/loggers/{logger}/stream`` (server-sent
+events), ``/api/events``. Bad parameters get HTTP 400 with the reason, an unknown logger 404,
+a store that is not there (yet) 503.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import io
+import json
+import re
+import sqlite3
+from collections.abc import AsyncIterator, Callable, Iterator
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+from typing import Any, TypeVar
+
+from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException
+from starlette.middleware import Middleware
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from . import overview, pages, series, store
+from .auth import TokenGate
+from .times import BadParameter, parse_time, shift, to_epoch
+
+STATIC = Path(__file__).parent / "static"
+T = TypeVar("T")
+
+#: A token: 8 or more characters that survive a URL, a header and a cookie unchanged.
+TOKEN_RE = re.compile(r"[A-Za-z0-9._~+/=-]{8,}")
+
+
+def check_token(token: str | None) -> str | None:
+    if token is not None and not TOKEN_RE.fullmatch(token):
+        raise ValueError(
+            "the web token must be 8 or more characters of letters, digits and ._~+/=-"
+        )
+    return token
+
+
+@dataclass
+class Settings:
+    """What the app serves and how."""
+
+    store: Path
+    token: str | None = None
+    poll_interval: float = 1.0
+    max_points: int = 2000
+    default_span_s: int = 7 * 86400
+    heartbeat_s: float = 15.0
+    overview_refresh_s: float = 10.0
+    #: Set by :func:`~sondalog.web.serve` when stopping: live streams end.
+    stopping: bool = False
+
+
+def create_app(
+    store_path: Path,
+    *,
+    token: str | None = None,
+    poll_interval: float = 1.0,
+    max_points: int = 2000,
+    overview_refresh: float = 10.0,
+) -> Starlette:
+    """The dashboard for the store at ``store_path`` (read-only; it may not exist yet).
+
+    ``token``: require it on every request (see :mod:`sondalog.web.auth`);
+    ``poll_interval``: seconds between the live stream's looks at the store;
+    ``max_points``: the most points per series one plot request sends;
+    ``overview_refresh``: seconds between the overview page's refreshes.
+    """
+    if poll_interval <= 0 or overview_refresh <= 0:
+        raise ValueError("poll_interval and overview_refresh must be more than 0 seconds")
+    if max_points < 10:
+        raise ValueError(f"max_points must be 10 or more, got {max_points}")
+    settings = Settings(Path(store_path), check_token(token), poll_interval, max_points)
+    settings.overview_refresh_s = overview_refresh
+    api = Api(settings)
+    routes = [
+        Route("/", api.page_overview),
+        Route("/log", api.page_log),
+        Route("/loggers/{logger}", api.page_plot),
+        Route("/api/loggers", api.loggers),
+        Route("/api/loggers/{logger}", api.logger),
+        Route("/api/loggers/{logger}/series", api.series),
+        Route("/api/loggers/{logger}/readings.csv", api.csv),
+        Route("/api/loggers/{logger}/stream", api.stream),
+        Route("/api/events", api.events),
+        Mount("/static", StaticFiles(directory=STATIC), name="static"),
+    ]
+    app = Starlette(
+        routes=routes,
+        middleware=[Middleware(TokenGate, token=lambda: settings.token)],
+        exception_handlers={
+            BadParameter: _bad_parameter,
+            store.StoreUnavailable: _unavailable,
+            HTTPException: _http_error,
+        },
+    )
+    app.state.settings = settings
+    return app
+
+
+def _is_api(request: Request) -> bool:
+    return request.url.path.startswith("/api/")
+
+
+async def _bad_parameter(request: Request, exc: Exception) -> Response:
+    return JSONResponse({"error": str(exc)}, status_code=400)
+
+
+async def _unavailable(request: Request, exc: Exception) -> Response:
+    return JSONResponse({"error": str(exc)}, status_code=503)
+
+
+async def _http_error(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, HTTPException)
+    if _is_api(request):
+        return JSONResponse({"error": exc.detail}, status_code=exc.status_code)
+    body = f"<h1>{exc.status_code}</h1><p>{pages._e(exc.detail)}</p>"
+    return HTMLResponse(pages.page(str(exc.status_code), body), status_code=exc.status_code)
+
+
+def _int(request: Request, name: str, default: int, lo: int, hi: int) -> int:
+    text = request.query_params.get(name)
+    if text is None or text == "":
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        raise BadParameter(f"{name}: expected a whole number, got {text!r}") from None
+    if not lo <= value <= hi:
+        raise BadParameter(f"{name}: must be between {lo} and {hi}, got {value}")
+    return value
+
+
+def _time(request: Request, name: str) -> str | None:
+    text = request.query_params.get(name)
+    return None if text is None or text == "" else parse_time(name, text)
+
+
+def _range(request: Request) -> tuple[str | None, str | None]:
+    lo, hi = _time(request, "from"), _time(request, "to")
+    if lo is not None and hi is not None and lo > hi:
+        raise BadParameter(f"from ({lo}) is after to ({hi})")
+    return lo, hi
+
+
+class Api:
+    """The request handlers over one :class:`Settings`."""
+
+    def __init__(self, settings: Settings) -> None:
+        self.settings = settings
+
+    async def _db(self, work: Callable[[sqlite3.Connection], T]) -> T:
+        def run() -> T:
+            conn = store.connect(self.settings.store)
+            try:
+                return work(conn)
+            finally:
+                conn.close()
+
+        return await run_in_threadpool(run)
+
+    async def _known(self, logger: str) -> None:
+        if not await self._db(lambda c: store.known(c, logger)):
+            raise HTTPException(404, f"unknown logger {logger!r}")
+
+    # pages
+
+    async def page_overview(self, request: Request) -> Response:
+        data = await self._db(overview.overview)
+        return HTMLResponse(pages.overview(data, refresh_s=self.settings.overview_refresh_s))
+
+    async def page_plot(self, request: Request) -> Response:
+        logger = request.path_params["logger"]
+        await self._known(logger)
+        chans = await self._db(lambda c: store.channels(c, logger))
+        return HTMLResponse(pages.plot(logger, [overview.channel_json(c) for c in chans]))
+
+    async def page_log(self, request: Request) -> Response:
+        try:
+            before = _int(request, "before", 0, 0, 2**62) or None
+        except BadParameter as exc:
+            raise HTTPException(400, str(exc)) from None
+        source = request.query_params.get("source") or None
+        limit = 50
+        evs = await self._db(lambda c: store.events(c, before=before, limit=limit, source=source))
+        return HTMLResponse(pages.log(evs, source=source, limit=limit))
+
+    # JSON
+
+    async def loggers(self, request: Request) -> Response:
+        return JSONResponse(await self._db(overview.overview))
+
+    async def logger(self, request: Request) -> Response:
+        logger = request.path_params["logger"]
+        await self._known(logger)
+
+        def work(c: sqlite3.Connection) -> dict[str, Any]:
+            return overview.logger_json(c, logger, store.sources(c))
+
+        return JSONResponse(await self._db(work))
+
+    async def series(self, request: Request) -> Response:
+        logger = request.path_params["logger"]
+        lo, hi = _range(request)
+        points = _int(request, "points", self.settings.max_points, 10, self.settings.max_points)
+        await self._known(logger)
+        span = self.settings.default_span_s
+
+        def work(c: sqlite3.Connection) -> dict[str, Any]:
+            last = store.last_time(c, logger)
+            first = store.first_time(c, logger)
+            to = hi or last or "1970-01-01T00:00:00"
+            frm = lo or max(shift(to, -span), min(first or to, to))
+            chans = store.channels(c, logger)
+            got, width = series.load(c, logger, chans, frm, to, points)
+            return {
+                "logger": logger,
+                "from": frm,
+                "to": to,
+                "x_from": to_epoch(frm),
+                "x_to": to_epoch(to),
+                "following": hi is None,
+                "last": last,
+                "first": first,
+                "downsampled": width is not None,
+                "bucket_s": width,
+                "series": [s.as_json() for s in got],
+            }
+
+        return JSONResponse(await self._db(work))
+
+    async def csv(self, request: Request) -> Response:
+        logger = request.path_params["logger"]
+        lo, hi = _range(request)
+        await self._known(logger)
+        path = self.settings.store
+        store.connect(path).close()  # a missing store answers 503 before the body starts
+
+        def rows() -> Iterator[str]:
+            conn = store.connect(path)
+            try:
+                buf = io.StringIO()
+                out = csv.writer(buf, lineterminator="\n")
+                out.writerow(store.CSV_COLUMNS)
+                for n, row in enumerate(store.rows_for_csv(conn, logger, lo, hi)):
+                    out.writerow(["" if v is None else v for v in row])
+                    if n % 1000 == 999:
+                        yield buf.getvalue()
+                        buf.seek(0)
+                        buf.truncate()
+                yield buf.getvalue()
+            finally:
+                conn.close()
+
+        name = re.sub(r"[^A-Za-z0-9._-]", "_", logger)
+        return StreamingResponse(
+            rows(),
+            media_type="text/csv; charset=utf-8",
+            headers={"Content-Disposition": f'attachment; filename="{name}.csv"'},
+        )
+
+    async def events(self, request: Request) -> Response:
+        before = _int(request, "before", 0, 0, 2**62) or None
+        limit = _int(request, "limit", 50, 1, 500)
+        source = request.query_params.get("source") or None
+        evs = await self._db(lambda c: store.events(c, before=before, limit=limit, source=source))
+        nxt = evs[-1]["id"] if len(evs) == limit else None
+        return JSONResponse({"events": evs, "before": nxt})
+
+    async def stream(self, request: Request) -> Response:
+        logger = request.path_params["logger"]
+        after = _time(request, "after")
+        await self._known(logger)
+        if after is None:
+            after = await self._db(lambda c: store.last_time(c, logger)) or "0001-01-01T00:00:00"
+        return StreamingResponse(
+            self._live(logger, after),
+            media_type="text/event-stream",
+            headers={"Cache-Control": "no-store", "X-Accel-Buffering": "no"},
+        )
+
+    async def _live(self, logger: str, after: str) -> AsyncIterator[str]:
+        """Rows newer than ``after``, as ``readings`` events; this client's own cursor."""
+        since, seen = shift(after, 1), set[tuple[int, int]]()
+        idle = 0.0
+        yield "retry: 2000\nevent: ready\ndata: {}\n\n"
+        while not self.settings.stopping:
+            rows = await self._db(partial(store.newer, logger=logger, since=since, limit=5000))
+            fresh = [r for r in rows if not (r[0] == since and (r[1], r[2]) in seen)]
+            if fresh:
+                last = fresh[-1][0]
+                if last != since:
+                    since, seen = last, set()
+                seen.update((r[1], r[2]) for r in fresh if r[0] == last)
+                data = {"rows": [[to_epoch(t), ch, v] for t, _, ch, v in fresh], "last": last}
+                yield f"event: readings\ndata: {json.dumps(data)}\n\n"
+                idle = 0.0
+            elif idle >= self.settings.heartbeat_s:
+                yield ": ping\n\n"
+                idle = 0.0
+            await asyncio.sleep(self.settings.poll_interval)
+            idle += self.settings.poll_interval

@@ -1,0 +1,1 @@
+"""Wiring: configuration becomes running devices, networks and mail hubs."""

@@ -22,7 +22,6 @@ import base64
 import binascii
 import email.header
 import email.utils
-import quopri
 from dataclasses import dataclass
 from datetime import datetime
 from email import policy
@@ -148,18 +147,17 @@ def _first_plain_part(msg: Message) -> Message | None:
 
 def _decode(part: Message) -> str | NoCommand:
     cte = str(part.get("Content-Transfer-Encoding") or "7bit").strip().lower()
-    payload = part.get_payload(decode=False)
-    if not isinstance(payload, str):
-        return NoCommand("text/plain part without a body")
     if cte == "base64":
-        try:
-            data = base64.b64decode("".join(payload.split()), validate=True)
+        payload = part.get_payload(decode=False)
+        try:  # strictly: the email package would quietly skip bad characters
+            data = base64.b64decode("".join(str(payload).split()), validate=True)
         except (binascii.Error, ValueError):
             return NoCommand("broken base64 body")
-    elif cte == "quoted-printable":
-        data = quopri.decodestring(payload.encode("ascii", "surrogateescape"))
-    elif cte in ("7bit", "8bit", "binary"):
-        data = payload.encode("ascii", "surrogateescape")
+    elif cte in ("quoted-printable", "7bit", "8bit", "binary"):
+        raw = part.get_payload(decode=True)  # the bytes as sent, quoted-printable undone
+        if not isinstance(raw, bytes):
+            return NoCommand("text/plain part without a body")
+        data = raw
     else:
         return NoCommand(f"unknown transfer encoding {cte[:30]!r}")
     charset = part.get_content_charset() or "us-ascii"

@@ -138,3 +138,12 @@ def test_not_pop3_is_broken() -> None:
     c.start(0.0)
     feed(c, b"220 smtp.example.net ESMTP\r\n")
     assert c.result is not None and c.result.outcome == "broken"
+
+
+def test_busy_mailbox_is_not_a_wrong_password() -> None:
+    c = check()
+    c.start(0.0)
+    feed(c, b"+OK ready\r\n")
+    feed(c, b"+OK\r\n")
+    assert feed(c, b"-ERR [IN-USE] mailbox is open in another session\r\n") == b"QUIT\r\n"
+    assert c.result is not None and (c.result.outcome, c.result.stage) == ("failed", "pass")

@@ -2,7 +2,8 @@
 
 After each e-mail it sends, the logger looks into its mailbox once (gsm.md §4):
 
-``USER`` / ``PASS`` (a ``-ERR`` to either: ``auth_failed``) -> ``STAT`` (no message: ``none``)
+``USER`` / ``PASS`` (a ``-ERR`` to either: ``auth_failed``; ``failed`` when its response code
+says the mailbox is busy, ``[IN-USE]`` or ``[SYS/TEMP]``) -> ``STAT`` (no message: ``none``)
 -> ``LIST 1``: the oldest message is larger than ``pop3 size`` bytes -> ``DELE 1`` unread
 (``too_big``); otherwise ``RETR 1`` which must end within ``pop3 time`` seconds -> ``DELE 1``
 -> ``QUIT`` -> ``mail`` with the message's bytes (dot-unstuffed, CRLF line ends).
@@ -120,7 +121,9 @@ class Pop3Check(LineClient):
             self._step(ok, text, now, "user", f"USER {self._user}")
         elif stage in ("user", "pass"):
             if not ok:
-                self._finish(Pop3Result("auth_failed", stage, detail=f"-ERR {text}"))
+                busy = text.startswith(("[IN-USE]", "[SYS/TEMP]"))  # RFC 2449 codes
+                outcome: Pop3Outcome = "failed" if busy else "auth_failed"
+                self._finish(Pop3Result(outcome, stage, detail=f"-ERR {text}"))
                 self._quit(now)
             elif stage == "user":
                 self._step(ok, text, now, "pass", f"PASS {self._password}")

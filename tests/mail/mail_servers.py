@@ -139,6 +139,7 @@ listen = 127.0.0.1
 ssl = no
 disable_plaintext_auth = no
 auth_mechanisms = plain login
+auth_failure_delay = 0
 mail_location = maildir:{d}/mail/%u
 pop3_uidl_format = %08Xu%08Xv
 passdb {{

@@ -178,7 +178,19 @@ def test_hub_binds_requested_ports_and_stops(tmp_path: Path) -> None:
         await h.start()
         assert (h.smtp_port, h.pop3_port) == (smtp_port, pop3_port)
         assert (tmp_path / LOGGER / "new").is_dir() and (tmp_path / USER / "cur").is_dir()
-        await h.stop()
+        # sessions still open when the hub stops are ended, not left behind
+        pop_r, pop_w = await asyncio.open_connection("127.0.0.1", pop3_port)
+        smtp_r, smtp_w = await asyncio.open_connection("127.0.0.1", smtp_port)
+        assert (await pop_r.readline()).startswith(b"+OK")
+        assert (await smtp_r.readline()).startswith(b"220")
+        pop_w.write(f"USER {LOGGER}\r\nPASS {PASSWORD}\r\n".encode())
+        assert (await pop_r.readline()).startswith(b"+OK")
+        assert (await pop_r.readline()).startswith(b"+OK logged in")
+        await asyncio.wait_for(h.stop(), 5)
+        assert await asyncio.wait_for(pop_r.read(), 5) == b""
+        assert await asyncio.wait_for(smtp_r.read(), 5) in (b"", b"421 closing\r\n")
+        pop_w.close()
+        smtp_w.close()
         with pytest.raises(RuntimeError):
             _ = h.smtp_port
         with pytest.raises(OSError):

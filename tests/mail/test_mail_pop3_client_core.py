@@ -147,3 +147,16 @@ def test_busy_mailbox_is_not_a_wrong_password() -> None:
     feed(c, b"+OK\r\n")
     assert feed(c, b"-ERR [IN-USE] mailbox is open in another session\r\n") == b"QUIT\r\n"
     assert c.result is not None and (c.result.outcome, c.result.stage) == ("failed", "pass")
+
+
+def test_a_long_line_in_the_mail_is_not_a_broken_server() -> None:
+    c = check(max_size=10_000)
+    login(c)
+    feed(c, b"+OK 1 6002\r\n")
+    feed(c, b"+OK 1 6002\r\n")
+    feed(c, b"+OK\r\n" + b"x" * 5000)
+    assert c.result is None
+    assert feed(c, b"x" * 1000 + b"\r\n.\r\n") == b"DELE 1\r\n"
+    feed(c, b"+OK\r\n")
+    feed(c, b"+OK\r\n")
+    assert c.result is not None and c.result.message == b"x" * 6000 + b"\r\n"

@@ -14,8 +14,8 @@ from pathlib import Path
 from types import TracebackType
 
 from ..io.mail.maildirs import MaildirAccounts
-from ..io.mail.pop3_server import start_pop3_server
-from ..io.mail.smtp_server import start_smtp_server
+from ..io.mail.pop3_server import Pop3Server, start_pop3_server
+from ..io.mail.smtp_server import SmtpServer, start_smtp_server
 
 
 @dataclass(frozen=True)
@@ -39,8 +39,8 @@ class MailHub:
     def __init__(self, config: MailHubConfig) -> None:
         self.config = config
         self.accounts = MaildirAccounts(config.root, config.accounts)
-        self._smtp: asyncio.Server | None = None
-        self._pop3: asyncio.Server | None = None
+        self._smtp: SmtpServer | None = None
+        self._pop3: Pop3Server | None = None
 
     async def start(self) -> None:
         if self._smtp is not None:
@@ -63,28 +63,25 @@ class MailHub:
             raise
 
     async def stop(self) -> None:
-        for server in (self._smtp, self._pop3):
-            if server is not None:
-                server.close()
-        for server in (self._smtp, self._pop3):
-            if server is not None:
-                await server.wait_closed()
-        self._smtp = self._pop3 = None
+        """Stop listening and end the sessions still open (nothing half-delivered is kept)."""
+        smtp, pop3, self._smtp, self._pop3 = self._smtp, self._pop3, None, None
+        if smtp is not None:
+            await smtp.close()
+        if pop3 is not None:
+            await pop3.close()
 
-    @staticmethod
-    def _port(server: asyncio.Server | None) -> int:
-        if server is None:
+    def _running(self) -> tuple[SmtpServer, Pop3Server]:
+        if self._smtp is None or self._pop3 is None:
             raise RuntimeError("the mail hub is not running")
-        port: int = server.sockets[0].getsockname()[1]
-        return port
+        return self._smtp, self._pop3
 
     @property
     def smtp_port(self) -> int:
-        return self._port(self._smtp)
+        return self._running()[0].port
 
     @property
     def pop3_port(self) -> int:
-        return self._port(self._pop3)
+        return self._running()[1].port
 
     def maildir(self, address: str) -> Path:
         """The Maildir directory of the account ``address``."""

@@ -106,7 +106,7 @@ class Pop3Check(LineClient):
             self._send(b"DELE 1\r\n", now)
             return
         self._body += (line[1:] if line.startswith(b".") else line) + b"\r\n"
-        if len(self._body) > 2 * max(self._max_size, self._size or 0) + 65536:
+        if len(self._body) > self._body_limit():
             self._broken("the server sent far more than the size it listed")
 
     def _response(self, ok: bool, text: str, now: float) -> None:
@@ -152,6 +152,7 @@ class Pop3Check(LineClient):
         elif stage == "retr":
             if ok:
                 self._body = bytearray()  # the download's deadline stays as it was
+                self.max_line = self._body_limit()  # a mail's lines may be long
             else:
                 self._fail(ok, text, now)
         elif stage == "dele big":
@@ -166,6 +167,9 @@ class Pop3Check(LineClient):
             else:
                 self._pending = None
                 self._fail(ok, text, now)
+
+    def _body_limit(self) -> int:
+        return 2 * max(self._max_size, self._size or 0) + 65536
 
     @staticmethod
     def _number(text: str, index: int) -> int | None:

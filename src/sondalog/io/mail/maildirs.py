@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hmac
 import mailbox
+import os
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -25,6 +26,7 @@ class MaildirAccounts:
         self._accounts = dict(accounts)
         self._by_lower = {a.lower(): a for a in self._accounts}
         self._open: set[str] = set()
+        self._sizes: dict[tuple[str, str], int] = {}  # messages never change once delivered
 
     def account(self, address: str) -> str | None:
         """The account of ``address`` (compared without regard to case), if any."""
@@ -71,6 +73,27 @@ class MaildirAccounts:
     def _release(self, account: str) -> None:
         self._open.discard(account)
 
+    def size_of(self, account: str, key: str, md: mailbox.Maildir) -> int:
+        """The message's POP3 size (CRLF line ends), read once and remembered."""
+        size = self._sizes.get((account, key))
+        if size is None:
+            size = self._sizes[(account, key)] = len(crlf(md.get_bytes(key)))
+        return size
+
+    def forget(self, account: str, key: str) -> None:
+        self._sizes.pop((account, key), None)
+
+
+def _keys_oldest_first(path: Path) -> list[str]:
+    """Maildir keys (file names up to the ``:2,`` info) by file time, then name."""
+    found: list[tuple[int, str]] = []
+    for sub in ("new", "cur"):
+        with os.scandir(path / sub) as entries:
+            for entry in entries:
+                if not entry.name.startswith(".") and entry.is_file():
+                    found.append((entry.stat().st_mtime_ns, entry.name.split(":")[0]))
+    return [key for _time, key in sorted(found)]
+
 
 class _MaildirDrop:
     """One POP3 session's locked snapshot of a Maildir."""
@@ -79,13 +102,8 @@ class _MaildirDrop:
         self._owner = owner
         self._account = account
         self._md = owner.maildir(account)
-        dated = []
-        for key in self._md.iterkeys():
-            msg = self._md.get_message(key)
-            assert isinstance(msg, mailbox.MaildirMessage)
-            dated.append((msg.get_date(), key))
-        self._keys = [key for _date, key in sorted(dated)]
-        self._entries = [DropEntry(k, len(crlf(self._md.get_bytes(k)))) for k in self._keys]
+        self._keys = _keys_oldest_first(owner.path(account))
+        self._entries = [DropEntry(k, owner.size_of(account, k, self._md)) for k in self._keys]
 
     def entries(self) -> Sequence[DropEntry]:
         return self._entries
@@ -96,6 +114,7 @@ class _MaildirDrop:
     def commit(self, deleted: Sequence[str]) -> None:
         for key in deleted:
             self._md.discard(key)
+            self._owner.forget(self._account, key)
 
     def release(self) -> None:
         self._md.close()

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import weakref
 from typing import Any
 
 from aiosmtpd.smtp import SMTP, AuthResult, Envelope, LoginPassword, Session
@@ -68,6 +69,27 @@ class MaildirDelivery:
         return AuthResult(success=ok, handled=False)  # handled=False: aiosmtpd answers 535
 
 
+class SmtpServer:
+    """A listening aiosmtpd server; :meth:`close` also ends the sessions still open."""
+
+    def __init__(self, server: asyncio.Server, sessions: weakref.WeakSet[SMTP]) -> None:
+        self.server = server
+        self._sessions = sessions
+
+    @property
+    def port(self) -> int:
+        port: int = self.server.sockets[0].getsockname()[1]
+        return port
+
+    async def close(self) -> None:
+        self.server.close()
+        for session in list(self._sessions):
+            if session.transport is not None:
+                session.transport.close()
+        await asyncio.sleep(0)  # let the sessions see their end
+        await self.server.wait_closed()
+
+
 async def start_smtp_server(
     accounts: MaildirAccounts,
     host: str,
@@ -75,18 +97,21 @@ async def start_smtp_server(
     *,
     hostname: str = "mail.example.net",
     auth_required: bool = False,
-) -> asyncio.Server:
+) -> SmtpServer:
     """Listen on ``host:port`` (0: any free port) with aiosmtpd, no Controller thread."""
     handler = MaildirDelivery(accounts)
-    loop = asyncio.get_running_loop()
-    return await loop.create_server(
-        lambda: SMTP(
+    sessions: weakref.WeakSet[SMTP] = weakref.WeakSet()
+
+    def factory() -> SMTP:
+        session = SMTP(
             handler,
             hostname=hostname,
             authenticator=handler.authenticator,
             auth_required=auth_required,
             auth_require_tls=False,
-        ),
-        host,
-        port,
-    )
+        )
+        sessions.add(session)
+        return session
+
+    loop = asyncio.get_running_loop()
+    return SmtpServer(await loop.create_server(factory, host, port), sessions)

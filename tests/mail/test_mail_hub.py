@@ -24,7 +24,7 @@ from mail_servers import (
     run,
 )
 
-from sondalog.app.mailhub import MailHub, MailHubConfig
+from sondalog.app.mailhub import MailHub, MailHubConfig, config_from_mapping, example_config
 
 RAW = [
     b"From: a@x.cz\nSubject: one\n\nfirst\n.leading dot\n",
@@ -197,3 +197,33 @@ def test_hub_binds_requested_ports_and_stops(tmp_path: Path) -> None:
             await asyncio.open_connection("127.0.0.1", pop3_port)
 
     run(main())
+
+
+def test_site_file_mail_table(tmp_path: Path) -> None:
+    import tomllib
+
+    data = tomllib.loads(
+        """
+        smtp = "127.0.0.1:2526"
+        pop3 = "127.0.0.1:1111"
+        [accounts]
+        "logger@example.net" = "secret"
+        """
+    )
+    cfg = config_from_mapping(data, tmp_path)
+    assert (cfg.smtp_port, cfg.pop3_port, dict(cfg.accounts)) == (
+        2526,
+        1111,
+        {LOGGER: PASSWORD},
+    )
+    assert example_config(tmp_path).smtp_port == 2525
+    assert example_config(tmp_path).pop3_port == 1110
+    for bad, match in (
+        ({"smtp": "2525"}, "host:port"),
+        ({"pop3": "h:99999"}, "host:port"),
+        ({"accounts": {"nobody": "x"}}, "not an e-mail address"),
+        ({"accounts": {LOGGER: 1}}, "table of"),
+        ({"smpt": "h:1"}, "unknown keys smpt"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            config_from_mapping(bad, tmp_path)

@@ -57,6 +57,14 @@ class Hardware(Protocol):
         """Output ``output`` (1..7) switched on or off at ``t`` (§6.7)."""
         ...
 
+    def prepare(self, t: float) -> None:
+        """The core will read inputs at host time ``t`` (its next sampling instant).
+
+        A backend that needs time to acquire (a 750 ms DS18B20 conversion, a slow ADC) starts
+        its conversions so that the values are held by then; the read methods above never
+        block. Simulated hardware has nothing to prepare."""
+        ...
+
 
 class NoHardware:
     """A module with nothing connected: every input reads as absent, outputs go nowhere."""
@@ -77,6 +85,9 @@ class NoHardware:
         return None
 
     def set_output(self, output: int, on: bool, t: float) -> None:
+        return None
+
+    def prepare(self, t: float) -> None:
         return None
 
 

@@ -128,6 +128,7 @@ class ModuleState:
         self.sampler = Sampler(self.measurer, self.outputs)
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
+        self._prepared: float | None = None
         self._repair(host_now)
         self.configure(host_now)
 
@@ -194,6 +195,7 @@ class ModuleState:
         self.record.reconfigure(
             int(view.get("file record size")), view.get("record type") == "CYCLIC"
         )
+        self._prepare()
 
     # -- files -------------------------------------------------------------------------------
     def write_file(self, area: str, data: bytes) -> None:
@@ -224,6 +226,14 @@ class ModuleState:
         except BaseException:
             self.record.rollback(mark)
             raise
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """Tell the hardware when the next sampling instant is (asynchronous acquisition)."""
+        upcoming = self.next_event_host()
+        if upcoming is not None and upcoming != self._prepared:
+            self._prepared = upcoming
+            self.hardware.prepare(upcoming)
 
     def _store_row(self, module_second: int, fields: list[str]) -> None:
         stamp = format_stamp(from_seconds(module_second))

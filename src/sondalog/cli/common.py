@@ -2,35 +2,18 @@
 
 from __future__ import annotations
 
-import ipaddress
-
 import click
 
+from sondalog.io.address import format_address, is_loopback, parse_listen
 
-def parse_listen(value: str) -> tuple[str, int]:
-    """``HOST:PORT`` or ``[IPv6]:PORT`` -> (host, port); raises ValueError."""
-    host, sep, port_text = value.rpartition(":")
-    if not sep or not host:
-        raise ValueError(f"expected HOST:PORT, got {value!r}")
-    if host.startswith("[") and host.endswith("]"):
-        host = host[1:-1]
-    if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
-        raise ValueError(f"port must be a number 0..65535, got {port_text!r}")
-    return host, int(port_text)
-
-
-def format_address(host: str, port: int) -> str:
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
-
-
-def is_loopback(host: str) -> bool:
-    """True for addresses only this machine reaches (127.0.0.0/8, ::1, localhost)."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
+__all__ = [
+    "Refused",
+    "allow_remote_option",
+    "format_address",
+    "is_loopback",
+    "listen_option",
+    "parse_listen",
+]
 
 
 _ALLOW_REMOTE = "sondalog.allow_remote"
@@ -64,3 +47,9 @@ allow_remote_option = click.option(
     callback=_remember_allow_remote,
     help="Allow a --listen address beyond loopback (no authentication: see docs/security.md).",
 )
+
+
+class Refused(click.ClickException):
+    """A usage problem found after parsing (exit code 2, like click's own usage errors)."""
+
+    exit_code = 2

@@ -204,6 +204,10 @@ class SimHardware:
         signal = self.gsm_signals.get(what)
         return None if signal is None else signal(t)
 
+    def prepare(self, t: float) -> None:
+        """Simulated inputs are there at once: nothing to acquire ahead."""
+        return None
+
     def set_output(self, output: int, on: bool, t: float) -> None:
         self.outputs[output] = on
 
@@ -224,6 +228,8 @@ _LOGGER_KEYS = {
     "pulses",
     "ds18b20",
     "gsm",
+    "backend",  # read by sondalog serve (app/site.py)
+    "serve",
 }
 _ANALOG_KEYS = {"address", "signal", "power"}
 _PULSE_KEYS = {"timer", "address", "rate", "poisson"}

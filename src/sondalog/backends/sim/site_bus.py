@@ -30,7 +30,7 @@ from sondalog.hctmps1.variants import Kind, variant_for
 from sondalog.protocol.hctmps1_frames import is_valid_id
 from sondalog.sitefile import SiteError, locate, read_site_file
 
-_BUS_KEYS = {"baud", "noise", "seed", "modules"}
+_BUS_KEYS = {"baud", "noise", "seed", "modules", "serve"}  # serve: app/site.py
 _MODULE_KEYS = {"id", "kind", "cycle", "signal"}
 
 

@@ -1,0 +1,176 @@
+"""What a site file asks ``sondalog serve`` to run (the one site-file loader of the wiring).
+
+A site file describes a place: its logger (``[logger]``: the simulated hardware, or
+``backend = "linux"``), its RS-485 bus (``[bus]``), its mail hub (``[mail]``). How each is
+served is said in a ``serve`` table beside it; everything has a default::
+
+    [logger.serve]
+    listen = "127.0.0.1:10001"      # TCP, one line per connection
+    protocol = "2.10"               # or "1.16"; fixed once the state directory exists
+    serial_number = "A1-0001"
+    ptys = ["/tmp/ala1"]            # pty lines (stable symlinks), paced at com speed
+    serials = ["/dev/ttyUSB0"]      # real serial ports
+    line_rate = false               # pace TCP answers too
+
+    [bus.serve]
+    listen = "127.0.0.1:10485"
+    pty = "/tmp/rs485"
+    serial = "/dev/ttyUSB1"
+
+A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
+hub when it has ``[mail]``. Errors name the file, line and field (:class:`SiteError`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sondalog.backends.sim.logger import parse_logger_site
+from sondalog.backends.sim.site_bus import parse_bus_site
+from sondalog.io.address import parse_listen
+from sondalog.sitefile import SiteError, locate, read_site_file
+
+_Fail = Callable[[str, str], SiteError]
+
+DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
+DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
+_LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate"}
+_BUS_SERVE = {"listen", "pty", "serial"}
+
+
+@dataclass(frozen=True)
+class LoggerPlan:
+    backend: str = "sim"
+    listen: tuple[str, int] = DEFAULT_LOGGER_LISTEN
+    protocol: str | None = None
+    serial_number: str | None = None
+    ptys: tuple[Path, ...] = ()
+    serials: tuple[str, ...] = ()
+    line_rate: bool = False
+
+
+@dataclass(frozen=True)
+class BusPlan:
+    listen: tuple[str, int] = DEFAULT_BUS_LISTEN
+    pty: Path | None = None
+    serial: str | None = None
+
+
+@dataclass(frozen=True)
+class SitePlan:
+    """A parsed site file and what it asks to serve."""
+
+    path: Path
+    data: Mapping[str, object]
+    text: str
+    logger: LoggerPlan | None = None
+    bus: BusPlan | None = None
+    mail: Mapping[str, object] | None = None
+    listens: list[tuple[str, tuple[str, int]]] = field(default_factory=list)
+
+
+def load_site(path: Path) -> SitePlan:
+    """Read ``path`` and check its ``serve`` tables; raises :class:`SiteError`."""
+    data, text = read_site_file(path)
+
+    def fail(where: str, message: str) -> SiteError:
+        return SiteError(path, where, message, locate(text, where))
+
+    logger = bus = mail = None
+    listens: list[tuple[str, tuple[str, int]]] = []
+    table = data.get("logger")
+    if table is not None:
+        if not isinstance(table, Mapping):
+            raise fail("logger", "must be a table")
+        logger = _logger_plan(table, fail)
+        listens.append(("logger.serve.listen", logger.listen))
+    table = data.get("bus")
+    if table is not None:
+        if not isinstance(table, Mapping):
+            raise fail("bus", "must be a table")
+        bus = _bus_plan(table, fail)
+        listens.append(("bus.serve.listen", bus.listen))
+    table = data.get("mail")
+    if table is not None:
+        if not isinstance(table, Mapping):
+            raise fail("mail", "must be a table")
+        mail = table
+    if bus is not None:
+        parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
+    if logger is not None and logger.backend == "sim":
+        parse_logger_site(data, 0.0, path, text)
+    if logger is None and bus is None and mail is None:
+        raise fail("site", "nothing to serve: the file has no [logger], [bus] or [mail] table")
+    return SitePlan(path, data, text, logger, bus, mail, listens)
+
+
+def _serve_table(
+    table: Mapping[str, object], where: str, keys: set[str], fail: _Fail
+) -> dict[str, object]:
+    serve = table.get("serve", {})
+    if not isinstance(serve, Mapping):
+        raise fail(f"{where}.serve", "must be a table")
+    for key in serve:
+        if key not in keys:
+            raise fail(f"{where}.serve.{key}", f"unknown key (known: {', '.join(sorted(keys))})")
+    return dict(serve)
+
+
+def _listen(value: object, where: str, fail: _Fail) -> tuple[str, int]:
+    if not isinstance(value, str):
+        raise fail(where, 'must be "HOST:PORT"')
+    try:
+        return parse_listen(value)
+    except ValueError as exc:
+        raise fail(where, str(exc)) from None
+
+
+def _text(value: object, where: str, fail: _Fail) -> str:
+    if not isinstance(value, str) or not value:
+        raise fail(where, "must be a non-empty string")
+    return value
+
+
+def _texts(value: object, where: str, fail: _Fail) -> tuple[str, ...]:
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise fail(where, "must be a list of strings")
+    return tuple(value)
+
+
+def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
+    serve = _serve_table(table, "logger", _LOGGER_SERVE, fail)
+    backend = table.get("backend", "sim")
+    if not isinstance(backend, str):
+        raise fail("logger.backend", "must be a backend name")
+    protocol = serve.get("protocol")
+    if protocol is not None and protocol not in ("1.16", "2.10"):
+        raise fail("logger.serve.protocol", 'must be "1.16" or "2.10"')
+    line_rate = serve.get("line_rate", False)
+    if not isinstance(line_rate, bool):
+        raise fail("logger.serve.line_rate", "must be true or false")
+    return LoggerPlan(
+        backend=backend,
+        listen=_listen(serve["listen"], "logger.serve.listen", fail)
+        if "listen" in serve
+        else DEFAULT_LOGGER_LISTEN,
+        protocol=str(protocol) if protocol is not None else None,
+        serial_number=_text(serve["serial_number"], "logger.serve.serial_number", fail)
+        if "serial_number" in serve
+        else None,
+        ptys=tuple(Path(p) for p in _texts(serve.get("ptys", []), "logger.serve.ptys", fail)),
+        serials=_texts(serve.get("serials", []), "logger.serve.serials", fail),
+        line_rate=line_rate,
+    )
+
+
+def _bus_plan(table: Mapping[str, object], fail: _Fail) -> BusPlan:
+    serve = _serve_table(table, "bus", _BUS_SERVE, fail)
+    return BusPlan(
+        listen=_listen(serve["listen"], "bus.serve.listen", fail)
+        if "listen" in serve
+        else DEFAULT_BUS_LISTEN,
+        pty=Path(_text(serve["pty"], "bus.serve.pty", fail)) if "pty" in serve else None,
+        serial=_text(serve["serial"], "bus.serve.serial", fail) if "serial" in serve else None,
+    )

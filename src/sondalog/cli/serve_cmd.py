@@ -1,0 +1,82 @@
+"""``sondalog serve SITE.toml``: serve everything a site file describes (parsing only)."""
+
+from __future__ import annotations
+
+import asyncio
+import signal
+import sys
+from pathlib import Path
+
+import click
+
+from sondalog.cli.common import Refused, allow_remote_option, is_loopback
+
+
+@click.command()
+@click.argument("site", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--state",
+    "state_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="State directory (non-volatile memories, mailboxes); default state/<site name>.",
+)
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="Run the devices' clock this many times faster than real time.",
+)
+@allow_remote_option
+@click.pass_context
+def serve(ctx: click.Context, site: Path, state_dir: Path | None, speed: float) -> None:
+    """Serve the loggers, buses and mail hub that the site file SITE describes.
+
+    Prints one line per part once it accepts connections (for example
+    "logger 000001 listening on 127.0.0.1:10001"). SIGINT or SIGTERM stop everything cleanly.
+    See docs/architecture.md and docs/simulation.md for the site file.
+    """
+    from sondalog.app.site import load_site
+    from sondalog.sitefile import SiteError
+
+    try:
+        plan = load_site(site)
+    except SiteError as exc:
+        raise Refused(str(exc)) from exc
+    if not ctx.meta.get("sondalog.allow_remote", False):
+        for field, (host, _port) in plan.listens:
+            if not is_loopback(host):
+                raise Refused(
+                    f"{site}: {field}: {host} is reachable from other machines and the protocol "
+                    "has no authentication (docs/security.md); add --allow-remote to serve there"
+                )
+    state = state_dir if state_dir is not None else Path("state") / site.stem
+    try:
+        asyncio.run(_serve(plan, state, speed))
+    except SiteError as exc:
+        raise Refused(str(exc)) from exc
+    except OSError as exc:
+        raise click.ClickException(f"cannot serve {site}: {exc}") from exc
+
+
+async def _serve(plan: object, state: Path, speed: float) -> None:
+    from sondalog.app.serve import start_site
+    from sondalog.app.site import SitePlan
+    from sondalog.io.clock import make_clock
+
+    assert isinstance(plan, SitePlan)
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+
+    def announce(line: str) -> None:
+        sys.stdout.write(line + "\n")
+        sys.stdout.flush()
+
+    running = await start_site(plan, state, make_clock(speed), announce)
+    try:
+        await stop.wait()
+    finally:
+        await running.close()

@@ -41,7 +41,7 @@ def test_auto_direction_adapter_carries_a_frame(pty_pair: tuple[int, str]) -> No
 
 def test_kernel_mode_on_a_pty_is_refused_clearly(pty_pair: tuple[int, str]) -> None:
     _, name = pty_pair
-    with pytest.raises(Rs485Error, match="kernel RS-485 mode not supported.*use mode"):
+    with pytest.raises(Rs485Error, match=r"kernel RS-485 mode not supported.*use mode"):
         open_rs485(name, 9600, mode="kernel")
     with pytest.raises(Rs485Error, match="no RTS line"):
         open_rs485(name, 9600, mode="rts")

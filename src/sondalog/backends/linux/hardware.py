@@ -219,6 +219,10 @@ class LinuxHardware:
         celsius = self._valid(sensors.get(rom), wire.power, t)
         return None if celsius is None else (rom, celsius / DS18B20_SCALE)
 
+    def thermometers(self, pin: int) -> dict[int, float | None]:
+        """The sensors the last pass found on P6 bit ``pin``: ROM code -> °C (or None)."""
+        return {rom: held.value for rom, held in self._temps.get(pin, {}).items()}
+
     def gsm(self, what: str, t: float) -> float | None:
         return None  # no modem on this backend (the GSM issue brings one)
 

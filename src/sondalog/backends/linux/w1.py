@@ -6,7 +6,7 @@ byte, a dash and the 48-bit serial number as one hexadecimal number; the logger 
 whole 64-bit ROM code as one hexadecimal number with the family code 0x28 in the lowest byte
 and the Dallas CRC-8 in the highest (§6.4.3.1.1, :func:`sondalog.ala1.hardware.rom_code`)::
 
-    sysfs  28-000008d5e4fd   <->   logger  A2000008D5E4FD28   (A2 = CRC-8 of 28 fd e4 d5 08 00 00)
+    sysfs  28-000008d5e4fd   <->   logger  46000008D5E4FD28   (46 = CRC-8 of 28 fd e4 d5 08 00 00)
 
 Every function here does blocking file I/O: callers run them in a worker thread.
 """

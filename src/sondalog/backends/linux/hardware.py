@@ -163,6 +163,9 @@ class LinuxHardware:
         """Release every GPIO line (outputs go inactive) and close the chips opened here."""
         for edges, _ in self._edges:
             edges.release()
+        for lines, offset in self._outputs.values():
+            with contextlib.suppress(OSError):
+                lines.set(offset, False)  # a relay left on would drain the battery
         for outputs in {id(r): r for r, _ in self._outputs.values()}.values():
             outputs.release()
         for chip in self._own_chips:

@@ -203,3 +203,15 @@ def test_missing_resources_are_named_in_the_board_file(tmp_path: Path) -> None:
     with pytest.raises(SiteError, match=r":4: board.outputs\[0\].chip: cannot open"):
         create(tmp_path, board, root=tmp_path)
     assert NAME == "linux"
+
+
+def test_busy_lines_are_named_and_close_switches_outputs_off(tmp_path: Path) -> None:
+    world = World(tmp_path)
+    world.hw.set_output(2, True, world.now)
+    text = '[board]\n[[board.outputs]]\noutput = 5\nchip = "gpiochip0"\nline = 27\n'
+    path = tmp_path / "other.toml"
+    board = parse_board(tomllib.loads(text), path, text)
+    with pytest.raises(SiteError, match=r"other.toml:5: board.outputs\[0\].line: .*busy"):
+        LinuxHardware(board, root=tmp_path, chips={"gpiochip0": world.chip})
+    world.hw.close()
+    assert world.chip.history[-1] == (27, False)

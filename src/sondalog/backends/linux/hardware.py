@@ -135,10 +135,13 @@ class LinuxHardware:
             offset = self._offset(self._chip(out.chip, out.where), out.line, out.where)
             by_chip.setdefault(out.chip, {})[offset] = out.active_low
             owners[out.output] = (out.chip, offset)
-        requests = {
-            name: self._chips[name].request_outputs(lines, CONSUMER)
-            for name, lines in by_chip.items()
-        }
+        requests: dict[str, OutputLines] = {}
+        for name, lines in by_chip.items():
+            try:
+                requests[name] = self._chips[name].request_outputs(lines, CONSUMER)
+            except (OSError, ValueError) as exc:
+                where = next(o.where for o in self.board.outputs if o.chip == name)
+                raise self.board.error(f"{where}.line", f"cannot request: {exc}") from None
         for output, (name, offset) in owners.items():
             self._outputs[output] = (requests[name], offset)
         for wiring in self.board.pulses:
@@ -152,7 +155,7 @@ class LinuxHardware:
                     bias=wiring.bias,
                     debounce=wiring.debounce,
                 )
-            except OSError as exc:
+            except (OSError, ValueError) as exc:
                 raise self.board.error(f"{wiring.where}.line", f"cannot request: {exc}") from None
             counter = PulseCounter(lambda: self.host_now())
             counter.watch(offset)

@@ -66,6 +66,8 @@ def test_outputs_and_busy_lines() -> None:
 def test_real_gpiod_refuses_a_missing_chip(tmp_path: Path) -> None:
     with pytest.raises(OSError):
         GpiodChip(str(tmp_path / "gpiochip0"))
+    with pytest.raises(OSError):
+        GpiodChip("/dev/null")  # a character device, but not a GPIO chip
 
 
 @pytest.mark.hardware

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from sondalog.ala1 import Engine, Identity
@@ -10,6 +12,7 @@ from sondalog.backends import registry
 from sondalog.backends.registry import BackendContext, UnknownBackend
 from sondalog.backends.sim.logger import SimHardware
 from sondalog.backends.store.ala1_nv import SqliteNvStore
+from sondalog.sitefile import read_site_file
 
 T0 = 1_000_000_000.0
 
@@ -52,3 +55,18 @@ def test_the_core_tells_the_hardware_its_next_sampling_instant() -> None:
     upcoming = hardware.prepared[-1]
     assert T0 + 100 < upcoming <= T0 + 110
     assert engine.next_deadline() == upcoming
+
+
+def test_linux_is_chosen_by_name_from_a_site_file(tmp_path: Path) -> None:
+    """``backend = "linux"``: the registry builds the board's hardware on a fake root."""
+    from linux.linux_fakesys import FakeW1  # the fake sysfs tree of the linux tests
+
+    FakeW1(tmp_path).sensor("28-000008d5e4fd", 21.5)
+    site = tmp_path / "site.toml"
+    site.write_text(
+        '[logger]\nbackend = "linux"\n[board]\n'
+        '[[board.ds18b20]]\npin = 4\nmaster = "w1_bus_master1"\n'
+    )
+    data, text = read_site_file(site)
+    hardware = registry.create("linux", BackendContext(data, site, text, T0, root=tmp_path))
+    assert type(hardware).__name__ == "LinuxHardware"

@@ -8,6 +8,7 @@ loggers and the GSM network here, not in the CLI.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -18,7 +19,7 @@ from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
-from sondalog.backends.registry import BackendContext, create
+from sondalog.backends.registry import Acquiring, BackendContext, create
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.sitefile import SiteError, locate
@@ -34,8 +35,13 @@ class RunningSite:
     logger: Logger | None = None
     bus: BusServer | None = None
     mail: MailHub | None = None
+    acquisition: asyncio.Task[None] | None = None
 
     async def close(self) -> None:
+        if self.acquisition is not None:
+            self.acquisition.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await self.acquisition
         if self.mail is not None:
             with contextlib.suppress(Exception):
                 await self.mail.stop()
@@ -60,6 +66,8 @@ async def start_site(
                 raise SiteError(
                     plan.path, "logger.backend", str(exc), locate(plan.text, "logger.backend")
                 ) from exc
+            if isinstance(hardware, Acquiring):  # a real board: its acquisition task runs here
+                running.acquisition = asyncio.create_task(hardware.run(), name="acquisition")
             running.logger = await start_logger(
                 state / "logger",
                 clock,

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from sondalog.backends.linux import load_board
-from sondalog.sim.site_bus import SiteError
+from sondalog.sitefile import SiteError
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 

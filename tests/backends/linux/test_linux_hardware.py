@@ -10,11 +10,11 @@ import pytest
 from linux_fakesys import FakeIio, FakeW1
 
 from sondalog.ala1.hardware import DS18B20_SCALE, Hardware
-from sondalog.backends.linux import NAME, create, parse_board
+from sondalog.backends.linux import NAME, open_board, parse_board
 from sondalog.backends.linux.fakegpio import FakeChip
 from sondalog.backends.linux.hardware import LinuxHardware
 from sondalog.backends.linux.w1 import rom_from_slave
-from sondalog.sim.site_bus import SiteError
+from sondalog.sitefile import SiteError
 
 BOARD = """\
 [board]
@@ -193,15 +193,15 @@ def test_missing_resources_are_named_in_the_board_file(tmp_path: Path) -> None:
     board = parse_board(tomllib.loads(text), path, text)
     FakeW1(tmp_path)
     with pytest.raises(SiteError, match=r"board.toml:5: .*master.*found: w1_bus_master1"):
-        create(tmp_path, board, root=tmp_path)
+        open_board(board, root=tmp_path)
     text = '[board]\n[[board.analog]]\naddress = 16\niio = "ads1015"\nchannel = 0\n'
     board = parse_board(tomllib.loads(text), path, text)
     with pytest.raises(SiteError, match=r":4: board.analog\[0\].iio: no IIO device named"):
-        create(tmp_path, board, root=tmp_path)
+        open_board(board, root=tmp_path)
     text = '[board]\n[[board.outputs]]\noutput = 1\nchip = "gpiochip0"\nline = 3\n'
     board = parse_board(tomllib.loads(text), path, text)
     with pytest.raises(SiteError, match=r":4: board.outputs\[0\].chip: cannot open"):
-        create(tmp_path, board, root=tmp_path)
+        open_board(board, root=tmp_path)
     assert NAME == "linux"
 
 

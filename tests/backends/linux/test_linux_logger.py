@@ -13,7 +13,7 @@ from pathlib import Path
 
 from linux_fakesys import FakeIio, FakeW1
 
-from sondalog.ala1.virtual import VirtualLogger
+from sondalog.app.virtual import VirtualLogger
 from sondalog.backends.linux import parse_board
 from sondalog.backends.linux.fakegpio import FakeChip
 from sondalog.backends.linux.hardware import LinuxHardware

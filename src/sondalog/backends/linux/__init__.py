@@ -8,17 +8,41 @@ inputs (:mod:`.gpio`), RS-485 adapters (:mod:`.rs485`), wired by a board file
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from sondalog.backends.linux.board import BoardConfig, load_board, parse_board
+from sondalog.backends.linux.board import BoardConfig, board_of_site, load_board, parse_board
 from sondalog.backends.linux.hardware import LinuxHardware
+from sondalog.sitefile import SiteError
+
+if TYPE_CHECKING:
+    from sondalog.backends.registry import BackendContext
 
 NAME = "linux"
 
 
-def create(site_dir: Path, board: BoardConfig, *, root: Path = Path("/")) -> LinuxHardware:
+def open_board(board: BoardConfig, *, root: Path = Path("/")) -> LinuxHardware:
     """The board's hardware, its GPIO lines requested; ``root`` prefixes every sysfs and
-    ``/dev`` path (a fake tree in tests). ``site_dir`` is where the site file lives."""
+    ``/dev`` path (a fake tree in tests)."""
     return LinuxHardware(board, root=root)
 
 
-__all__ = ["NAME", "BoardConfig", "LinuxHardware", "create", "load_board", "parse_board"]
+def create(context: BackendContext) -> LinuxHardware:
+    """The registry's entry (``backend = "linux"``): the site file's board, on ``root``."""
+    path = context.path if context.path is not None else Path("site.toml")
+    board = board_of_site(context.site, path, context.text)
+    if board is None:
+        raise SiteError(
+            context.path, "board", 'backend "linux" needs a [board] table or board = "FILE"'
+        )
+    return open_board(board, root=context.root)
+
+
+__all__ = [
+    "NAME",
+    "BoardConfig",
+    "LinuxHardware",
+    "create",
+    "load_board",
+    "open_board",
+    "parse_board",
+]

@@ -19,7 +19,7 @@ from sondalog.backends.linux.board import load_board
 from sondalog.backends.linux.hardware import LinuxHardware
 from sondalog.backends.linux.iio import INTERNAL_REFERENCE
 from sondalog.backends.linux.w1 import slave_from_rom
-from sondalog.sim.site_bus import SiteError
+from sondalog.sitefile import SiteError
 
 
 def main(argv: list[str] | None = None) -> int:

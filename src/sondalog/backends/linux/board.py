@@ -51,7 +51,7 @@ site file (relative to it)::
     [board.serial]                  # the logger's own line(s): real UARTs, 8N1
     ports = ["/dev/ttyAMA0"]
 
-Mistakes are :class:`~sondalog.sim.site_bus.SiteError` naming file, line and field.
+Mistakes are :class:`~sondalog.backends.sim.site_bus.SiteError` naming file, line and field.
 """
 
 from __future__ import annotations
@@ -63,8 +63,8 @@ from typing import cast
 
 from sondalog.backends.linux.gpio import BiasKind, EdgeKind
 from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, check_delays
-from sondalog.sim.logger import locate, pin_of
-from sondalog.sim.site_bus import SiteError, read_site_file
+from sondalog.backends.sim.logger import pin_of
+from sondalog.sitefile import SiteError, locate, read_site_file
 
 _ANALOG_ADDRESSES = (16, 17, 18, 19, 20, 24, 32, 33, 34, 35, 36)
 _KEYS = {
@@ -169,6 +169,13 @@ def load_board(site: Path) -> BoardConfig | None:
     """The board of the site file ``site``: its ``[board]`` table, or the file its
     ``board = "FILE"`` names; None when the site file has neither."""
     data, text = read_site_file(site)
+    return board_of_site(data, site, text)
+
+
+def board_of_site(
+    data: Mapping[str, object], site: Path, text: str | None = None
+) -> BoardConfig | None:
+    """Like :func:`load_board`, for a site file already read."""
     board = data.get("board")
     if board is None:
         return None

@@ -12,7 +12,7 @@ the UART's RTS) for exactly as long as its frame lasts. Three ways to get that o
   plain 8N1 port.
 
 Bus timing (sondalog's HCTMPS1 decisions): a byte is 10 bit times; a module answers
-:data:`~sondalog.bus.core.DEFAULT_TURNAROUND` (2 ms) after the end of a request, so the
+:data:`~sondalog.world.bus.DEFAULT_TURNAROUND` (2 ms) after the end of a request, so the
 master must release the driver sooner than that; a broadcast is answered within 16 slots of
 an 80-byte frame each.
 """
@@ -22,8 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from sondalog.bus.core import DEFAULT_TURNAROUND
-from sondalog.hctmps1.module import BROADCAST_SLOTS, slot_time
+from sondalog.hctmps1.module import BROADCAST_SLOTS
+from sondalog.protocol.hctmps1_frames import slot_time
+from sondalog.world.bus import DEFAULT_TURNAROUND
 
 Mode = Literal["kernel", "rts", "auto"]
 MODES: tuple[Mode, ...] = ("kernel", "rts", "auto")
@@ -99,7 +100,7 @@ def open_rs485(
     import serial
     import serial.rs485
 
-    from sondalog.transport.serialports import serial_8n1
+    from sondalog.io.serial_ports import serial_8n1
 
     if mode not in MODES:
         raise Rs485Error(f"mode must be one of {', '.join(MODES)}, not {mode!r}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import subprocess
 
-from conftest import Module
+from ala1_module import Module
 
 
 def test_check_mismatch_is_silent(module: Module) -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from conftest import Module
+from ala1_module import Module
 
 
 def test_cr_lf_crlf_lfcr_each_end_one_command(module: Module) -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from conftest import T0, Module
+from ala1_module import T0, Module
 
 from sondalog.protocol.device import LineSend as Output
 

@@ -8,7 +8,7 @@ the same command shapes on stored parameters.
 from __future__ import annotations
 
 import pytest
-from conftest import Module
+from ala1_module import Module
 
 from sondalog.ala1 import Version
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import subprocess
 
-from conftest import T0, Module
+from ala1_module import T0, Module
 
 from sondalog.ala1.hardware import rom_code
 from sondalog.ala1.measure import channel_config

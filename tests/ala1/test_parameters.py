@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import Module
+from ala1_module import Module
 
 from sondalog.ala1 import Version
 

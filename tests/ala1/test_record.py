@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from conftest import Module
+from ala1_module import Module
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

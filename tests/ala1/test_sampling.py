@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from conftest import T0, Module
+from ala1_module import T0, Module
 
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware
 from sondalog.backends.sim.signals import Schedule, constant

@@ -12,7 +12,7 @@ from collections import defaultdict
 from datetime import datetime, timedelta
 from decimal import ROUND_HALF_UP, Decimal
 
-from conftest import T0, Module
+from ala1_module import T0, Module
 
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware
 from sondalog.backends.sim.signals import RandomWalk, Schedule, sine

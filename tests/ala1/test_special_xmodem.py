@@ -3,7 +3,7 @@ the host on a stepped clock. Interoperability with lrzsz over TCP is in tests/in
 
 from __future__ import annotations
 
-from conftest import Module
+from ala1_module import Module
 
 from sondalog.backends.sim.logger import Analog, SimHardware
 from sondalog.backends.sim.signals import constant

@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 from decimal import Decimal
 
-from conftest import Module
+from ala1_module import Module
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 

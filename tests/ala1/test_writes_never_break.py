@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import Module
+from ala1_module import Module
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

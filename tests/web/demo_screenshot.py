@@ -14,8 +14,8 @@ import tempfile
 from datetime import datetime, timedelta
 from pathlib import Path
 
-from conftest import CHANNELS_DDL, Running, execute, insert, make_store
 from playwright.sync_api import sync_playwright
+from web_store import CHANNELS_DDL, Running, execute, insert, make_store
 
 from sondalog.web import create_app
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import Running, execute, insert, make_store, series_rows
+from web_store import Running, execute, insert, make_store, series_rows
 
 from sondalog.web import WebConfigError, check_listen, create_app
 

@@ -14,8 +14,9 @@ import logging
 from dataclasses import dataclass, field
 
 from sondalog.ala1 import special
-from sondalog.ala1.commands import MAX_LINE, Answer, Interpreter
 from sondalog.ala1.hardware import Hardware
+from sondalog.ala1.headers import MAX_LINE
+from sondalog.ala1.interpreter import Answer, Interpreter
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore

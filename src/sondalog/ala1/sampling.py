@@ -17,6 +17,8 @@ from decimal import Decimal
 
 from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
+from sondalog.ala1.moduleclock import to_seconds
+from sondalog.ala1.tokens import parse_stamp
 
 _ZERO = Decimal(0)
 _NEVER = Decimal(-1)
@@ -50,9 +52,6 @@ class ChannelRun:
 
 
 def _stamp_seconds(stamp: str) -> int:
-    from sondalog.ala1.state import to_seconds
-    from sondalog.ala1.tokens import parse_stamp
-
     return int(to_seconds(parse_stamp(stamp)))
 
 

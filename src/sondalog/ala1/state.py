@@ -12,12 +12,19 @@ from __future__ import annotations
 
 import logging
 import math
-from datetime import datetime, timedelta
+from datetime import datetime
 from typing import Protocol
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
 from sondalog.ala1.measure import Input, Measurer, channel_config, format_value
 from sondalog.ala1.model import CommandError, Identity
+from sondalog.ala1.moduleclock import (
+    CLOCK_MAX,
+    CLOCK_MIN,
+    FACTORY_DATE,
+    from_seconds,
+    to_seconds,
+)
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.ala1.sampling import Outputs, Sampler
@@ -26,26 +33,8 @@ from sondalog.protocol.tables import TableSet
 
 log = logging.getLogger("sondalog.ala1.state")
 
-_EPOCH = datetime(1970, 1, 1)
-#: The clock of a new virtual module (§11 factory value of ``date``).
-FACTORY_DATE = datetime(2000, 1, 1)
 #: Keys whose change reconfigures sampling, outputs or the record.
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
-
-
-def to_seconds(moment: datetime) -> float:
-    return (moment - _EPOCH).total_seconds()
-
-
-#: The calendar's ends (§4.3.2: four-digit years). The module clock holds at either end
-#: instead of overflowing (docs/decisions.md "The end of the calendar").
-CLOCK_MIN = to_seconds(datetime(1, 1, 1))
-CLOCK_MAX = to_seconds(datetime(9999, 12, 31, 23, 59, 59))
-
-
-def from_seconds(seconds: float) -> datetime:
-    """The date of module ``seconds``, held within the calendar (never an overflow)."""
-    return _EPOCH + timedelta(seconds=math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX)))
 
 
 class NvStore(Protocol):

@@ -7,116 +7,17 @@ bytes of the answer, or None when the module stays silent (a failed ``check``, a
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from sondalog.ala1.model import BAUD_RATES, CommandError, Unavailable, View
-from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
+from sondalog.ala1.headers import HEADER_OPTIONS, MAX_LINE, Headers
+from sondalog.ala1.model import CommandError, Unavailable, View
+from sondalog.ala1.params import ROOT, IndexSpec, Node
+from sondalog.ala1.parser import SWITCHES, Command, parse_command, parse_switch
 from sondalog.ala1.special import TransferRequest, request
 from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
 from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
 from sondalog.protocol.cksum import cksum
-
-#: A command line is at most 120 characters (§3.4.1, §7).
-MAX_LINE = 120
-
-_HEADER_WORDS = (
-    "check",
-    "crcsum",
-    "sum",
-    "pause",
-    "comspeed",
-    "quiet",
-    "startline",
-    "endline",
-    "iname",
-    "counter",
-    "number",
-    "date",
-    "iaddress",
-)
-_HEADER_OPTIONS = [(w,) for w in _HEADER_WORDS]
-_SWITCHES = [("read",), ("write",)]
-
-
-@dataclass
-class Headers:
-    """The header keywords of one line (§8.2), each at most once."""
-
-    seen: set[str] = field(default_factory=set)
-    check: int | None = None
-    check_from: int = 0
-    check_text: str = ""
-    crcsum: bool = False
-    sum: bool = False
-    pause: int | None = None
-    comspeed: int | None = None
-    quiet: bool = False
-    startline: str = ""
-    endline: str = ""
-    iname: bool = False
-    counter: int | None = None
-    number: int | None = None
-    date: bool = False
-    iaddress: str | None = None
-
-    def parse_one(self, word: str, cur: Cursor) -> None:
-        """Parse the parameter of header keyword ``word`` (already consumed)."""
-        if word in self.seen:
-            raise ParseError(f"header {word} given twice")
-        self.seen.add(word)
-        if word == "check":
-            self.check = cur.integer()
-            self.check_from = cur.pos
-            self.check_text = cur.text
-        elif word == "pause":
-            self.pause = cur.integer()
-            if self.pause >= 3600:
-                raise ParseError("pause must be below 3600 s (§8.5.1)")
-        elif word == "comspeed":
-            self.comspeed = cur.integer()
-            if self.comspeed not in BAUD_RATES:
-                raise ParseError("comspeed must be a §6.11.2 rate")
-        elif word == "startline":
-            self.startline = cur.string()
-            if len(self.startline) > 20:
-                raise ParseError("startline is at most 20 characters (§8.5.4)")
-        elif word == "endline":
-            self.endline = cur.string()
-            if len(self.endline) > 10:
-                raise ParseError("endline is at most 10 characters (§8.5.5)")
-        elif word == "counter":
-            self.counter = cur.integer()
-            if not 1 <= self.counter <= 4:
-                raise ParseError("counter is 1 to 4 (§8.5.7)")
-        elif word == "number":
-            self.number = cur.integer()
-        elif word == "iaddress":
-            self.iaddress = cur.string()
-        else:
-            setattr(self, word, True)
-        if self.counter is not None and self.number is not None:
-            raise ParseError("number and counter exclude each other")
-
-    def check_ok(self) -> bool:
-        """§8.3.1: the sum of the bytes after N to the end of the line equals N."""
-        if self.check is None:
-            return True
-        tail = self.check_text[self.check_from :]
-        return sum(tail.encode("latin-1")) == self.check
-
-
-@dataclass
-class Command:
-    """One parsed body command."""
-
-    switch: str  # "R" or "W"
-    leaf: Leaf
-    targets: list[Indices]
-    all_inputs: bool = False
-    hexadecimal: bool = False
-    values: list[list[str]] = field(default_factory=list)
-    arg: str | None = None
 
 
 @dataclass
@@ -199,7 +100,7 @@ class Interpreter:
             cur.skip_spaces()
             start = cur.pos
             name = self._named_at(cur.rest())
-            word = cur.choose_keyword([*_HEADER_OPTIONS, *_SWITCHES])
+            word = cur.choose_keyword([*HEADER_OPTIONS, *SWITCHES])
             if name is not None and (word is None or len(name) > cur.pos - start):
                 cur.pos = start
                 return name
@@ -236,14 +137,14 @@ class Interpreter:
         """§5, §7: run every command of the body, chained, and collect the data lines."""
         lines: list[str] = []
         self._commands = 0
-        switch = self._switch(cur)
+        switch = parse_switch(cur)
         if switch is None:
             raise ParseError("read or write expected")
         first: str | None = None
         node = ROOT
         while True:
             start = cur.pos
-            command, first_word = self._command(cur, switch, node, view)
+            command, first_word = parse_command(cur, switch, node, view)
             if cur.pos == start:
                 raise ParseError("no progress")
             if first is None:
@@ -254,7 +155,7 @@ class Interpreter:
                 return lines
             if command.leaf.ends_line:
                 raise ParseError(f"nothing may follow {command.leaf.pattern} (§7)")
-            new_switch = self._switch(cur)
+            new_switch = parse_switch(cur)
             if new_switch is not None:
                 switch, node, first = new_switch, ROOT, None  # §7.1
             else:
@@ -263,7 +164,7 @@ class Interpreter:
 
     @staticmethod
     def _switch(cur: Cursor) -> str | None:
-        word = cur.choose_keyword(_SWITCHES)
+        word = cur.choose_keyword(SWITCHES)
         return None if word is None else ("R" if word[0] == "read" else "W")
 
     def _command(

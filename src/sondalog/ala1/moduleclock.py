@@ -1,0 +1,30 @@
+"""The module clock as seconds (§6.2: ``date``): conversions and the calendar's ends.
+
+The module clock is the host clock plus a stored offset (a battery-backed clock); sampling
+works in whole module seconds since 1970. At either end of the calendar the clock holds
+(docs/decisions.md "The end of the calendar").
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import datetime, timedelta
+
+_EPOCH = datetime(1970, 1, 1)
+#: The clock of a new virtual module (§11 factory value of ``date``).
+FACTORY_DATE = datetime(2000, 1, 1)
+
+
+def to_seconds(moment: datetime) -> float:
+    return (moment - _EPOCH).total_seconds()
+
+
+#: The calendar's ends (§4.3.2: four-digit years). The module clock holds at either end
+#: instead of overflowing (docs/decisions.md "The end of the calendar").
+CLOCK_MIN = to_seconds(datetime(1, 1, 1))
+CLOCK_MAX = to_seconds(datetime(9999, 12, 31, 23, 59, 59))
+
+
+def from_seconds(seconds: float) -> datetime:
+    """The date of module ``seconds``, held within the calendar (never an overflow)."""
+    return _EPOCH + timedelta(seconds=math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX)))

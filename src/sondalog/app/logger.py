@@ -18,12 +18,15 @@ from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.hardware import Hardware
+from sondalog.backends import registry
+from sondalog.backends.registry import BackendContext
 from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.pty import PtyLine
 from sondalog.io.serial_line import SerialLine
 from sondalog.io.tcp import TcpServer, serve_tcp
+from sondalog.sitefile import SiteError, locate, read_site_file
 
 IDENTITY_FILE = "identity.json"
 DATABASE_FILE = "ala1.sqlite"
@@ -149,3 +152,18 @@ async def serve_until(stop: asyncio.Event, logger: Logger) -> None:
         await stop.wait()
     finally:
         await logger.close()
+
+
+def logger_hardware(site: Path | None, start: float) -> Hardware:
+    """The hardware of ``logger serve --site FILE``: the backend the site file names
+    (``[logger] backend``, default ``sim``); without a file, a 12 V supply and nothing else.
+    Raises :class:`~sondalog.sitefile.SiteError`."""
+    if site is None:
+        return registry.create("sim", BackendContext(start=start))
+    data, text = read_site_file(site)
+    table = data.get("logger")
+    backend = table.get("backend", "sim") if isinstance(table, dict) else "sim"
+    try:
+        return registry.create(str(backend), BackendContext(data, site, text, start))
+    except registry.UnknownBackend as exc:
+        raise SiteError(site, "logger.backend", str(exc), locate(text, "logger.backend")) from exc

@@ -16,11 +16,11 @@ from sondalog.ala1 import Version
 from sondalog.ala1.hardware import Hardware
 from sondalog.app.logger import (
     IdentityConflict,
+    logger_hardware,
     serve_until,
     start_logger,
     valid_serial_number,
 )
-from sondalog.backends.sim.logger import default_hardware, load_logger_site
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
 from sondalog.io.clock import Clock, make_clock
 from sondalog.io.tcp import DEFAULT_PORT
@@ -125,9 +125,7 @@ def serve(
     version = Version(protocol) if protocol is not None else None
     clock = make_clock(speed)
     try:
-        hardware = (
-            load_logger_site(site, clock.now()) if site is not None else default_hardware(0.0)
-        )
+        hardware = logger_hardware(site, clock.now())
     except SiteError as exc:
         raise _Refused(str(exc)) from exc
     try:

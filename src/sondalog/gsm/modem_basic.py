@@ -1,0 +1,413 @@
+"""V.250 basics and 3GPP TS 27.007 commands of the modem: identification, echo and result
+format, errors, registration, signal, radio, calls with caller id, USSD (gsm.md §2).
+
+Each handler takes the modem, the command and ``now``; it returns information lines (the
+line then ends ``OK``) or raises :class:`~sondalog.gsm.modem.CmeError`,
+:class:`~sondalog.gsm.atline.AtSyntaxError` (``ERROR``) or
+:class:`~sondalog.gsm.modem.Finish`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from sondalog.gsm import events as ev
+from sondalog.gsm.atline import EXEC, READ, SET, TEST, AtCommand, AtSyntaxError
+
+if TYPE_CHECKING:
+    from sondalog.gsm.modem import Modem
+
+Handler = Callable[["Modem", AtCommand, float], list[str]]
+HANDLERS: dict[str, Handler] = {}
+
+#: CME error codes (27.007 §9.2).
+NOT_ALLOWED = 3
+NOT_SUPPORTED = 4
+NO_NETWORK = 30
+
+#: Seconds between two ``RING``.
+RING_PERIOD = 5.0
+
+_SPEEDS = (0, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)
+
+
+def handler(*names: str) -> Callable[[Handler], Handler]:
+    def register(fn: Handler) -> Handler:
+        for name in names:
+            HANDLERS[name] = fn
+        return fn
+
+    return register
+
+
+def number_type(number: str) -> int:
+    """Type of address: 145 international (``+``), 129 otherwise."""
+    return 145 if number.startswith("+") else 129
+
+
+def _flag(modem: Modem, cmd: AtCommand, allowed: tuple[int, ...] = (0, 1)) -> int:
+    value = int(cmd.args) if cmd.args else 0
+    if value not in allowed:
+        raise AtSyntaxError(f"{cmd.name}{value}")
+    return value
+
+
+def _setting(cmd: AtCommand, allowed: tuple[int, ...]) -> int:
+    values = cmd.ints(1)
+    if values[0] is None or values[0] not in allowed:
+        from sondalog.gsm.modem import CmeError
+
+        raise CmeError(NOT_ALLOWED)
+    return values[0]
+
+
+# -- V.250 -------------------------------------------------------------------------------
+@handler("E")
+def _echo(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    m.settings.echo = bool(_flag(m, cmd))
+    return []
+
+
+@handler("V")
+def _verbose(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    m.settings.verbose = bool(_flag(m, cmd))
+    return []
+
+
+@handler("Q")
+def _quiet(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    m.settings.quiet = bool(_flag(m, cmd))
+    return []
+
+
+@handler("Z", "&F")
+def _reset(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    from sondalog.gsm.modem import Settings
+
+    m.settings = Settings()
+    return []
+
+
+@handler("&W", "&C", "&D", "&S", "&K", "X", "L", "M", "+IFC", "+ICF", "+WIND", "+CBST", "+CR")
+@handler("+CRLP", "+CGREG", "+CGATT", "+CGDCONT", "+CMER", "+WOPEN", "+CPHS", "+COPS")
+def _accepted(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    """Settings the simulation takes and ignores; their reads show what was set."""
+    if cmd.kind == READ:
+        value = m.settings.extra.get(cmd.name, "0")
+        return [f"{cmd.name}: {value}"] if cmd.name.startswith("+") else []
+    if cmd.kind == SET or (cmd.kind == EXEC and cmd.args):
+        m.settings.extra[cmd.name] = cmd.args
+    return []
+
+
+@handler("S0")
+def _s0(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"{m.settings.auto_answer:03d}"]
+    m.settings.auto_answer = int(cmd.args or "0")
+    return []
+
+
+@handler("I", "+CGMM", "+GMM", "+CGMI", "+GMI", "+CGMR", "+GMR", "+CGSN", "+GSN", "+CIMI")
+def _identify(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == TEST:
+        return []
+    c = m.config
+    if cmd.name == "I":
+        return [{"": c.model, "0": c.model, "3": c.revision}.get(cmd.args, c.manufacturer)]
+    key = cmd.name.replace("+C", "+")
+    return [
+        {"+GMM": c.model, "+GMI": c.manufacturer, "+GMR": c.revision, "+GSN": c.imei}.get(
+            key, c.imsi
+        )
+    ]
+
+
+@handler("+CMEE")
+def _cmee(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"+CMEE: {m.settings.cmee}"]
+    if cmd.kind == TEST:
+        return ["+CMEE: (0,1)"]
+    m.settings.cmee = _setting(cmd, (0, 1)) if cmd.args else 0
+    return []
+
+
+@handler("+IPR")
+def _ipr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"+IPR: {m.speed}"]
+    if cmd.kind == TEST:
+        return ["+IPR: (0,300,600,1200,2400,4800,9600,19200,38400,57600,115200)"]
+    m.speed = _setting(cmd, _SPEEDS) or m.speed
+    return []
+
+
+@handler("+CPIN")
+def _cpin(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    return ["+CPIN: READY"] if cmd.kind == READ else []
+
+
+@handler("+CSCS")
+def _cscs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f'+CSCS: "{m.settings.charset}"']
+    if cmd.kind == TEST:
+        return ['+CSCS: ("GSM","IRA","UCS2","8859-1")']
+    params = cmd.params()
+    if len(params) != 1 or params[0].upper() not in ("GSM", "IRA", "UCS2", "8859-1"):
+        from sondalog.gsm.modem import CmeError
+
+        raise CmeError(NOT_ALLOWED)
+    m.settings.charset = params[0].upper()
+    return []
+
+
+# -- network: radio, registration, signal ------------------------------------------------
+@handler("+CFUN")
+def _cfun(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"+CFUN: {int(m.radio)}"]
+    if cmd.kind == TEST:
+        return ["+CFUN: (0,1),(0)"]
+    on = bool(_setting(cmd, (0, 1)))
+    if on != m.radio:
+        m.radio = on
+        m.effect(ev.Radio(on))
+        if not on:
+            from sondalog.gsm import wip
+
+            wip.drop_all(m)
+            _set_registered(m, False)
+            _end_call(m, "NO CARRIER")
+    return []
+
+
+def _creg_stat(m: Modem) -> int:
+    return 1 if m.registered else (2 if m.radio else 0)
+
+
+@handler("+CREG")
+def _creg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"+CREG: {m.settings.creg},{_creg_stat(m)}"]
+    if cmd.kind == TEST:
+        return ["+CREG: (0-2)"]
+    m.settings.creg = _setting(cmd, (0, 1, 2))
+    return []
+
+
+@handler("+CSQ")
+def _csq(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == TEST:
+        return ["+CSQ: (0-31,99),(99)"]
+    rssi = m.rssi if m.registered else 99
+    return [f"+CSQ: {rssi},{0 if rssi != 99 else 99}"]
+
+
+def _set_registered(m: Modem, registered: bool) -> None:
+    if registered == m.registered:
+        return
+    m.registered = registered
+    if m.settings.creg:
+        m.urc(f"+CREG: {_creg_stat(m)}")
+
+
+# -- calls -------------------------------------------------------------------------------
+@handler("+CLIP")
+def _clip(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"+CLIP: {int(m.settings.clip)},1"]
+    if cmd.kind == TEST:
+        return ["+CLIP: (0,1)"]
+    m.settings.clip = bool(_setting(cmd, (0, 1)))
+    return []
+
+
+@handler("+CRC")
+def _crc(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == READ:
+        return [f"+CRC: {int(m.settings.crc)}"]
+    if cmd.kind == TEST:
+        return ["+CRC: (0,1)"]
+    m.settings.crc = bool(_setting(cmd, (0, 1)))
+    return []
+
+
+@handler("A")
+def _answer(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    from sondalog.gsm.modem import Finish
+
+    call = m.call
+    if call is None or not call.incoming or call.active:
+        raise Finish("NO CARRIER")
+    answer(m, now)
+    raise Finish(None)
+
+
+def answer(m: Modem, now: float) -> None:
+    """Take the ringing call: ``OK`` for voice, ``CONNECT <rate>`` and data mode for data."""
+    call = m.call
+    assert call is not None
+    call.active = True
+    call.next_ring = None
+    m.effect(ev.Answer())
+    if call.kind == ev.DATA:
+        m.final(f"CONNECT {m.config.data_rate}")
+        m.enter_data_mode(None, now)
+    else:
+        m.final("OK")
+
+
+@handler("D")
+def _dial(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    from sondalog.gsm.modem import Finish
+
+    text = cmd.args.strip()
+    voice = text.endswith(";")
+    number = "".join(ch for ch in text.rstrip(";") if ch.isdigit() or ch in "+*#")
+    if not number or (text[:1].upper() == "L"):
+        raise Finish("ERROR")
+    if m.call is not None:
+        raise Finish("BUSY")
+    if not m.registered:
+        raise Finish("NO CARRIER")
+    kind = ev.VOICE if voice else ev.DATA
+    m.call = _new_call(kind, number, incoming=False)
+    m.effect(ev.Dial(number, kind))
+    raise Finish(None)
+
+
+def _new_call(kind: str, who: str | None, incoming: bool) -> _CallT:
+    from sondalog.gsm.modem import _Call
+
+    return _Call(kind=kind, caller=who, incoming=incoming)
+
+
+if TYPE_CHECKING:
+    from sondalog.gsm.modem import _Call as _CallT
+
+
+@handler("H", "+CHUP")
+def _hang_up(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    if cmd.kind == TEST:
+        return []
+    if m.call is not None:
+        m.effect(ev.HangUp())
+        m.call = None
+        m.drop_held_data()
+    return []
+
+
+@handler("O")
+def _online(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    from sondalog.gsm.modem import Finish
+
+    if m.call is None or not m.call.active or m.call.kind != ev.DATA:
+        raise Finish("NO CARRIER")
+    m.final(f"CONNECT {m.config.data_rate}")
+    m.enter_data_mode(None, now)
+    raise Finish(None)
+
+
+def _end_call(m: Modem, result: str | None) -> None:
+    call = m.call
+    if call is None:
+        return
+    m.call = None
+    if m.mode == "data" and m.data_target is None:
+        m.leave_data_mode()
+    m.drop_held_data()
+    if result and (call.active or not call.incoming):
+        m.urc(result)
+
+
+def ring_timer(m: Modem, now: float) -> None:
+    call = m.call
+    if call is None or call.next_ring is None or now < call.next_ring:
+        return
+    if m.settings.auto_answer and call.rings >= m.settings.auto_answer:
+        answer(m, now)
+        return
+    _ring(m, now)
+
+
+def _ring(m: Modem, now: float) -> None:
+    call = m.call
+    assert call is not None
+    if m.settings.crc:
+        m.urc("+CRING: VOICE" if call.kind == ev.VOICE else "+CRING: REL ASYNC")
+    else:
+        m.urc("RING")
+    if m.settings.clip:
+        number = call.caller or ""
+        m.urc(f'+CLIP: "{number}",{number_type(number)}')
+    call.rings += 1
+    call.next_ring = now + RING_PERIOD
+
+
+# -- USSD --------------------------------------------------------------------------------
+@handler("+CUSD")
+def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    from sondalog.gsm.modem import CmeError
+
+    if cmd.kind == READ:
+        return [f"+CUSD: {int(m.settings.cusd)}"]
+    if cmd.kind == TEST:
+        return ["+CUSD: (0,1,2)"]
+    params = cmd.params()
+    if not params or params[0] not in ("0", "1", "2"):
+        raise CmeError(NOT_ALLOWED)
+    m.settings.cusd = params[0] == "1"
+    if len(params) > 1 and params[1]:
+        if not m.registered:
+            raise CmeError(NO_NETWORK)
+        m.effect(ev.Ussd(params[1]))
+    return []
+
+
+# -- events from the network -------------------------------------------------------------
+def network_event(m: Modem, event: ev.Event, now: float) -> None:
+    if isinstance(event, ev.Registration):
+        _set_registered(m, event.registered and m.radio)
+        if not m.registered:
+            from sondalog.gsm import wip
+
+            wip.drop_all(m)
+            _end_call(m, "NO CARRIER")
+    elif isinstance(event, ev.Signal):
+        m.rssi = event.rssi if 0 <= event.rssi <= 31 else 99
+    elif isinstance(event, ev.IncomingCall):
+        if m.call is not None or not m.registered:
+            m.effect(ev.HangUp())  # busy
+            return
+        m.call = _new_call(event.kind, event.caller, incoming=True)
+        _ring(m, now)
+    elif isinstance(event, ev.CallConnected):
+        call = m.call
+        if call is None or call.incoming:
+            return
+        call.active = True
+        if call.kind == ev.DATA:
+            m.final(f"CONNECT {m.config.data_rate}")
+            m.enter_data_mode(None, now)
+        else:
+            m.final("OK")
+    elif isinstance(event, ev.CallEnded):
+        call = m.call
+        if call is not None and not call.incoming and not call.active:
+            m.call = None
+            m.final({"busy": "BUSY", "no answer": "NO ANSWER"}.get(event.reason, "NO CARRIER"))
+        else:
+            _end_call(m, "NO CARRIER")
+    elif isinstance(event, ev.CallData):
+        if m.call is not None and m.call.active:
+            m.far_data(event.data)
+    elif isinstance(event, ev.UssdAnswer):
+        if not m.settings.cusd:
+            return
+        if event.text is None:
+            m.urc("+CUSD: 4")
+        else:
+            m.urc(f'+CUSD: 0,"{event.text}",15')

@@ -34,6 +34,7 @@ class ModemPty:
         self.path = os.ttyname(self.slave)
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self.errors: list[BaseException] = []
         self._thread = threading.Thread(target=self._pump, daemon=True)
         self._write(self.system.add_modem(number, self.modem, time.monotonic()))
 
@@ -66,6 +67,13 @@ class ModemPty:
             data = data[n:]
 
     def _pump(self) -> None:
+        try:
+            self._loop()
+        except BaseException as exc:  # recorded for the test: gammu would only hang
+            self.errors.append(exc)
+            raise
+
+    def _loop(self) -> None:
         while not self._stop.is_set():
             now = time.monotonic()
             deadline = self.system.next_deadline(now)

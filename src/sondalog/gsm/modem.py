@@ -12,6 +12,7 @@ PDU mode; :mod:`sondalog.gsm.modem_sms`) and Wavecom's WIPsoft GPRS/TCP commands
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -28,6 +29,8 @@ from sondalog.gsm.atline import (
     parse_line,
 )
 from sondalog.gsm.smsstore import SmsStore
+
+log = logging.getLogger(__name__)
 
 #: Seconds of silence before and after ``+++`` (V.250 S12 = 50 x 20 ms).
 GUARD_TIME = 1.0
@@ -158,8 +161,9 @@ class Modem:
         self._held_data = bytearray()
         self._last_data = 0.0
         self._plus: list[float] = []
+        self._chunk = bytearray()  # data-mode bytes of this receive() for the far end
         self._escape_at: float | None = None
-        self._store_was_full = False
+        self._busy = False  # a command line runs or awaits its final result
         self.handlers: dict[str, Callable[[Modem, AtCommand, float], list[str]]] = {}
         for module in (modem_basic, modem_sms, wip):
             self.handlers.update(module.HANDLERS)
@@ -176,6 +180,7 @@ class Modem:
                 self._sms_byte(byte, now)
             else:
                 self._command_byte(byte, now)
+        self._send_data()
         return self._take(now)
 
     def event(self, event: ev.Event, now: float) -> Output:
@@ -222,6 +227,8 @@ class Modem:
         self._out += format_info(text, self.settings.verbose)
 
     def final(self, code: str) -> None:
+        """The final result code of the command line (URCs held meanwhile follow it)."""
+        self._busy = False
         if not self.settings.quiet:
             self._out += format_result(code, self.settings.verbose)
         if self.mode == COMMAND:
@@ -230,7 +237,7 @@ class Modem:
     def urc(self, text: str) -> None:
         """An unsolicited result code: now in command mode, else when back in it."""
         data = format_result(text, self.settings.verbose)
-        if self.mode == COMMAND and not self._line:
+        if self.mode == COMMAND and not self._line and not self._busy:
             self._out += data
         else:
             self._held_urcs.append(data)
@@ -282,15 +289,18 @@ class Modem:
             if len(self._plus) == 3:
                 self._escape_at = now + GUARD_TIME
             return
-        held = b"+" * len(self._plus)
+        self._chunk += b"+" * len(self._plus)
+        self._chunk.append(byte)
         self._plus.clear()
         self._escape_at = None
-        self._send_data(held + bytes((byte,)))
         self._last_data = now
 
-    def _send_data(self, data: bytes) -> None:
+    def _send_data(self) -> None:
         from sondalog.gsm import wip
 
+        data, self._chunk = bytes(self._chunk), bytearray()
+        if not data:
+            return
         if self.data_target is None:
             if self.call is not None and self.call.active:
                 self.effect(ev.CallSend(data))
@@ -314,7 +324,7 @@ class Modem:
         if self.settings.echo:
             self._out.append(byte)
         if byte == 0x0D:
-            self._out += b"\n> "
+            self._out += b"\n> " if self.settings.echo else b"\r\n> "
         if byte == BACKSPACE:
             if self._sms:
                 self._sms.pop()
@@ -357,6 +367,7 @@ class Modem:
         if commands is None:
             self._flush_urcs()
             return
+        self._busy = True
         for command in commands:
             handler = self.handlers.get(command.name)
             if handler is None:
@@ -375,6 +386,10 @@ class Modem:
                 if finish.final is not None:
                     self.final(finish.final)
                 return
+            except Exception:  # a bug must not stop the line (DESIGN.md point 6)
+                log.exception("modem command %r failed", command)
+                self.final("ERROR")
+                return
             self.info(*lines)
         self.final("OK")
 
@@ -384,7 +399,7 @@ class Modem:
         self._held_urcs.clear()
 
     def _take(self, now: float) -> Output:
-        if self.mode == COMMAND and not self._line and self._held_urcs:
+        if self.mode == COMMAND and not self._line and not self._busy and self._held_urcs:
             self._flush_urcs()
         data, self._out = bytes(self._out), bytearray()
         effects, self._effects = tuple(self._effects), []

@@ -233,7 +233,7 @@ def _show(m: Modem, sms: StoredSms, index: int | None) -> list[str]:
         sms.timestamp,
         tz_quarters=m.config.tz_quarters,
         smsc=m.smsc,
-        alphabet=sms.alphabet if sms.alphabet != pdu.DATA8 else pdu.UCS2,
+        alphabet=sms.alphabet if gsm7.is_gsm7(sms.text) else pdu.UCS2,
         concat=sms.concat,
     )
     return [f"{prefix}{sms.status},,{pdu.tpdu_length(raw)}", raw.hex().upper()]

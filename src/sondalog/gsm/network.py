@@ -19,8 +19,9 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from sondalog.gsm import events as ev
+from sondalog.gsm import gsm7
 from sondalog.gsm.gateway import IpEvent, IpGateway, ModemEvent
-from sondalog.gsm.pdu import Concat
+from sondalog.gsm.pdu import GSM7, UCS2, Concat
 
 MODEM = "modem"
 PHONE = "phone"
@@ -95,6 +96,24 @@ class Outage:
     number: str | None = None
 
 
+def _parts(text: str, alphabet: str) -> list[str]:
+    if alphabet == GSM7:
+        if gsm7.septet_length(text) <= gsm7.SMS_SEPTETS:
+            return [text]
+        return gsm7.split_sms(text, 153)
+    units = len(gsm7.encode_ucs2(text)) // 2
+    if units <= gsm7.SMS_UCS2_CHARS:
+        return [text]
+    parts: list[str] = []
+    current = ""
+    for ch in text:
+        if len(gsm7.encode_ucs2(current + ch)) // 2 > 67:
+            parts.append(current)
+            current = ""
+        current += ch
+    return [*parts, current]
+
+
 def normalize(number: str) -> str:
     """``00420...`` -> ``+420...``; spaces and dashes removed."""
     number = "".join(ch for ch in number.strip() if ch not in " -()")
@@ -115,6 +134,7 @@ class Network:
         self._manual_cover: dict[str, bool] = {}
         self._next_sms = 1
         self._next_call = 1
+        self._concat_ref = 0
 
     # -- subscribers ---------------------------------------------------------------------
     def add_modem(self, number: str, now: float, **kw: object) -> list[object]:
@@ -210,8 +230,19 @@ class Network:
 
     # -- SMS centre ----------------------------------------------------------------------
     def phone_sms(self, sender: str, to: str, text: str, now: float) -> list[object]:
-        """A phone (or the HTTP API) sends an SMS."""
-        return self._submit(normalize(sender), to, text, now, "gsm7", None)
+        """A phone (or the HTTP API) sends an SMS: GSM-7 when the text allows, else UCS2;
+        a text longer than one SMS goes as a concatenated SMS (parts of 153 septets or 67
+        UCS2 characters, 23.040 §9.2.3.24.1)."""
+        alphabet = GSM7 if gsm7.is_gsm7(text) else UCS2
+        parts = _parts(text, alphabet)
+        if len(parts) == 1:
+            return self._submit(normalize(sender), to, text, now, alphabet, None)
+        self._concat_ref = (self._concat_ref + 1) % 256
+        out: list[object] = []
+        for seq, part in enumerate(parts, 1):
+            concat = Concat(self._concat_ref, len(parts), seq)
+            out += self._submit(normalize(sender), to, part, now, alphabet, concat)
+        return out
 
     def _submit(
         self, sender: str, to: str, text: str, now: float, alphabet: str, concat: Concat | None

@@ -1,0 +1,105 @@
+"""The modem's AT dialect, byte-exact (gsm.md §2): command lines, echo, results, errors,
+identification, registration, signal, radio, USSD."""
+
+from __future__ import annotations
+
+from gsm_helpers import MODEM, Bench
+
+from sondalog.gsm.atline import AtCommand, parse_line
+
+
+def test_parse_line() -> None:
+    assert parse_line("at+cmgf=1;+CSQ ; E0V1") == [
+        AtCommand("+CMGF", "=", "1"),
+        AtCommand("+CSQ"),
+        AtCommand("E", "", "0"),
+        AtCommand("V", "", "1"),
+    ]
+    assert parse_line('AT+CMGS="+420700000001"') == [AtCommand("+CMGS", "=", '"+420700000001"')]
+    assert parse_line("ATD+420700000001;") == [AtCommand("D", "=", "+420700000001;")]
+    assert parse_line("ATS0=2S0?") == [AtCommand("S0", "=", "2"), AtCommand("S0", "?")]
+    assert parse_line("hello") is None
+
+
+def test_echo_on_by_default_then_off() -> None:
+    b = Bench(echo=True)
+    assert b.at("AT") == b"AT\r\r\nOK\r\n"
+    assert b.at("ATE0") == b"ATE0\r\r\nOK\r\n"
+    assert b.at("AT") == b"\r\nOK\r\n"
+
+
+def test_noise_and_escape_are_ignored() -> None:
+    b = Bench()
+    assert b.send(b"\x1b") == b""
+    assert b.at("garbage") == b""
+    assert b.at("\x1bAT") == b"\r\nOK\r\n"
+    assert b.send(b"A") + b.send(b"T\x08\x08AT\r\n") == b"\r\nOK\r\n"
+
+
+def test_identification() -> None:
+    b = Bench()
+    assert b.at("AT+CGMI") == b"\r\nWAVECOM MODEM\r\n\r\nOK\r\n"
+    assert b.at("AT+CGMM") == b"\r\nMULTIBAND  900E  1800\r\n\r\nOK\r\n"
+    assert b.at("AT+CGSN;+CIMI") == b"\r\n356938035643809\r\n\r\n230011234567890\r\n\r\nOK\r\n"
+    assert b.at("AT+CGMR").startswith(b"\r\nR74_00gg")
+
+
+def test_errors_plain_and_cme() -> None:
+    b = Bench()
+    assert b.at("AT+NOSUCH") == b"\r\nERROR\r\n"
+    assert b.at("AT+CFUN=7") == b"\r\nERROR\r\n"
+    assert b.at("AT+CMEE=1") == b"\r\nOK\r\n"
+    assert b.at("AT+CFUN=7") == b"\r\n+CME ERROR: 3\r\n"
+    assert b.at("AT+NOSUCH") == b"\r\nERROR\r\n"  # syntax stays plain ERROR
+    assert b.at("AT+CMEE?") == b"\r\n+CMEE: 1\r\n\r\nOK\r\n"
+    assert b.at("AT+CSQ;+CMGR=99;+CSQ") == b"\r\n+CSQ: 18,0\r\n\r\n+CMS ERROR: 321\r\n"
+
+
+def test_numeric_results_and_quiet() -> None:
+    b = Bench()
+    assert b.at("ATV0") == b"0\r"
+    assert b.at("AT+CSQ") == b"+CSQ: 18,0\r\n0\r"
+    assert b.at("AT+BAD") == b"4\r"
+    assert b.at("ATV1Q1") == b""
+    assert b.at("ATQ0") == b"\r\nOK\r\n"
+
+
+def test_registration_signal_and_radio() -> None:
+    b = Bench()
+    assert b.at("AT+CREG?") == b"\r\n+CREG: 0,1\r\n\r\nOK\r\n"
+    b.net(lambda n, t: n.set_signal(MODEM, 25, t))
+    assert b.at("AT+CSQ") == b"\r\n+CSQ: 25,0\r\n\r\nOK\r\n"
+    assert b.at("AT+CREG=1") == b"\r\nOK\r\n"
+    assert b.at("AT+CFUN=0") == b"\r\nOK\r\n\r\n+CREG: 0\r\n"
+    assert b.at("AT+CFUN?;+CREG?;+CSQ") == (
+        b"\r\n+CFUN: 0\r\n\r\n+CREG: 1,0\r\n\r\n+CSQ: 99,99\r\n\r\nOK\r\n"
+    )
+    assert b.at("AT+CFUN=1") == b"\r\nOK\r\n\r\n+CREG: 1\r\n"
+    assert b.at("AT+CSQ") == b"\r\n+CSQ: 25,0\r\n\r\nOK\r\n"
+
+
+def test_coverage_loss_is_searching() -> None:
+    b = Bench()
+    b.at("AT+CREG=1")
+    assert b.net(lambda n, t: n.set_coverage(MODEM, False, t)).line(MODEM) == b"\r\n+CREG: 2\r\n"
+    assert b.at("AT+CREG?") == b"\r\n+CREG: 1,2\r\n\r\nOK\r\n"
+
+
+def test_ussd_credit() -> None:
+    b = Bench()
+    b.network.set_credit(MODEM, 250)
+    assert b.at('AT+CUSD=1,"*101#",15') == (
+        b'\r\nOK\r\n\r\n+CUSD: 0,"Your credit is 250.00 CZK.",15\r\n'
+    )
+    assert b.at('AT+CUSD=1,"*999#",15') == b"\r\nOK\r\n\r\n+CUSD: 4\r\n"
+    b.at("AT+CMEE=1;+CFUN=0")
+    assert b.at('AT+CUSD=1,"*101#",15') == b"\r\n+CME ERROR: 30\r\n"
+
+
+def test_settings_reads() -> None:
+    b = Bench()
+    assert b.at("AT+CSCA?") == b'\r\n+CSCA: "+420603052000",145\r\n\r\nOK\r\n'
+    assert b.at("AT+CPIN?") == b"\r\n+CPIN: READY\r\n\r\nOK\r\n"
+    assert b.at('AT+CSCS="UCS2";+CSCS?') == b'\r\n+CSCS: "UCS2"\r\n\r\nOK\r\n'
+    assert b.at("AT+IPR?") == b"\r\n+IPR: 9600\r\n\r\nOK\r\n"
+    assert b.at("AT&F;+CMEE?") == b"\r\n+CMEE: 0\r\n\r\nOK\r\n"

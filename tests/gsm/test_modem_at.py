@@ -4,6 +4,8 @@ identification, registration, signal, radio, USSD."""
 from __future__ import annotations
 
 from gsm_helpers import MODEM, Bench
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sondalog.gsm.atline import AtCommand, parse_line
 
@@ -103,3 +105,60 @@ def test_settings_reads() -> None:
     assert b.at('AT+CSCS="UCS2";+CSCS?') == b'\r\n+CSCS: "UCS2"\r\n\r\nOK\r\n'
     assert b.at("AT+IPR?") == b"\r\n+IPR: 9600\r\n\r\nOK\r\n"
     assert b.at("AT&F;+CMEE?") == b"\r\n+CMEE: 0\r\n\r\nOK\r\n"
+
+
+AT_WORDS = st.sampled_from(
+    [
+        "AT",
+        "+CMGF=",
+        "+CMGS=",
+        "+CMGR=",
+        "+CMGL=",
+        "+CMGD=",
+        "+CSCS=",
+        "+CPMS=",
+        "+WIPBR=",
+        "+WIPCREATE=",
+        "+WIPDATA=",
+        "+CUSD=",
+        "E",
+        "V",
+        "Q",
+        "H",
+        "A",
+        "D",
+        "O",
+        "S0=",
+        "?",
+        "=?",
+        '"',
+        ",",
+        ";",
+        "1",
+        "0",
+        "4",
+        "16",
+        "\r",
+        "\n",
+        "\x1a",
+        "\x1b",
+        "\x08",
+        "+++",
+        "ALL",
+    ]
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(AT_WORDS | st.binary(max_size=8), max_size=40))
+def test_garbage_never_breaks_the_modem(chunks: list[str | bytes]) -> None:
+    b = Bench()
+    for chunk in chunks:
+        b.send(chunk.encode("latin-1") if isinstance(chunk, str) else chunk)
+        b.later(0.3)
+    b.later(2.0)  # a pending escape completes
+    b.send(b"\x1b")
+    b.later(2.0)
+    out = b.at("\rATQ0V1E0;+CMEE=0")
+    out += b.at("ATH;+CSQ")
+    assert out.endswith(b"OK\r\n")

@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from sondalog.gsm import events as ev
+from sondalog.gsm import modem_basic, modem_calls, modem_sms, wip
 from sondalog.gsm.atline import (
     EXEC,
     READ,
@@ -28,6 +29,7 @@ from sondalog.gsm.atline import (
     format_result,
     parse_line,
 )
+from sondalog.gsm.modem_calls import ActiveCall
 from sondalog.gsm.smsstore import SmsStore
 
 log = logging.getLogger(__name__)
@@ -101,16 +103,6 @@ class Output:
 
 
 @dataclass(slots=True)
-class _Call:
-    kind: str
-    caller: str | None
-    incoming: bool
-    active: bool = False
-    rings: int = 0
-    next_ring: float | None = None
-
-
-@dataclass(slots=True)
 class Settings:
     """Command settings ``AT&F`` restores."""
 
@@ -135,8 +127,6 @@ class Modem:
     :meth:`advance` at :meth:`next_deadline`."""
 
     def __init__(self, config: ModemConfig | None = None, trace: Tracer | None = None) -> None:
-        from sondalog.gsm import modem_basic, modem_sms, wip
-
         self.config = config or ModemConfig()
         self.trace = trace
         self.settings = Settings()
@@ -147,7 +137,7 @@ class Modem:
         self.registered = False
         self.rssi = 99
         self.mode = COMMAND
-        self.call: _Call | None = None
+        self.call: ActiveCall | None = None
         self.mr = 0
         self.wip = wip.WipState()
         self.data_target: int | None = None  # None: the call; else a WIPsoft socket handle
@@ -165,7 +155,7 @@ class Modem:
         self._escape_at: float | None = None
         self._busy = False  # a command line runs or awaits its final result
         self.handlers: dict[str, Callable[[Modem, AtCommand, float], list[str]]] = {}
-        for module in (modem_basic, modem_sms, wip):
+        for module in (modem_basic, modem_calls, modem_sms, wip):
             self.handlers.update(module.HANDLERS)
 
     # -- the three entry points ----------------------------------------------------------
@@ -185,8 +175,6 @@ class Modem:
 
     def event(self, event: ev.Event, now: float) -> Output:
         """An event from the network."""
-        from sondalog.gsm import modem_basic, modem_sms, wip
-
         if isinstance(event, ev.SmsDelivered):
             modem_sms.delivered(self, event)
         elif isinstance(event, _TCP_EVENTS):
@@ -197,15 +185,13 @@ class Modem:
 
     def advance(self, now: float) -> Output:
         """Timers: the ``+++`` guard after the escape, ring repetition, auto-answer."""
-        from sondalog.gsm import modem_basic, wip
-
         if self._escape_at is not None and now >= self._escape_at:
             self._escape_at = None
             self._plus.clear()
             self.leave_data_mode()
             self.final("OK")
             wip.after_escape(self)
-        modem_basic.ring_timer(self, now)
+        modem_calls.ring_timer(self, now)
         return self._take(now)
 
     def next_deadline(self) -> float | None:
@@ -296,8 +282,6 @@ class Modem:
         self._last_data = now
 
     def _send_data(self) -> None:
-        from sondalog.gsm import wip
-
         data, self._chunk = bytes(self._chunk), bytearray()
         if not data:
             return
@@ -309,8 +293,6 @@ class Modem:
 
     # -- SMS input -----------------------------------------------------------------------
     def _sms_byte(self, byte: int, now: float) -> None:
-        from sondalog.gsm import modem_sms
-
         if byte == CTRL_Z:
             self.mode = COMMAND
             text, self._sms = bytes(self._sms), bytearray()

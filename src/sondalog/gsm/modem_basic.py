@@ -26,19 +26,24 @@ NOT_ALLOWED = 3
 NOT_SUPPORTED = 4
 NO_NETWORK = 30
 
-#: Seconds between two ``RING``.
-RING_PERIOD = 5.0
-
 _SPEEDS = (0, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)
 
 
-def handler(*names: str) -> Callable[[Handler], Handler]:
-    def register(fn: Handler) -> Handler:
-        for name in names:
-            HANDLERS[name] = fn
-        return fn
+def handler_into(table: dict[str, Handler]) -> Callable[..., Callable[[Handler], Handler]]:
+    """A decorator registering a handler under one or more command names in ``table``."""
 
-    return register
+    def handler(*names: str) -> Callable[[Handler], Handler]:
+        def register(fn: Handler) -> Handler:
+            for name in names:
+                table[name] = fn
+            return fn
+
+        return register
+
+    return handler
+
+
+handler = handler_into(HANDLERS)
 
 
 def number_type(number: str) -> int:
@@ -171,6 +176,8 @@ def _cfun(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         return [f"+CFUN: {int(m.radio)}"]
     if cmd.kind == TEST:
         return ["+CFUN: (0,1),(0)"]
+    from sondalog.gsm import modem_calls
+
     on = bool(_setting(cmd, (0, 1)))
     if on != m.radio:
         m.radio = on
@@ -180,7 +187,7 @@ def _cfun(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
             wip.drop_all(m)
             _set_registered(m, False)
-            _end_call(m, "NO CARRIER")
+            modem_calls.end_call(m, "NO CARRIER")
     return []
 
 
@@ -214,139 +221,6 @@ def _set_registered(m: Modem, registered: bool) -> None:
         m.urc(f"+CREG: {_creg_stat(m)}")
 
 
-# -- calls -------------------------------------------------------------------------------
-@handler("+CLIP")
-def _clip(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    if cmd.kind == READ:
-        return [f"+CLIP: {int(m.settings.clip)},1"]
-    if cmd.kind == TEST:
-        return ["+CLIP: (0,1)"]
-    m.settings.clip = bool(_setting(cmd, (0, 1)))
-    return []
-
-
-@handler("+CRC")
-def _crc(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    if cmd.kind == READ:
-        return [f"+CRC: {int(m.settings.crc)}"]
-    if cmd.kind == TEST:
-        return ["+CRC: (0,1)"]
-    m.settings.crc = bool(_setting(cmd, (0, 1)))
-    return []
-
-
-@handler("A")
-def _answer(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
-    call = m.call
-    if call is None or not call.incoming or call.active:
-        raise Finish("NO CARRIER")
-    answer(m, now)
-    raise Finish(None)
-
-
-def answer(m: Modem, now: float) -> None:
-    """Take the ringing call: ``OK`` for voice, ``CONNECT <rate>`` and data mode for data."""
-    call = m.call
-    assert call is not None
-    call.active = True
-    call.next_ring = None
-    m.effect(ev.Answer())
-    if call.kind == ev.DATA:
-        m.final(f"CONNECT {m.config.data_rate}")
-        m.enter_data_mode(None, now)
-    else:
-        m.final("OK")
-
-
-@handler("D")
-def _dial(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
-    text = cmd.args.strip()
-    voice = text.endswith(";")
-    number = "".join(ch for ch in text.rstrip(";") if ch.isdigit() or ch in "+*#")
-    if not number or (text[:1].upper() == "L"):
-        raise Finish("ERROR")
-    if m.call is not None:
-        raise Finish("BUSY")
-    if not m.registered:
-        raise Finish("NO CARRIER")
-    kind = ev.VOICE if voice else ev.DATA
-    m.call = _new_call(kind, number, incoming=False)
-    m.effect(ev.Dial(number, kind))
-    raise Finish(None)
-
-
-def _new_call(kind: str, who: str | None, incoming: bool) -> _CallT:
-    from sondalog.gsm.modem import _Call
-
-    return _Call(kind=kind, caller=who, incoming=incoming)
-
-
-if TYPE_CHECKING:
-    from sondalog.gsm.modem import _Call as _CallT
-
-
-@handler("H", "+CHUP")
-def _hang_up(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    if cmd.kind == TEST:
-        return []
-    if m.call is not None:
-        m.effect(ev.HangUp())
-        m.call = None
-        m.drop_held_data()
-    return []
-
-
-@handler("O")
-def _online(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
-    if m.call is None or not m.call.active or m.call.kind != ev.DATA:
-        raise Finish("NO CARRIER")
-    m.final(f"CONNECT {m.config.data_rate}")
-    m.enter_data_mode(None, now)
-    raise Finish(None)
-
-
-def _end_call(m: Modem, result: str | None) -> None:
-    call = m.call
-    if call is None:
-        return
-    m.call = None
-    if m.mode == "data" and m.data_target is None:
-        m.leave_data_mode()
-    m.drop_held_data()
-    if result and (call.active or not call.incoming):
-        m.urc(result)
-
-
-def ring_timer(m: Modem, now: float) -> None:
-    call = m.call
-    if call is None or call.next_ring is None or now < call.next_ring:
-        return
-    if m.settings.auto_answer and call.rings >= m.settings.auto_answer:
-        answer(m, now)
-        return
-    _ring(m, now)
-
-
-def _ring(m: Modem, now: float) -> None:
-    call = m.call
-    assert call is not None
-    if m.settings.crc:
-        m.urc("+CRING: VOICE" if call.kind == ev.VOICE else "+CRING: REL ASYNC")
-    else:
-        m.urc("RING")
-    if m.settings.clip:
-        number = call.caller or ""
-        m.urc(f'+CLIP: "{number}",{number_type(number)}')
-    call.rings += 1
-    call.next_ring = now + RING_PERIOD
-
-
 # -- USSD --------------------------------------------------------------------------------
 @handler("+CUSD")
 def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
@@ -369,41 +243,19 @@ def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 # -- events from the network -------------------------------------------------------------
 def network_event(m: Modem, event: ev.Event, now: float) -> None:
+    from sondalog.gsm import modem_calls
+
     if isinstance(event, ev.Registration):
         _set_registered(m, event.registered and m.radio)
         if not m.registered:
             from sondalog.gsm import wip
 
             wip.drop_all(m)
-            _end_call(m, "NO CARRIER")
+            modem_calls.end_call(m, "NO CARRIER")
     elif isinstance(event, ev.Signal):
         m.rssi = event.rssi if 0 <= event.rssi <= 31 else 99
-    elif isinstance(event, ev.IncomingCall):
-        if m.call is not None or not m.registered:
-            m.effect(ev.HangUp())  # busy
-            return
-        m.call = _new_call(event.kind, event.caller, incoming=True)
-        _ring(m, now)
-    elif isinstance(event, ev.CallConnected):
-        call = m.call
-        if call is None or call.incoming:
-            return
-        call.active = True
-        if call.kind == ev.DATA:
-            m.final(f"CONNECT {m.config.data_rate}")
-            m.enter_data_mode(None, now)
-        else:
-            m.final("OK")
-    elif isinstance(event, ev.CallEnded):
-        call = m.call
-        if call is not None and not call.incoming and not call.active:
-            m.call = None
-            m.final({"busy": "BUSY", "no answer": "NO ANSWER"}.get(event.reason, "NO CARRIER"))
-        else:
-            _end_call(m, "NO CARRIER")
-    elif isinstance(event, ev.CallData):
-        if m.call is not None and m.call.active:
-            m.far_data(event.data)
+    elif isinstance(event, ev.IncomingCall | ev.CallConnected | ev.CallEnded | ev.CallData):
+        modem_calls.call_event(m, event, now)
     elif isinstance(event, ev.UssdAnswer):
         if not m.settings.cusd:
             return

@@ -162,3 +162,19 @@ def test_garbage_never_breaks_the_modem(chunks: list[str | bytes]) -> None:
     out = b.at("\rATQ0V1E0;+CMEE=0")
     out += b.at("ATH;+CSQ")
     assert out.endswith(b"OK\r\n")
+
+
+def test_trace_hook_sees_the_line_both_ways() -> None:
+    from sondalog.gsm.modem import Modem
+    from sondalog.gsm.trace import trace_line
+
+    seen: list[tuple[str, bytes, float]] = []
+    modem = Modem(trace=lambda d, data, t: seen.append((d, data, t)))
+    modem.receive(b"ATE0\r", 1764464400.0)
+    assert seen == [("rx", b"ATE0\r", 1764464400.0), ("tx", b"ATE0\r\r\nOK\r\n", 1764464400.0)]
+    assert trace_line(*seen[1]) == (
+        "2025-11-30T01:00:00.000Z  modem>logger  ATE0\\r\\r\\nOK\\r\\n\n"
+    )
+    assert trace_line("rx", b"\x1a\x1b\xff", 0.5) == (
+        "1970-01-01T00:00:00.500Z  logger>modem  <ctrl-z><esc>\\xff\n"
+    )

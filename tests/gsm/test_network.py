@@ -117,3 +117,32 @@ def test_long_phone_sms_goes_concatenated() -> None:
     assert [len(p.text) for p in b.network.delivered(MODEM)[2:]] == [67, 33]
     pdu_listing = b.at("AT+CMGF=0;+CMGL=4")
     assert pdu_listing.count(b"+CMGL:") == 4
+
+
+def test_state_survives_a_restart() -> None:
+    import json
+
+    from sondalog.gsm import netstate
+
+    b = Bench()
+    b.at("AT+CFUN=0")
+    b.network.set_credit(MODEM, 99.5)
+    b.net(lambda n, t: n.phone_sms(PHONE, MODEM, "kept", t))
+    b.net(lambda n, t: n.phone_sms(MODEM, PHONE2, "seen", t))
+    saved = json.loads(json.dumps(netstate.dump(b.network)))
+    # a new network process: same subscribers from the site file, state from disk
+    fresh = Bench()
+    out = fresh.system.network_call(netstate.load(fresh.network, saved, fresh.now), fresh.now)
+    assert out.line(MODEM) == b'\r\n+CMTI: "SM",1\r\n'  # the new modem's radio is on
+    assert [s.text for s in fresh.network.delivered(PHONE2)] == ["seen"]
+    assert fresh.network.subscriber(MODEM).credit == 99.5
+    assert fresh.network.phone_sms(PHONE, PHONE2, "x", fresh.now)[0].sms.sms_id == 3  # type: ignore[attr-defined]
+
+
+def test_any_character_aborts_a_dial() -> None:
+    b = Bench()
+    other = Modem()
+    b.system.add_modem("+420600000002", other, b.now)
+    assert b.at("ATD+420600000002;") == b""
+    assert b.send(b"x") == b"\r\nNO CARRIER\r\n"
+    assert other.call is None and b.modem.call is None

@@ -321,6 +321,13 @@ class Modem:
 
     # -- command lines -------------------------------------------------------------------
     def _command_byte(self, byte: int, now: float) -> None:
+        call = self.call
+        if self._busy and call is not None and not call.incoming and not call.active:
+            # any character aborts a dial in progress (V.250 §6.3.1)
+            self.call = None
+            self.effect(ev.HangUp())
+            self.final("NO CARRIER")
+            return
         if byte == ESC:
             self._line.clear()
             return

@@ -27,8 +27,8 @@ class ModemPty:
     def __init__(self, number: str = "+420600000001", config: ModemConfig | None = None) -> None:
         self.number = number
         self.system = GsmSystem()
-        self.trace: list[tuple[str, bytes]] = []
-        self.modem = Modem(config, trace=lambda d, b, t: self.trace.append((d, b)))
+        self.trace: list[tuple[str, bytes, float]] = []
+        self.modem = Modem(config, trace=lambda d, b, t: self.trace.append((d, b, t)))
         self.master, self.slave = pty.openpty()
         tty.setraw(self.slave)
         self.path = os.ttyname(self.slave)
@@ -58,7 +58,7 @@ class ModemPty:
 
     def rx(self) -> bytes:
         """Everything the peer sent so far."""
-        return b"".join(b for d, b in self.trace if d == "rx")
+        return b"".join(b for d, b, _ in self.trace if d == "rx")
 
     def _write(self, out: SystemOutput) -> None:
         data = out.line(self.number)

@@ -78,3 +78,16 @@ def test_gammu_reads_stored_sms(modem: tuple[ModemPty, Path]) -> None:
     assert "##*#read com speed##*#" in result.stdout
     assert "Kč 5 €" in result.stdout  # UCS2 in PDU mode
     assert "2 SMS parts in 2 SMS sequences" in result.stdout
+
+
+def test_gammu_sends_a_long_unicode_sms_in_parts(modem: tuple[ModemPty, Path]) -> None:
+    mp, rc = modem
+    text = "Měření " + "x" * 80  # 87 UCS2 characters: two parts with a concatenation header
+    result = gammu(rc, "sendsms", "TEXT", PHONE, "-unicode", "-len", str(len(text)), "-text", text)
+    assert result.returncode == 0, result.stderr
+    delivered = mp.call(lambda s, now: s.network.delivered(PHONE))
+    assert "".join(d.text for d in delivered) == text
+    assert [(d.alphabet, d.concat.seq, d.concat.total) for d in delivered if d.concat] == [
+        ("ucs2", 1, 2),
+        ("ucs2", 2, 2),
+    ]

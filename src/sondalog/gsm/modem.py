@@ -195,7 +195,8 @@ class Modem:
         return self._take(now)
 
     def next_deadline(self) -> float | None:
-        times = [t for t in (self._escape_at, self.call.next_ring if self.call else None) if t]
+        ring = self.call.next_ring if self.call is not None else None
+        times = [t for t in (self._escape_at, ring) if t is not None]
         return min(times) if times else None
 
     # -- output helpers used by the command modules --------------------------------------

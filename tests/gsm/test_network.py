@@ -8,7 +8,8 @@ from gsm_helpers import MODEM, PHONE, PHONE2, T0, Bench
 from sondalog.gsm import events as ev
 from sondalog.gsm.gateway import ModemEvent
 from sondalog.gsm.modem import Modem
-from sondalog.gsm.network import Network, normalize
+from sondalog.gsm.network import Network
+from sondalog.gsm.sms import joined, normalize
 
 
 def test_numbers_normalize() -> None:
@@ -117,6 +118,9 @@ def test_long_phone_sms_goes_concatenated() -> None:
     assert [len(p.text) for p in b.network.delivered(MODEM)[2:]] == [67, 33]
     pdu_listing = b.at("AT+CMGF=0;+CMGL=4")
     assert pdu_listing.count(b"+CMGL:") == 4
+    # the HTTP API shows whole messages: complete concatenations joined
+    assert [s.text for s in joined(b.network.delivered(MODEM))] == [text, ucs2]
+    assert [s.text for s in joined(b.network.delivered(MODEM)[1:])] == [parts[1].text, ucs2]
 
 
 def test_state_survives_a_restart() -> None:

@@ -4,7 +4,8 @@
 """
 
 from sondalog.gsm.modem import Modem, ModemConfig, Output
-from sondalog.gsm.network import Network, PhoneEvent, Sms
+from sondalog.gsm.network import Network, PhoneEvent
+from sondalog.gsm.sms import Sms
 from sondalog.gsm.system import GsmSystem, SystemOutput
 
 __all__ = [

@@ -12,8 +12,9 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
-from sondalog.gsm.network import Network, Outage, Sms
+from sondalog.gsm.network import Network, Outage
 from sondalog.gsm.pdu import Concat
+from sondalog.gsm.sms import Sms
 
 VERSION = 1
 

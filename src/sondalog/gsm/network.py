@@ -22,25 +22,13 @@ from sondalog.gsm import events as ev
 from sondalog.gsm import gsm7
 from sondalog.gsm.gateway import IpEvent, IpGateway, ModemEvent
 from sondalog.gsm.pdu import GSM7, UCS2, Concat
+from sondalog.gsm.sms import Sms, normalize, parts_of
 
 MODEM = "modem"
 PHONE = "phone"
 #: A call nobody answers ends after this many seconds.
 NO_ANSWER_TIME = 60.0
 DEFAULT_USSD = {"*101#": "Your credit is {credit:.2f} CZK."}
-
-
-@dataclass(frozen=True, slots=True)
-class Sms:
-    """A short message at the SMS centre; ``timestamp`` is when the centre took it."""
-
-    sms_id: int
-    sender: str
-    to: str
-    text: str
-    timestamp: int
-    alphabet: str = "gsm7"
-    concat: Concat | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,30 +82,6 @@ class Outage:
     start: float
     end: float
     number: str | None = None
-
-
-def _parts(text: str, alphabet: str) -> list[str]:
-    if alphabet == GSM7:
-        if gsm7.septet_length(text) <= gsm7.SMS_SEPTETS:
-            return [text]
-        return gsm7.split_sms(text, 153)
-    units = len(gsm7.encode_ucs2(text)) // 2
-    if units <= gsm7.SMS_UCS2_CHARS:
-        return [text]
-    parts: list[str] = []
-    current = ""
-    for ch in text:
-        if len(gsm7.encode_ucs2(current + ch)) // 2 > 67:
-            parts.append(current)
-            current = ""
-        current += ch
-    return [*parts, current]
-
-
-def normalize(number: str) -> str:
-    """``00420...`` -> ``+420...``; spaces and dashes removed."""
-    number = "".join(ch for ch in number.strip() if ch not in " -()")
-    return "+" + number[2:] if number.startswith("00") else number
 
 
 class Network:
@@ -234,7 +198,7 @@ class Network:
         a text longer than one SMS goes as a concatenated SMS (parts of 153 septets or 67
         UCS2 characters, 23.040 §9.2.3.24.1)."""
         alphabet = GSM7 if gsm7.is_gsm7(text) else UCS2
-        parts = _parts(text, alphabet)
+        parts = parts_of(text, alphabet)
         if len(parts) == 1:
             return self._submit(normalize(sender), to, text, now, alphabet, None)
         self._concat_ref = (self._concat_ref + 1) % 256

@@ -91,3 +91,17 @@ def test_gammu_sends_a_long_unicode_sms_in_parts(modem: tuple[ModemPty, Path]) -
         ("ucs2", 1, 2),
         ("ucs2", 2, 2),
     ]
+
+
+def test_gammu_reads_network_info_and_credit(modem: tuple[ModemPty, Path]) -> None:
+    mp, rc = modem
+    mp.call(lambda s, now: s.network.set_credit(mp.number, 250))
+    mp.call(lambda s, now: s.network_call(s.network.set_signal(mp.number, 21, now), now))
+    info = gammu(rc, "networkinfo")
+    assert info.returncode == 0, info.stderr
+    assert "Network state        : home network" in info.stdout
+    assert "LAC 0FA1, CID 2B3C" in info.stdout
+    ussd = gammu(rc, "getussd", "*101#")  # gammu asks in UCS2 (AT+CSCS="UCS2")
+    assert ussd.returncode == 0, ussd.stderr
+    assert 'Service reply        : "Your credit is 250.00 CZK."' in ussd.stdout
+    assert b'AT+CUSD=1,"002A0031003000310023",15\r' in mp.rx()

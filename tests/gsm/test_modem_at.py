@@ -178,3 +178,25 @@ def test_trace_hook_sees_the_line_both_ways() -> None:
     assert trace_line("rx", b"\x1a\x1b\xff", 0.5) == (
         "1970-01-01T00:00:00.500Z  logger>modem  <ctrl-z><esc>\\xff\n"
     )
+
+
+def test_cell_operator_and_gprs_registration() -> None:
+    b = Bench()
+    assert b.at("AT+CREG=2;+CREG?") == b'\r\n+CREG: 2,1,"0FA1","2B3C"\r\n\r\nOK\r\n'
+    assert b.at("AT+CGREG=2;+CGREG?") == b'\r\n+CGREG: 2,1,"0FA1","2B3C"\r\n\r\nOK\r\n'
+    assert b.at("AT+COPS?") == b'\r\n+COPS: 0,0,"SONDALOG GSM"\r\n\r\nOK\r\n'
+    assert b.at("AT+COPS=3,2;+COPS?") == b'\r\n+COPS: 0,2,"23001"\r\n\r\nOK\r\n'
+    assert b.at("AT+CGATT?") == b"\r\n+CGATT: 0\r\n\r\nOK\r\n"
+    b.at("AT+WIPCFG=1;+WIPBR=1,6;+WIPBR=4,6,0")
+    assert b.at("AT+CGATT?") == b"\r\n+CGATT: 1\r\n\r\nOK\r\n"
+    b.at("AT+CFUN=0")
+    assert b.at("AT+COPS?;+CGATT?") == b"\r\n+COPS: 0\r\n\r\n+CGATT: 0\r\n\r\nOK\r\n"
+
+
+def test_ussd_in_ucs2_character_set() -> None:
+    b = Bench()
+    b.network.set_credit(MODEM, 12.5)
+    b.at('AT+CSCS="UCS2"')
+    out = b.at('AT+CUSD=1,"002A0031003000310023",15')  # "*101#"
+    text = "Your credit is 12.50 CZK.".encode("utf-16-be").hex().upper()
+    assert out == f'\r\nOK\r\n\r\n+CUSD: 0,"{text}",15\r\n'.encode()

@@ -92,6 +92,12 @@ class ModemConfig:
     data_rate: int = 9600
     #: Offset of the SMS timestamps shown by ``AT+CMGR`` (quarter hours).
     tz_quarters: int = 0
+    #: Location area code and cell id ``AT+CREG=2`` shows (hex).
+    lac: str = "0FA1"
+    cell: str = "2B3C"
+    #: The network's name and MCC+MNC (``AT+COPS?``).
+    operator: str = "SONDALOG GSM"
+    operator_code: str = "23001"
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,6 +121,8 @@ class Settings:
     clip: bool = False
     crc: bool = False
     creg: int = 0
+    cgreg: int = 0
+    cops_format: int = 0
     cusd: bool = False
     auto_answer: int = 0
     cnmi: tuple[int, ...] = (2, 1, 0, 0, 0)

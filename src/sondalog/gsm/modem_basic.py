@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
+from sondalog.gsm import gsm7
 from sondalog.gsm.atline import EXEC, READ, SET, TEST, AtCommand, AtSyntaxError
 
 if TYPE_CHECKING:
@@ -95,7 +96,7 @@ def _reset(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("&W", "&C", "&D", "&S", "&K", "X", "L", "M", "+IFC", "+ICF", "+WIND", "+CBST", "+CR")
-@handler("+CRLP", "+CGREG", "+CGATT", "+CGDCONT", "+CMER", "+WOPEN", "+CPHS", "+COPS")
+@handler("+CRLP", "+CGDCONT", "+CMER", "+WOPEN", "+CPHS")
 def _accepted(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     """Settings the simulation takes and ignores; their reads show what was set."""
     if cmd.kind == READ:
@@ -191,8 +192,56 @@ def _cfun(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return []
 
 
-def _creg_stat(m: Modem) -> int:
-    return 1 if m.registered else (2 if m.radio else 0)
+def _creg_stat(m: Modem, n: int | None = None) -> str:
+    """``<stat>``, and with ``AT+CREG=2`` the cell's ``"<lac>","<ci>"`` when registered."""
+    stat = 1 if m.registered else (2 if m.radio else 0)
+    if (m.settings.creg if n is None else n) == 2 and m.registered:
+        return f'{stat},"{m.config.lac}","{m.config.cell}"'
+    return str(stat)
+
+
+@handler("+CGREG")
+def _cgreg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    """GPRS registration (27.007 §10.1.20): GPRS service follows GSM registration."""
+    if cmd.kind == READ:
+        return [f"+CGREG: {m.settings.cgreg},{_creg_stat(m, m.settings.cgreg)}"]
+    if cmd.kind == TEST:
+        return ["+CGREG: (0-2)"]
+    m.settings.cgreg = _setting(cmd, (0, 1, 2))
+    return []
+
+
+@handler("+CGATT")
+def _cgatt(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    """GPRS attach state: attached while the WIPsoft GPRS bearer is started."""
+    if cmd.kind == READ:
+        return [f"+CGATT: {int(m.wip.started)}"]
+    if cmd.kind == TEST:
+        return ["+CGATT: (0,1)"]
+    return []
+
+
+@handler("+COPS")
+def _cops(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+    """Operator (27.007 §7.3): automatic selection; ``AT+COPS=3,<format>`` picks the name
+    format shown (0 long name, 2 numeric)."""
+    if cmd.kind == READ:
+        if not m.registered:
+            return ["+COPS: 0"]
+        fmt = m.settings.cops_format
+        name = m.config.operator_code if fmt == 2 else m.config.operator
+        return [f'+COPS: 0,{fmt},"{name}"']
+    if cmd.kind == TEST:
+        c = m.config
+        return [f'+COPS: (2,"{c.operator}","{c.operator}","{c.operator_code}"),,(0-4),(0-2)']
+    values = cmd.ints(1, 3)
+    if values[0] == 3 and len(values) > 1 and values[1] in (0, 1, 2):
+        m.settings.cops_format = values[1]
+    elif values[0] not in (0, 1, 2, 4):
+        from sondalog.gsm.modem import CmeError
+
+        raise CmeError(NOT_ALLOWED)
+    return []
 
 
 @handler("+CREG")
@@ -237,7 +286,13 @@ def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     if len(params) > 1 and params[1]:
         if not m.registered:
             raise CmeError(NO_NETWORK)
-        m.effect(ev.Ussd(params[1]))
+        code = params[1]
+        if m.settings.charset == "UCS2":  # 27.007 §7.15: <str> in the TE character set
+            try:
+                code = gsm7.decode_ucs2(bytes.fromhex(code))
+            except ValueError:
+                raise CmeError(NOT_ALLOWED) from None
+        m.effect(ev.Ussd(code))
     return []
 
 
@@ -262,4 +317,7 @@ def network_event(m: Modem, event: ev.Event, now: float) -> None:
         if event.text is None:
             m.urc("+CUSD: 4")
         else:
-            m.urc(f'+CUSD: 0,"{event.text}",15')
+            text = event.text
+            if m.settings.charset == "UCS2":
+                text = gsm7.encode_ucs2(text).hex().upper()
+            m.urc(f'+CUSD: 0,"{text}",15')

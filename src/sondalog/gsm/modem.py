@@ -67,8 +67,13 @@ class CmsError(CmeError):
     """Ends an SMS command with ``+CMS ERROR: <code>``."""
 
 
+#: :class:`Finish` with this: the line ends without a final result code (``AT+CPIN?``).
+NO_FINAL = ""
+
+
 class Finish(Exception):
-    """Ends the command line with ``final`` (``None``: the answer comes later)."""
+    """Ends the command line with ``final`` (``None``: the answer comes later;
+    :data:`NO_FINAL`: there is none)."""
 
     def __init__(self, final: str | None, lines: tuple[str, ...] = ()) -> None:
         super().__init__(final)
@@ -381,7 +386,10 @@ class Modem:
                 return
             except Finish as finish:
                 self.info(*finish.lines)
-                if finish.final is not None:
+                if finish.final == NO_FINAL:
+                    self._busy = False
+                    self._flush_urcs()
+                elif finish.final is not None:
                     self.final(finish.final)
                 return
             except Exception:  # a bug must not stop the line (DESIGN.md point 6)

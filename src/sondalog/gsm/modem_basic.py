@@ -152,7 +152,13 @@ def _ipr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 @handler("+CPIN")
 def _cpin(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    return ["+CPIN: READY"] if cmd.kind == READ else []
+    """``+CPIN: READY`` without ``OK``: a Wavecom ends ``AT+CPIN?`` there (Multi-Tech's
+    WIPsoft guide, "AT Command Syntax"; gammu expects it so)."""
+    from sondalog.gsm.modem import NO_FINAL, Finish
+
+    if cmd.kind == READ:
+        raise Finish(NO_FINAL, ("+CPIN: READY",))
+    return []
 
 
 @handler("+CSCS")

@@ -1,8 +1,9 @@
 """A simulated modem on a real pty, for real peers (gammu) in tests.
 
-A pump thread reads the pty's master side and feeds the bytes, with ``time.monotonic()``,
-into a :class:`~sondalog.gsm.system.GsmSystem`; what the modem answers is written back. The
-peer opens :attr:`ModemPty.path` (``/dev/pts/N``) like a serial port. Tests change the world
+A pump thread reads the pty's master side and feeds the bytes, with ``time.monotonic()``
+(shifted once to the epoch, so SMS timestamps read as today), into a
+:class:`~sondalog.gsm.system.GsmSystem`; what the modem answers is written back. The peer
+opens :attr:`ModemPty.path` (``/dev/pts/N``) like a serial port. Tests change the world
 through :meth:`ModemPty.call` (under the pump's lock).
 """
 
@@ -22,6 +23,13 @@ from sondalog.gsm.system import GsmSystem, SystemOutput
 
 T = TypeVar("T")
 
+_EPOCH = time.time() - time.monotonic()
+
+
+def clock() -> float:
+    """Monotonic seconds on the POSIX epoch."""
+    return time.monotonic() + _EPOCH
+
 
 class ModemPty:
     def __init__(self, number: str = "+420600000001", config: ModemConfig | None = None) -> None:
@@ -36,7 +44,7 @@ class ModemPty:
         self._stop = threading.Event()
         self.errors: list[BaseException] = []
         self._thread = threading.Thread(target=self._pump, daemon=True)
-        self._write(self.system.add_modem(number, self.modem, time.monotonic()))
+        self._write(self.system.add_modem(number, self.modem, clock()))
 
     def __enter__(self) -> ModemPty:
         self._thread.start()
@@ -51,7 +59,7 @@ class ModemPty:
     def call(self, fn: Callable[[GsmSystem, float], T]) -> T:
         """Run ``fn(system, now)`` under the pump's lock; write what it outputs."""
         with self._lock:
-            result = fn(self.system, time.monotonic())
+            result = fn(self.system, clock())
             if isinstance(result, SystemOutput):
                 self._write(result)
             return result
@@ -75,12 +83,12 @@ class ModemPty:
 
     def _loop(self) -> None:
         while not self._stop.is_set():
-            now = time.monotonic()
+            now = clock()
             deadline = self.system.next_deadline(now)
             timeout = 0.1 if deadline is None else max(0.0, min(0.1, deadline - now))
             ready, _, _ = select.select([self.master], [], [], timeout)
             with self._lock:
-                now = time.monotonic()
+                now = clock()
                 if ready:
                     try:
                         data = os.read(self.master, 4096)

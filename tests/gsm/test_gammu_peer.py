@@ -93,15 +93,13 @@ def test_gammu_sends_a_long_unicode_sms_in_parts(modem: tuple[ModemPty, Path]) -
     ]
 
 
-def test_gammu_reads_network_info_and_credit(modem: tuple[ModemPty, Path]) -> None:
+def test_gammu_reads_network_info(modem: tuple[ModemPty, Path]) -> None:
+    # (gammu getussd *101# works too, but gammu then idles 10 s before it exits: the exact
+    # request it sends, in UCS2, is a unit test in test_modem_at.py)
     mp, rc = modem
-    mp.call(lambda s, now: s.network.set_credit(mp.number, 250))
-    mp.call(lambda s, now: s.network_call(s.network.set_signal(mp.number, 21, now), now))
     info = gammu(rc, "networkinfo")
     assert info.returncode == 0, info.stderr
     assert "Network state        : home network" in info.stdout
     assert "LAC 0FA1, CID 2B3C" in info.stdout
-    ussd = gammu(rc, "getussd", "*101#")  # gammu asks in UCS2 (AT+CSCS="UCS2")
-    assert ussd.returncode == 0, ussd.stderr
-    assert 'Service reply        : "Your credit is 250.00 CZK."' in ussd.stdout
-    assert b'AT+CUSD=1,"002A0031003000310023",15\r' in mp.rx()
+    assert 'Name in phone        : "SONDALOG GSM"' in info.stdout
+    assert b"AT+CREG=2\r" in mp.rx() and b"AT+COPS?\r" in mp.rx()

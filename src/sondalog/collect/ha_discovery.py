@@ -116,7 +116,7 @@ class Topics:
     def state(self, logger: str, channel: int) -> str:
         """Channel ``n`` > 0 publishes on ``.../ch<n>``, text rows (channel 0) on ``.../text``."""
         leaf = "text" if channel == 0 else f"ch{channel}"
-        return f"{self.prefix}/{self.node(logger)}/{leaf}"
+        return f"{self.prefix}/{safe_id(logger)}/{leaf}"
 
 
 @dataclass

@@ -20,7 +20,10 @@ COMMANDS: tuple[tuple[str, str], ...] = (
     ("sondalog.cli.bus_cmd", "bus"),
 )
 #: (module, attribute, parent group) of commands that belong to a group.
-SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (("sondalog.cli.tables_cmd", "tables", "logger"),)
+SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (
+    ("sondalog.cli.tables_cmd", "tables", "logger"),
+    ("sondalog.cli.download_cmd", "download", "logger"),
+)
 
 
 @click.group()

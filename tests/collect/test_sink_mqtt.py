@@ -283,3 +283,15 @@ def test_broker_down_then_up_delivers_buffered_batches_once(
     assert sorted(states) == sorted(expected)  # every buffered reading once, none twice
     # the discovery was sent again on reconnect (the restarted broker had lost it)
     assert any(str(m.topic) == topics.config("42") for m in msgs)
+
+
+def test_discovery_is_due_again_only_when_a_channel_changes() -> None:
+    dev = Device("1001")
+    first = rows("1001", 0, 1, channels=2)
+    assert [dev.learn(r) for r in first] == [True, True]
+    assert not any(dev.learn(r) for r in rows("1001", 1, 1, channels=2))  # same channels
+    assert dev.learn(rows("1001", 2, 1, channels=3)[2])  # a new channel
+    renamed = Reading("1001", 1, first[0].time, 0, 1, 1.0, name="Air", unit="°C")
+    assert dev.learn(renamed)
+    assert not dev.learn(Reading("1001", 1, first[0].time, 0, 1, 1.0))  # no name: keep it
+    assert dev.channels[1] == ("Air", "°C")

@@ -236,7 +236,7 @@ class MqttSink:
                             # HA's advice: a small random delay spreads the discovery load.
                             await asyncio.sleep(random.uniform(0.0, 0.2))
                             await self._announce_all(client)
-            except aiomqtt.MqttError as e:
+            except (aiomqtt.MqttError, OSError) as e:
                 log.warning("mqtt: %s:%d: %s", self.cfg.host, self.cfg.port, e)
             finally:
                 self._client = None

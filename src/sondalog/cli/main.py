@@ -18,6 +18,7 @@ COMMANDS: tuple[tuple[str, str], ...] = (
     ("sondalog.cli.logger_cmd", "logger"),
     ("sondalog.cli.term_cmd", "term"),
     ("sondalog.cli.bus_cmd", "bus"),
+    ("sondalog.cli.collect_cmd", "collect"),
 )
 #: (module, attribute, parent group) of commands that belong to a group.
 SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (

@@ -123,7 +123,7 @@ class Download:
     client: Ala1Client
     after: str | None = None
     zone: ZoneInfo | None = None
-    target_seconds: float = 4.0
+    target_seconds: float = 6.0
     max_rows: int = MAX_ROWS
     clock: Callable[[], float] = time.time
     rows_per_chunk: int = FIRST_ROWS

@@ -255,3 +255,21 @@ def test_a_corrupted_chunk_is_read_again(tmp_path: Path) -> None:
         rereads, flips = asyncio.run(go())
     assert flips and rereads == 1
     assert _held(tmp_path / "d.csv") == _expected(rows)
+
+
+def test_download_over_a_paced_pty(tmp_path: Path) -> None:
+    link = tmp_path / "ala1"
+    out = tmp_path / "data.jsonl"
+    with sampling_logger(tmp_path, 50, "--pty", str(link)) as served:
+        configure(served)
+        time.sleep(0.3)
+        served.ask("write channel sampling period 000000 000000")
+        rows = served.record()
+        done = download(f"serial://{link}?baud=9600", out)
+        assert done.returncode == 0, done.stderr
+        again = download(f"serial://{link}?baud=9600", out)
+        assert again.returncode == 0, again.stderr
+    records = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [(r["time"], str(r["counter"]), str(r["channel"])) for r in records] == [
+        (e[1], e[2], e[4]) for e in _expected(rows)
+    ]

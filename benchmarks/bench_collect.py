@@ -5,6 +5,9 @@ port, like the tests) and writes batches through :class:`~sondalog.collect.sink_
 PostgresSink` (COPY into a temporary table + ``INSERT ... ON CONFLICT DO NOTHING``): first new
 rows, then the same rows again (all duplicates, the cost of an idempotent replay).
 
+MQTT: the same readings, a tenth of them, as QoS 1 state messages to a local mosquitto
+(for information; the issue sets no goal for it).
+
 SQLite: the collector's own store, when its sink module (``sondalog.collect.sink_sqlite``,
 ``create({"path": ...})``) is present; skipped with a note otherwise.
 
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import importlib
+import shutil
 import sys
 import tempfile
 import time
@@ -68,6 +72,18 @@ async def bench_sink(label: str, sink: Sink, batches: list[list[Reading]]) -> No
     await sink.close()
 
 
+async def bench_mqtt(sink: Sink, batches: list[list[Reading]]) -> None:
+    """States published with QoS 1 (each acknowledged by the broker); no goal is set."""
+    n = sum(len(b) for b in batches)
+    await sink.open()
+    seconds = await ingest(sink, batches)
+    print(
+        f"{'MQTT: states published (QoS 1)':<42} {n:>9,} readings in {seconds:6.2f} s"
+        f" = {n / seconds:>10,.0f}/s"
+    )
+    await sink.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--readings", type=int, default=500_000)
@@ -89,6 +105,20 @@ def main() -> None:
             asyncio.run(bench_sink("PostgreSQL", sink, batches))
         finally:
             server.destroy()
+
+    mqtt_bin = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+    if not Path(mqtt_bin).exists():
+        print("MQTT: mosquitto not installed; skipped")
+    else:
+        from sondalog.collect import sink_mqtt
+
+        broker = services.Mosquitto(mqtt_bin)
+        try:
+            broker.start()
+            mqtt_batches = batches[: max(1, len(batches) // 10)]  # QoS 1 is slower: a tenth
+            asyncio.run(bench_mqtt(sink_mqtt.create({"url": broker.url}), mqtt_batches))
+        finally:
+            broker.destroy()
 
     try:
         sqlite_mod = importlib.import_module("sondalog.collect.sink_sqlite")

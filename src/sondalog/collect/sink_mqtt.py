@@ -212,6 +212,7 @@ class MqttSink:
             password=cfg.password,
             will=aiomqtt.Will(self.topics.availability, b"offline", qos=1, retain=True),
             keepalive=30,
+            max_inflight_messages=_WINDOW,
             timeout=self.publish_timeout,
             tls_context=ssl.create_default_context() if cfg.tls else None,
         )

@@ -2,8 +2,8 @@
 
 Recipes: ``/work/shared/recipes.md`` §1 and §2. PostgreSQL runs as ``nobody`` (``initdb``
 refuses root) in a 0755 temporary directory; mosquitto runs in the foreground from a
-generated config. Both listen on 127.0.0.1 on a port the test picks. A test module uses a
-fixture by assigning it (``postgres = services.postgres``); a missing binary skips the test.
+generated config. Both listen on 127.0.0.1 on a port the test picks. ``conftest.py`` makes
+the fixtures available to every test here; a missing binary skips the test.
 """
 
 from __future__ import annotations

@@ -6,7 +6,6 @@ from __future__ import annotations
 import asyncio
 import json
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -15,6 +14,7 @@ from pathlib import Path
 import aiomqtt
 import pytest
 import services
+from ha_rules import check_device_discovery, gather_messages
 from readings_gen import rows, text_row
 
 from sondalog.collect import sink_mqtt
@@ -29,9 +29,7 @@ from sondalog.collect.ha_discovery import (
 )
 from sondalog.collect.model import Reading, SinkUnavailable
 
-mosquitto = services.mosquitto
 HERE = Path(__file__).parent
-SAFE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def devices(*loggers: str) -> list[Device]:
@@ -43,30 +41,6 @@ def devices(*loggers: str) -> list[Device]:
         dev.learn(Reading(lg, 6, rows(lg, 0, 1)[0].time, 0, 1, 400.0, name="CO2", unit="ppm"))
         out.append(dev)
     return out
-
-
-def check_device_discovery(topic: str, payload: dict[str, object], topics: Topics) -> list[str]:
-    """The rules of HA's "Device discovery payload"; returns the components' unique ids."""
-    m = re.fullmatch(rf"{topics.discovery}/device/([^/]+)/config", topic)
-    assert m and SAFE.match(m.group(1)), topic
-    dev = payload["dev"]
-    assert isinstance(dev, dict) and dev["ids"] and dev["name"]
-    origin = payload["o"]
-    assert isinstance(origin, dict) and origin["name"] == "sondalog"
-    assert payload["availability_topic"] == topics.availability
-    cmps = payload["cmps"]
-    assert isinstance(cmps, dict) and cmps
-    ids = []
-    for cid, cmp in cmps.items():
-        assert SAFE.match(cid), cid
-        assert cmp["p"] == "sensor"
-        assert len(set(cmp) - {"p"}) >= 1  # at least one component option
-        assert cmp["unique_id"]
-        state = cmp["state_topic"]
-        assert state.startswith(topics.prefix + "/") and not set(state) & {"+", "#"}
-        assert cmp["value_template"].startswith("{{ value_json.")
-        ids.append(cmp["unique_id"])
-    return ids
 
 
 def test_discovery_payloads_follow_the_documented_rules() -> None:
@@ -125,25 +99,6 @@ def test_device_classes_and_state_messages() -> None:
 def test_bad_config_is_refused(table: dict[str, object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         sink_mqtt.create(table)
-
-
-async def gather_messages(
-    port: int, subscribe: list[str], quiet: float = 0.4, *, ready: asyncio.Event | None = None
-) -> list[aiomqtt.Message]:
-    """Every message on ``subscribe`` until ``quiet`` seconds pass without one (max 10 s)."""
-    got: list[aiomqtt.Message] = []
-    async with aiomqtt.Client("127.0.0.1", port, identifier=f"sub{os.getpid()}") as c:
-        for t in subscribe:
-            await c.subscribe(t, qos=1)
-        if ready is not None:
-            ready.set()
-        async with asyncio.timeout(10):
-            while True:
-                try:
-                    async with asyncio.timeout(quiet):
-                        got.append(await anext(aiter(c.messages)))
-                except TimeoutError:
-                    return got
 
 
 def test_discovery_states_and_availability_on_a_real_broker(

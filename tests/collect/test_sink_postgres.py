@@ -23,8 +23,6 @@ from sondalog.collect.sink_postgres import (
     migration_plan,
 )
 
-postgres = services.postgres
-pg_dsn = services.pg_dsn
 HERE = Path(__file__).parent
 
 

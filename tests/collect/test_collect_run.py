@@ -166,6 +166,10 @@ def test_kill_9_at_any_moment_loses_nothing_and_stores_nothing_twice(tmp_path: P
             [*CLI, "collect", "--once", str(config)], capture_output=True, timeout=60
         )
         assert done.returncode == 0, done.stderr
+        config.write_text(config.read_text() + '\n[[source]]\nurl = "tcp://127.0.0.1:9"\n')
+        failed = subprocess.run([*CLI, "collect", "--once", str(config)], capture_output=True)
+        assert failed.returncode == 1, failed.stderr  # --once: a source failed
+        assert b"sources failed: tcp://127.0.0.1:9" in failed.stderr
     assert counts == sorted(counts) and counts[-1] > counts[0] > 0
     stored = _stored(store)
     assert len(stored) == len(set(stored))

@@ -1,8 +1,8 @@
 """``sondalog collect FILE.toml``: run the collector until stopped (parsing only; the work is
 in :mod:`sondalog.collect.runner`).
 
-Exit status: 0 stopped by SIGINT/SIGTERM (or ``--once`` done), 2 a configuration error
-(``FILE:LINE: field: message``) or a store that cannot be used.
+Exit status: 0 stopped by SIGINT/SIGTERM (or ``--once`` done), 1 ``--once`` and a source
+failed, 2 a configuration error (``FILE:LINE: field: message``) or a store that cannot be used.
 """
 
 from __future__ import annotations
@@ -51,6 +51,8 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
         collector.store.close_sync()
         raise _Refused(str(exc)) from None
     asyncio.run(_run(collector, once))
+    if once and collector.failing:
+        raise click.ClickException(f"sources failed: {', '.join(sorted(collector.failing))}")
 
 
 async def _run(collector: Collector, once: bool) -> None:

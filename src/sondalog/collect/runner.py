@@ -51,6 +51,8 @@ class Collector:
         self.buffer: DiskBuffer | None = None
         self.sources: list[Source] = []
         self.contacts = 0
+        #: Sources whose last contact failed.
+        self.failing: set[str] = set()
 
     def open(self) -> None:
         """Open the store and build the sinks; raises :class:`ConfigError` for a bad sink
@@ -151,8 +153,10 @@ class Collector:
                 log.warning("source %s offline: %s", cfg.name, text)
                 self.store.set_state(cfg.name, state="offline", last_error=describe(exc))
                 self.store.event(cfg.name, "error", text)
+                self.failing.add(cfg.name)
             else:
                 failures = 0
+                self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))
                 log.info("source %s: %s", cfg.name, summary)
                 self.store.set_state(cfg.name, state="ok", last_error=None, last_contact=now_text())

@@ -93,3 +93,10 @@ def test_cli_exit_2_with_the_message(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert f"{path}:16: postgres: unknown key 'bogus'" in done.stderr
     assert not (tmp_path / "data" / "store.buffer.sqlite").exists()
+
+
+def test_the_example_file() -> None:
+    example = Path(__file__).resolve().parents[2] / "examples" / "collector.toml"
+    config = load_config(example)
+    assert [s.name for s in config.sources] == ["demo-logger", "demo-bus"]
+    assert config.store.name == "collector.sqlite" and not config.sinks

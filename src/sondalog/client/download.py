@@ -33,7 +33,6 @@ from sondalog.client.ala1 import (
     Ala1Client,
     ChecksumError,
     CommandFailed,
-    ConnectionLost,
     IncompleteAnswer,
     NoAnswer,
     Response,
@@ -82,7 +81,7 @@ class LoggerInfo:
 
 @dataclass(frozen=True, slots=True)
 class Gap:
-    """Rows a cyclic record overwrote before they were fetched."""
+    """Rows lost before they were fetched: overwritten by a cyclic record, or cleared."""
 
     after: str
     """The last row held (record point)."""
@@ -96,7 +95,8 @@ class Gap:
         end, _ = parse_key(self.before)
         count = "an unknown number of rows" if self.rows is None else f"about {self.rows} rows"
         return (
-            f"gap: the record was overwritten before it was fetched: {count} lost between "
+            f"gap: rows were lost before they were fetched (a cyclic record overwrote them, or "
+            f"the record was cleared): {count} lost between "
             f"{start.isoformat()} ({self.after}, the last row held) and {end.isoformat()} "
             f"({self.before}, the oldest row left)"
         )
@@ -184,8 +184,6 @@ class Download:
                 rereads += 1
                 timeout *= 2
                 continue
-            except ConnectionLost:
-                raise
             if response.error:
                 raise DownloadError(f"the logger refused {command!r}")
             elapsed = max(self.clock() - started, 1e-6)

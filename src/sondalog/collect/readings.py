@@ -39,7 +39,7 @@ def readings(
                 row.type,
                 value,
                 None,
-                channel.name if channel else None,
+                channel.name if channel and channel.name else None,
                 channel.unit if channel else None,
                 utc,
             )

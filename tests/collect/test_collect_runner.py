@@ -1,4 +1,4 @@
-"""A sink that is down: its batches wait in the on-disk buffer and arrive once it is back."""
+"""The runner in-process: a sink that is down (the buffer), another logger at a source's URL."""
 
 from __future__ import annotations
 
@@ -71,3 +71,33 @@ def test_batches_wait_while_a_sink_is_down(tmp_path: Path) -> None:
     assert stored and sink.keys == stored
     with contextlib.closing(DiskBuffer(config.buffer)) as buffer:
         assert buffer.count("outage") == 0
+
+
+def test_another_logger_at_a_sources_url_is_read_from_its_oldest_row(tmp_path: Path) -> None:
+    from sondalog.collect.store_sqlite import SqliteStore
+
+    store = SqliteStore(tmp_path / "store.sqlite").open_sync()
+    store.add_source("station", "tcp://old:1", "logger")
+    store.set_state("station", logger="999999", cursor="20990101000000.0")
+    store.close_sync()
+    with sampling_logger(tmp_path, 50) as served:
+        configure(served)
+        time.sleep(0.2)
+        served.ask("write channel sampling period 000000 000000")
+        rows = served.record()
+        config = CollectorConfig(
+            tmp_path / "c.toml",
+            tmp_path / "store.sqlite",
+            True,
+            tmp_path / "buffer.sqlite",
+            (SourceConfig("station", served.url, interval=1),),
+            {},
+        )
+        asyncio.run(Collector(config).run(asyncio.Event(), once=True))
+    store.open_sync()
+    assert store.cursor("station") == rows[-1].split(",")[0]
+    assert store.source("station")["logger"] == "000001"  # type: ignore[index]
+    kinds = [event[2] for event in store.events("station")]
+    assert kinds == ["logger", "download"]
+    assert "000001 instead of 999999" in store.events("station")[0][3]
+    store.close_sync()

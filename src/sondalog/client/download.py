@@ -127,6 +127,9 @@ class Download:
     max_rows: int = MAX_ROWS
     clock: Callable[[], float] = time.time
     rows_per_chunk: int = FIRST_ROWS
+    include_after: bool = False
+    """The first chunk also returns the row ``after`` itself (read from its second, ``from
+    date/YYYYMMDDhhmmss/``), for a caller that may hold only part of it (a torn file)."""
     info: LoggerInfo | None = None
     record_empty: bool = False
     """The logger held no rows at all at the last chunk (cleared, or never written)."""
@@ -158,19 +161,22 @@ class Download:
         """Verified chunks until the logger has no more rows; ``after`` follows each chunk."""
         while True:
             wanted = self.rows_per_chunk
-            chunk = await self._chunk(wanted)
+            chunk, sent = await self._chunk(wanted)
+            self.include_after = False
             if chunk.rows:
                 self.after = chunk.cursor
             if chunk.rows or chunk.gap:
                 yield chunk
-            if len(chunk.rows) < wanted:
+            if sent < wanted:
                 return
 
-    async def _chunk(self, wanted: int) -> Chunk:
+    async def _chunk(self, wanted: int) -> tuple[Chunk, int]:
+        """One verified chunk and the number of rows the logger sent for it."""
         if self.after is None:
             command = f"read record {wanted} from start"
         else:
-            command = f"read record 1 from start read record {wanted} from date/{self.after}/"
+            point = self.after[:14] if self.include_after else self.after
+            command = f"read record 1 from start read record {wanted} from date/{point}/"
         expected = wanted * self._row_bytes / self._rate if self._rate > 0 else 0.0
         timeout = max(self.client.timeout, 5.0 + 3 * expected)
         rereads = 0
@@ -187,12 +193,12 @@ class Download:
             if response.error:
                 raise DownloadError(f"the logger refused {command!r}")
             elapsed = max(self.clock() - started, 1e-6)
-            chunk = self._parse(response, wanted, rereads)
+            chunk, sent = self._parse(response, wanted, rereads)
             self._adapt(chunk, elapsed)
-            return chunk
+            return chunk, sent
         raise AssertionError("unreachable")
 
-    def _parse(self, response: Response, wanted: int, rereads: int) -> Chunk:
+    def _parse(self, response: Response, wanted: int, rereads: int) -> tuple[Chunk, int]:
         lines = list(response.lines)
         try:
             rows = [parse_row(line) for line in lines]
@@ -201,14 +207,17 @@ class Download:
         size = len(response.raw)
         self.record_empty = not rows
         if self.after is None or not rows:
-            return Chunk(rows, None, size, rereads)
+            return Chunk(rows, None, size, rereads), len(rows)
         oldest, rows = rows[0], rows[1:]
-        if len(rows) > wanted:
-            raise DownloadError(f"the logger answered {len(rows)} rows for {wanted}")
+        sent = len(rows)
+        if sent > wanted:
+            raise DownloadError(f"the logger answered {sent} rows for {wanted}")
+        if self.include_after:  # the rows of the cursor's second before the cursor are held
+            rows = [row for row in rows if row.key >= self.after]
         gap = None
         if oldest.key > self.after:
             gap = Gap(self.after, oldest.key, _estimate(self.after, oldest, rows))
-        return Chunk(rows, gap, size, rereads)
+        return Chunk(rows, gap, size, rereads), sent
 
     def _adapt(self, chunk: Chunk, elapsed: float) -> None:
         """Size the next chunk for ``target_seconds`` at the rate seen (growing 4x at most)."""

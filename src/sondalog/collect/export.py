@@ -7,8 +7,9 @@ tells which logger it belongs to and which row it holds last, so a download resu
 
 CSV and JSON lines are appended chunk by chunk: each chunk is one write followed by ``fsync``,
 so an interrupted download leaves a valid file. A crash in the middle of a write can leave a
-torn last line: opening the file cuts it and drops the lines of the last row it held, which
-the next download reads again (:attr:`ExportFile.repaired`). Parquet files cannot be appended
+torn last line, which opening the file cuts (:attr:`ExportFile.repaired`), or end the file
+between two lines of one row: the download therefore reads the last row held again and adds
+the lines of it the file lacks (:attr:`ExportFile.held_last`). Parquet files cannot be appended
 to: the new readings are kept in memory and the whole file is rewritten atomically (a
 temporary file renamed over it) when the export is closed.
 """
@@ -46,6 +47,8 @@ class ExportFile(Protocol):
     """What was cut from a torn file on opening (None: nothing)."""
     rows: int
     """Readings appended since opening."""
+    held_last: frozenset[tuple[str, int]]
+    """``(record point, channel)`` of the lines the file holds of its last row."""
 
     def append(self, readings: Sequence[Reading]) -> None: ...
 
@@ -109,6 +112,7 @@ class _LineExport:
         self.cursor: str | None = None
         self.repaired: str | None = None
         self.rows = 0
+        self.held_last: frozenset[tuple[str, int]] = frozenset()
         try:
             self._file = open(path, "a+b")  # noqa: SIM115 - kept open across chunks
         except OSError as exc:
@@ -126,7 +130,12 @@ class _LineExport:
     def _is_ours(self, first: bytes) -> bool:
         raise NotImplementedError
 
-    def _key(self, line: bytes) -> tuple[str, str]:
+    def _key(self, line: bytes) -> tuple[str, str, int]:
+        """``(logger, record point, channel)`` of one line."""
+        raise NotImplementedError
+
+    def _torn_start(self, first: bytes) -> bool:
+        """Whether ``first`` (no line end) is the start of a file of ours cut by a crash."""
         raise NotImplementedError
 
     def _encode(self, readings: Sequence[Reading]) -> bytes:
@@ -140,6 +149,11 @@ class _LineExport:
             return
         f.seek(0)
         first = f.readline()
+        if not first.endswith(b"\n") and self._torn_start(first):
+            f.truncate(0)  # a crash during the very first write: start afresh
+            self.repaired = f"a torn first line ({len(first)} bytes)"
+            self._write(self._header())
+            return
         if not self._is_ours(first):
             raise ExportError(
                 f"{self.path} is not a sondalog {self.kind} export (its first line is "
@@ -160,26 +174,21 @@ class _LineExport:
             keep = tail.rfind(b"\n") + 1
             self.repaired = f"a torn last line ({len(tail) - keep} bytes)"
         lines = tail[:keep].splitlines(keepends=True)
-        keys: list[tuple[str, str]] = []
+        keys: list[tuple[str, str, int]] = []
         for line in lines:
             try:
                 keys.append(self._key(line))
             except (ValueError, KeyError, IndexError, TypeError) as exc:
                 raise ExportError(f"{self.path}: unreadable line {line[:80]!r}: {exc}") from None
-        if keys:
-            self.logger = keys[-1][0]
-        if self.repaired is not None and keys:
-            last = keys[-1]
-            while keys and keys[-1] == last:
-                keys.pop()
-                keep -= len(lines.pop())
-            self.repaired += f" and the lines of row {last[1]} before it (read again)"
         if keep != len(tail):
             f.truncate(start + keep)
             f.flush()
             os.fsync(f.fileno())
         if keys:
-            self.cursor = keys[-1][1]
+            self.logger, self.cursor, _ = keys[-1]
+            self.held_last = frozenset(
+                (key, channel) for _, key, channel in keys if key == self.cursor
+            )
 
     def _write(self, data: bytes) -> None:
         if not data:
@@ -197,6 +206,11 @@ class _LineExport:
         self.rows += len(readings)
         self.logger = readings[-1].logger
         self.cursor = make_key(readings[-1].time, readings[-1].counter)
+        self.held_last = frozenset(
+            (make_key(r.time, r.counter), r.channel)
+            for r in readings
+            if make_key(r.time, r.counter) == self.cursor
+        )
 
     def close(self) -> None:
         self._file.close()
@@ -213,10 +227,13 @@ class CsvExport(_LineExport):
     def _is_ours(self, first: bytes) -> bool:
         return first.rstrip(b"\r\n") == CSV_HEADER.encode()
 
-    def _key(self, line: bytes) -> tuple[str, str]:
+    def _torn_start(self, first: bytes) -> bool:
+        return CSV_HEADER.encode().startswith(first) and first != CSV_HEADER.encode()
+
+    def _key(self, line: bytes) -> tuple[str, str, int]:
         fields = next(csv.reader([line.decode("utf-8")]))
         time = datetime.fromisoformat(fields[1])
-        return fields[0], make_key(time, int(fields[2]))
+        return fields[0], make_key(time, int(fields[2])), int(fields[4])
 
     def _encode(self, readings: Sequence[Reading]) -> bytes:
         out = io.StringIO()
@@ -244,6 +261,9 @@ class JsonlExport(_LineExport):
 
     kind = "JSON lines"
 
+    def _torn_start(self, first: bytes) -> bool:
+        return first.startswith(b'{"logger": ') or b'{"logger": '.startswith(first)
+
     def _is_ours(self, first: bytes) -> bool:
         try:
             record = json.loads(first)
@@ -251,12 +271,13 @@ class JsonlExport(_LineExport):
             return False
         return isinstance(record, dict) and tuple(record)[: len(COLUMNS)] == COLUMNS
 
-    def _key(self, line: bytes) -> tuple[str, str]:
+    def _key(self, line: bytes) -> tuple[str, str, int]:
         record = json.loads(line)
         counter = int(record["counter"])
         if not 0 <= counter < len(COUNTERS):
             raise ValueError(f"counter {counter}")
-        return str(record["logger"]), make_key(datetime.fromisoformat(record["time"]), counter)
+        time = datetime.fromisoformat(record["time"])
+        return str(record["logger"]), make_key(time, counter), int(record["channel"])
 
     def _encode(self, readings: Sequence[Reading]) -> bytes:
         return "".join(

@@ -56,6 +56,7 @@ class ParquetExport:
         self.cursor: str | None = None
         self.repaired: str | None = None
         self.rows = 0
+        self.held_last: frozenset[tuple[str, int]] = frozenset()
         self._old: Any = None
         self._new: list[dict[str, Any]] = []
         if path.exists() and path.stat().st_size > 0:
@@ -73,9 +74,14 @@ class ParquetExport:
             )
         self._old = table.select(list(COLUMNS)).cast(_schema(self._pa))
         if table.num_rows:
-            last = table.slice(table.num_rows - 1).to_pylist()[0]
-            self.logger = last["logger"]
-            self.cursor = make_key(datetime.fromisoformat(last["time"]), int(last["counter"]))
+            tail = table.slice(max(0, table.num_rows - 200)).to_pylist()
+            keys = [
+                (make_key(datetime.fromisoformat(r["time"]), int(r["counter"])), r["channel"])
+                for r in tail
+            ]
+            self.logger = tail[-1]["logger"]
+            self.cursor = keys[-1][0]
+            self.held_last = frozenset(k for k in keys if k[0] == self.cursor)
 
     def append(self, readings: Sequence[Reading]) -> None:
         self._new.extend(as_record(r) for r in readings)
@@ -83,6 +89,11 @@ class ParquetExport:
         if readings:
             self.logger = readings[-1].logger
             self.cursor = make_key(readings[-1].time, readings[-1].counter)
+            self.held_last = frozenset(
+                (make_key(r.time, r.counter), r.channel)
+                for r in readings
+                if make_key(r.time, r.counter) == self.cursor
+            )
 
     def close(self) -> None:
         """Write the file (old rows, then new ones) atomically; nothing new: untouched."""

@@ -2,7 +2,9 @@
 
 Connect, :meth:`~sondalog.client.download.Download.identify` the logger (serial number, clock,
 channel names), check that the file belongs to it, then append every verified chunk's readings
-to the file, resuming after the last row it holds. See :mod:`sondalog.collect.export`.
+to the file. The download starts at the last row the file holds, which is read again: lines
+of it that a crash kept out of the file are added, the others skipped. See
+:mod:`sondalog.collect.export`.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from zoneinfo import ZoneInfo
 
 from sondalog.client import Ala1Client
 from sondalog.client.download import Chunk, Download, Gap, LoggerInfo
+from sondalog.client.records import make_key
 from sondalog.collect.export import ExportFile, check_logger, open_export
 from sondalog.collect.readings import rows_to_readings
 
@@ -58,7 +61,10 @@ async def download_to_file(
         done.resumed_after = done.cursor = export.cursor
         client = await Ala1Client.connect(url, timeout=timeout)
         try:
-            download = Download(client, after=export.cursor, zone=zone)
+            download = Download(
+                client, after=export.cursor, zone=zone, include_after=export.cursor is not None
+            )
+            held = export.held_last
             info = done.info = await download.identify()
             check_logger(export, info.snumber)
             async for chunk in download.chunks():
@@ -67,8 +73,13 @@ async def download_to_file(
                     if on_gap is not None:
                         on_gap(chunk.gap)
                 batch = rows_to_readings(chunk.rows, info.snumber, info.channels, zone)
+                if held:  # the last row held is read again: add only the lines missing
+                    batch = [
+                        r for r in batch if (make_key(r.time, r.counter), r.channel) not in held
+                    ]
+                    held = frozenset()
                 export.append(batch)
-                done.rows += len(chunk.rows)
+                done.rows += sum(1 for row in chunk.rows if row.key > (done.resumed_after or ""))
                 done.readings += len(batch)
                 done.bytes += chunk.bytes
                 done.rereads += chunk.rereads

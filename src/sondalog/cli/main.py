@@ -19,9 +19,13 @@ COMMANDS: tuple[tuple[str, str], ...] = (
     ("sondalog.cli.term_cmd", "term"),
     ("sondalog.cli.bus_cmd", "bus"),
     ("sondalog.cli.serve_cmd", "serve"),
+    ("sondalog.cli.collect_cmd", "collect"),
 )
 #: (module, attribute, parent group) of commands that belong to a group.
-SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (("sondalog.cli.tables_cmd", "tables", "logger"),)
+SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (
+    ("sondalog.cli.tables_cmd", "tables", "logger"),
+    ("sondalog.cli.download_cmd", "download", "logger"),
+)
 
 
 @click.group()

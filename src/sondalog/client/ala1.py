@@ -353,9 +353,11 @@ class Ala1Client:
             line = stream.take_line()
             if line is not None:
                 lines.append(line)
-                response = parse_answer(request, lines)
-                if response is not None:
-                    return response
+                end = line.rstrip(b"\r\n")
+                if end.endswith(b"OK") or end == b"ERROR":  # only such a line can end it
+                    response = parse_answer(request, lines)
+                    if response is not None:
+                        return response
                 continue
             remaining = deadline - loop.time()
             if request.quiet:

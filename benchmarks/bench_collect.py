@@ -1,0 +1,134 @@
+"""Benchmark: readings ingested per second by the collector's sinks (goal >= 50,000/s).
+
+PostgreSQL: starts a throwaway server (Debian's ``postgresql``, as ``nobody`` on a loopback
+port, like the tests) and writes batches through :class:`~sondalog.collect.sink_postgres.
+PostgresSink` (COPY into a temporary table + ``INSERT ... ON CONFLICT DO NOTHING``): first new
+rows, then the same rows again (all duplicates, the cost of an idempotent replay).
+
+MQTT: the same readings, a tenth of them, as QoS 1 state messages to a local mosquitto
+(for information; the issue sets no goal for it).
+
+SQLite: the collector's own store, when its sink module (``sondalog.collect.sink_sqlite``,
+``create({"path": ...})``) is present; skipped with a note otherwise.
+
+Not a test: it prints figures.
+
+    .venv/bin/python benchmarks/bench_collect.py [--readings 500000] [--batch 5000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import importlib
+import shutil
+import sys
+import tempfile
+import time
+from datetime import datetime, timedelta
+from pathlib import Path
+
+from sondalog.collect.model import Reading, Sink
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "collect"))
+import services  # the tests' real-server helpers
+
+
+def make_batches(
+    total: int, batch: int, loggers: int = 20, channels: int = 8
+) -> list[list[Reading]]:
+    """``total`` readings from ``loggers`` loggers, rows of ``channels`` channels each."""
+    t0 = datetime(2026, 1, 1)
+    out: list[Reading] = []
+    row = 0
+    while len(out) < total:
+        lg = f"{10000 + row % loggers}"
+        t = t0 + timedelta(seconds=60 * (row // loggers))
+        for ch in range(1, channels + 1):
+            out.append(Reading(lg, ch, t, 0, 1, 20.0 + ch + (row % 100) / 10, None, f"T{ch}", "°C"))
+        row += 1
+    out = out[:total]
+    return [out[i : i + batch] for i in range(0, total, batch)]
+
+
+async def ingest(sink: Sink, batches: list[list[Reading]]) -> float:
+    start = time.perf_counter()
+    for b in batches:
+        await sink.write(b)
+    return time.perf_counter() - start
+
+
+def report(label: str, n: int, seconds: float) -> None:
+    rate = n / seconds
+    verdict = "ok" if rate >= 50_000 else "BELOW GOAL"
+    print(f"{label:<42} {n:>9,} readings in {seconds:6.2f} s = {rate:>10,.0f}/s  ({verdict})")
+
+
+async def bench_sink(label: str, sink: Sink, batches: list[list[Reading]]) -> None:
+    n = sum(len(b) for b in batches)
+    await sink.open()
+    report(f"{label}: new rows", n, await ingest(sink, batches))
+    report(f"{label}: same rows again (duplicates)", n, await ingest(sink, batches))
+    await sink.close()
+
+
+async def bench_mqtt(sink: Sink, batches: list[list[Reading]]) -> None:
+    """States published with QoS 1 (each acknowledged by the broker); no goal is set."""
+    n = sum(len(b) for b in batches)
+    await sink.open()
+    seconds = await ingest(sink, batches)
+    print(
+        f"{'MQTT: states published (QoS 1)':<42} {n:>9,} readings in {seconds:6.2f} s"
+        f" = {n / seconds:>10,.0f}/s"
+    )
+    await sink.close()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--readings", type=int, default=500_000)
+    ap.add_argument("--batch", type=int, default=5_000)
+    args = ap.parse_args()
+    batches = make_batches(args.readings, args.batch)
+    print(f"{args.readings:,} readings in batches of {args.batch:,}")
+
+    bindir = services._pg_bin()
+    if bindir is None:
+        print("PostgreSQL: not installed; skipped")
+    else:
+        from sondalog.collect import sink_postgres
+
+        server = services.PostgresServer(bindir)
+        try:
+            server.start()
+            sink = sink_postgres.create({"dsn": server.create_db()})
+            asyncio.run(bench_sink("PostgreSQL", sink, batches))
+        finally:
+            server.destroy()
+
+    mqtt_bin = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+    if not Path(mqtt_bin).exists():
+        print("MQTT: mosquitto not installed; skipped")
+    else:
+        from sondalog.collect import sink_mqtt
+
+        broker = services.Mosquitto(mqtt_bin)
+        try:
+            broker.start()
+            mqtt_batches = batches[: max(1, len(batches) // 10)]  # QoS 1 is slower: a tenth
+            asyncio.run(bench_mqtt(sink_mqtt.create({"url": broker.url}), mqtt_batches))
+        finally:
+            broker.destroy()
+
+    try:
+        sqlite_mod = importlib.import_module("sondalog.collect.sink_sqlite")
+    except ImportError:
+        print("SQLite: sondalog.collect.sink_sqlite is not there yet; skipped")
+        return
+    with tempfile.TemporaryDirectory() as d:
+        sink = sqlite_mod.create({"path": str(Path(d) / "store.sqlite")})
+        asyncio.run(bench_sink("SQLite", sink, batches))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""``sondalog collect FILE.toml``: run the collector until stopped (parsing only; the work is
+in :mod:`sondalog.collect.runner`).
+
+Exit status: 0 stopped by SIGINT/SIGTERM (or ``--once`` done), 1 ``--once`` and a source
+failed, 2 a configuration error (``FILE:LINE: field: message``) or a store that cannot be used.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import signal
+from pathlib import Path
+
+import click
+
+from sondalog.collect.config import ConfigError, load_config
+from sondalog.collect.runner import Collector
+from sondalog.collect.store_sqlite import StoreError
+
+
+class _Refused(click.ClickException):
+    exit_code = 2
+
+
+@click.command()
+@click.argument("config_file", metavar="FILE.toml", type=click.Path(path_type=Path))
+@click.option("--once", is_flag=True, help="Contact every source once, then exit.")
+@click.option("--check", is_flag=True, help="Only check the configuration file.")
+def collect(config_file: Path, once: bool, check: bool) -> None:
+    """Collect readings from loggers and buses into SQLite (and PostgreSQL, MQTT).
+
+    Runs until SIGINT or SIGTERM. The configuration is described in docs/collector.md.
+    """
+    try:
+        config = load_config(config_file)
+    except ConfigError as exc:
+        raise _Refused(str(exc)) from None
+    if check:
+        click.echo(f"{config_file}: {len(config.sources)} sources, store {config.store}")
+        return
+    logging.getLogger("sondalog.collect").setLevel(
+        min(logging.INFO, logging.getLogger().getEffectiveLevel())
+    )
+    collector = Collector(config)
+    try:
+        collector.open()
+    except StoreError as exc:
+        raise _Refused(str(exc)) from None
+    except ConfigError as exc:
+        collector.store.close_sync()
+        raise _Refused(str(exc)) from None
+    asyncio.run(_run(collector, once))
+    if once and collector.failing:
+        raise click.ClickException(f"sources failed: {', '.join(sorted(collector.failing))}")
+
+
+async def _run(collector: Collector, once: bool) -> None:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+    await collector.run(stop, once=once)

@@ -1,0 +1,103 @@
+"""Record rows as the logger sends them (§6.6, §6.8.1, spec notes §6).
+
+Pure functions, no I/O. A row is ``YYYYMMDDhhmmss.c,t,f1,...,fn``: ``c`` counts the rows
+written in the same second (``0``-``9`` then ``A``-``Z``), ``t`` is the row type (1 scheduled
+samples, 2 ``write channel value``, 3..9 text) and ``f1..fn`` the channel fields, empty when a
+channel has no value in that row. A text row is ``stamp,t,text`` (the text may hold commas).
+``write text 1/abc/`` stores a text row of type 1, so a row of type 1 or 2 whose fields are
+not all numbers (or empty) is a text row too.
+
+:mod:`sondalog.collect.readings` turns rows into the collector's readings.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from datetime import datetime
+from zoneinfo import ZoneInfo
+
+COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
+_KEY = re.compile(r"(\d{14})\.([0-9A-Z])")
+_NUMBER = re.compile(r"-?\d+(\.\d+)?")
+_UNIT = re.compile(r"^(.*?)\s*\[([^\[\]]*)\]\s*$")
+UTC = ZoneInfo("UTC")
+
+
+class RowError(ValueError):
+    """A line that is not a record row."""
+
+
+@dataclass(frozen=True, slots=True)
+class Row:
+    """One record row."""
+
+    key: str
+    """The record point ``YYYYMMDDhhmmss.c`` (what ``read record N from date/KEY/`` takes)."""
+    time: datetime
+    counter: int
+    type: int
+    values: tuple[float | None, ...] = ()
+    text: str | None = None
+
+    @property
+    def is_text(self) -> bool:
+        return self.text is not None
+
+
+@dataclass(frozen=True, slots=True)
+class Channel:
+    """A channel's name and unit as the logger reports them (§6.5.3)."""
+
+    name: str
+    unit: str | None = None
+
+
+def parse_key(key: str) -> tuple[datetime, int]:
+    """``20070301120000.3`` -> (2007-03-01 12:00:00, 3); raises :class:`RowError`."""
+    match = _KEY.fullmatch(key)
+    if match is None:
+        raise RowError(f"not a record point: {key!r}")
+    try:
+        time = datetime.strptime(match.group(1), "%Y%m%d%H%M%S")
+    except ValueError:
+        raise RowError(f"impossible date in {key!r}") from None
+    return time, COUNTERS.index(match.group(2))
+
+
+def make_key(time: datetime, counter: int) -> str:
+    """The inverse of :func:`parse_key`."""
+    return f"{time:%Y%m%d%H%M%S}.{COUNTERS[counter]}"
+
+
+def parse_row(line: str) -> Row:
+    """One row as the logger sends it (without CR LF); raises :class:`RowError`."""
+    key, sep, rest = line.partition(",")
+    type_text, sep2, body = rest.partition(",")
+    if not sep or not type_text.isdigit() or len(type_text) != 1 or type_text == "0":
+        raise RowError(f"not a record row: {line[:80]!r}")
+    time, counter = parse_key(key)
+    row_type = int(type_text)
+    if not sep2:
+        if row_type >= 3:
+            return Row(key, time, counter, row_type, text="")
+        return Row(key, time, counter, row_type)
+    if row_type <= 2:
+        fields = body.split(",")
+        if all(not f or _NUMBER.fullmatch(f) for f in fields):
+            values = tuple(float(f) if f else None for f in fields)
+            return Row(key, time, counter, row_type, values)
+    return Row(key, time, counter, row_type, text=body)
+
+
+def split_name(name: str) -> Channel:
+    """``Supply[V]`` -> Channel("Supply", "V") (the factory name, §11); no brackets: no unit."""
+    match = _UNIT.match(name)
+    if match is None or not match.group(1):
+        return Channel(name)
+    return Channel(match.group(1), match.group(2) or None)
+
+
+def to_utc(local: datetime, zone: ZoneInfo) -> datetime:
+    """A stamp of the logger's clock in ``zone`` -> aware UTC (ambiguous times: the first)."""
+    return local.replace(tzinfo=zone).astimezone(UTC)

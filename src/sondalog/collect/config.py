@@ -1,0 +1,221 @@
+"""The collector's configuration file (TOML), checked with file, line and field in errors.
+
+::
+
+    [sqlite]                    # the store (default: collector.sqlite beside this file)
+    path = "collector.sqlite"
+    readings = true             # false: keep only sources, cursors and events here
+
+    [buffer]                    # where batches wait while a sink is down
+    path = "collector.buffer.sqlite"
+
+    [[source]]                  # a logger, downloaded incrementally
+    url = "tcp://127.0.0.1:10001"
+    interval = 60               # seconds between contacts
+    name = "station-1"          # optional (default: the URL)
+    timezone = "Europe/Prague"  # optional: fills the utc column
+    timeout = 5                 # optional: seconds to wait for an answer
+    retry = 5                   # optional: first retry after a failure, doubling ...
+    retry_max = 600             # ... up to this many seconds
+
+    [[source]]                  # HCTMPS1 modules on a bus, polled
+    kind = "bus"
+    url = "tcp://127.0.0.1:10002"
+    modules = ["T1", "H1"]      # optional (default: scan the bus)
+    units = { T1 = "°C", H1 = "%" }
+    interval = 10
+
+    [postgres]                  # optional sinks (docs/collector-sinks.md)
+    dsn = "postgresql://..."
+    [mqtt]
+    url = "mqtt://127.0.0.1:1883"
+
+Relative paths are relative to the configuration file's directory.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+from sondalog.client import parse_url
+from sondalog.client.bus import BusUrlError, parse_bus_url
+from sondalog.sim.logger import locate
+
+_TOP = {"sqlite", "buffer", "source", "postgres", "mqtt"}
+_SOURCE = {
+    "url",
+    "interval",
+    "name",
+    "kind",
+    "timezone",
+    "timeout",
+    "retry",
+    "retry_max",
+    "modules",
+    "units",
+}
+KINDS = ("logger", "bus")
+#: Sink tables handed to :func:`sondalog.collect.sinks.load_sink` besides the store.
+SINK_TABLES = ("postgres", "mqtt")
+
+
+class ConfigError(ValueError):
+    """``FILE:LINE: field: message``."""
+
+    def __init__(self, path: Path, field: str, message: str, line: int | None = None) -> None:
+        where = f"{path}:{line}" if line is not None else str(path)
+        super().__init__(f"{where}: {field}: {message}")
+        self.path, self.field, self.line = path, field, line
+
+
+@dataclass(frozen=True, slots=True)
+class SourceConfig:
+    name: str
+    url: str
+    kind: str = "logger"
+    interval: float = 60.0
+    zone: ZoneInfo | None = None
+    timeout: float = 5.0
+    retry: float = 5.0
+    retry_max: float = 600.0
+    modules: tuple[str, ...] = ()
+    units: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class CollectorConfig:
+    path: Path
+    store: Path
+    keep_readings: bool
+    buffer: Path
+    sources: tuple[SourceConfig, ...]
+    sinks: dict[str, dict[str, Any]]
+    sink_lines: dict[str, int | None] = field(default_factory=dict)
+
+    def sink_error(self, name: str, exc: Exception) -> ConfigError:
+        """A sink factory's complaint about its table, with the table's line."""
+        text = str(exc).removeprefix(f"{name}: ").removeprefix(f"{name}.")
+        return ConfigError(self.path, name, text, self.sink_lines.get(name))
+
+
+def load_config(path: Path) -> CollectorConfig:
+    """Read and check ``path``; raises :class:`ConfigError`."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(path, "file", f"cannot read: {exc.strerror or exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(path, "toml", str(exc)) from None
+    return parse_config(data, path, text)
+
+
+def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -> CollectorConfig:
+    def fail(where: str, message: str) -> ConfigError:
+        return ConfigError(path, where, message, locate(text, where))
+
+    for key in data:
+        if key not in _TOP:
+            raise fail(key, f"unknown table (known: {', '.join(sorted(_TOP))})")
+    base = path.parent
+
+    def table(name: str) -> dict[str, Any]:
+        value = data.get(name, {})
+        if not isinstance(value, dict):
+            raise fail(name, "must be a table")
+        return value
+
+    sqlite = table("sqlite")
+    for key in sqlite:
+        if key not in ("path", "readings"):
+            raise fail(f"sqlite.{key}", "unknown key (known: path, readings)")
+    store = _path(sqlite.get("path", "collector.sqlite"), base, "sqlite.path", fail)
+    keep = sqlite.get("readings", True)
+    if not isinstance(keep, bool):
+        raise fail("sqlite.readings", "must be true or false")
+    buffer_table = table("buffer")
+    for key in buffer_table:
+        if key != "path":
+            raise fail(f"buffer.{key}", "unknown key (known: path)")
+    default_buffer = store.with_name(store.stem + ".buffer.sqlite")
+    buffer = _path(buffer_table.get("path", str(default_buffer)), base, "buffer.path", fail)
+
+    raw_sources = data.get("source", [])
+    if not isinstance(raw_sources, list) or not all(isinstance(s, dict) for s in raw_sources):
+        raise fail("source", "must be [[source]] tables")
+    if not raw_sources:
+        raise fail("source", "no [[source]] table: nothing to collect")
+    sources = [_source(s, f"source[{i}]", fail) for i, s in enumerate(raw_sources)]
+    seen: set[str] = set()
+    for i, source in enumerate(sources):
+        if source.name in seen:
+            raise fail(f"source[{i}].name", f"{source.name!r} is used by another source")
+        seen.add(source.name)
+    sinks = {name: table(name) for name in SINK_TABLES if name in data}
+    lines = {name: locate(text, name) for name in sinks}
+    return CollectorConfig(path, store, keep, buffer, tuple(sources), sinks, lines)
+
+
+def _path(value: object, base: Path, where: str, fail: Any) -> Path:
+    if not isinstance(value, str) or not value:
+        raise fail(where, "must be a file name")
+    return base / Path(value).expanduser()
+
+
+def _number(table: Mapping[str, Any], key: str, default: float, where: str, fail: Any) -> float:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+        raise fail(f"{where}.{key}", "must be a positive number of seconds")
+    return float(value)
+
+
+def _source(s: Mapping[str, Any], where: str, fail: Any) -> SourceConfig:
+    for key in s:
+        if key not in _SOURCE:
+            raise fail(f"{where}.{key}", f"unknown key (known: {', '.join(sorted(_SOURCE))})")
+    url = s.get("url")
+    if not isinstance(url, str) or not url:
+        raise fail(f"{where}.url", "required: the logger's or the bus's URL")
+    kind = s.get("kind", "logger")
+    if kind not in KINDS:
+        raise fail(f"{where}.kind", f"must be one of {', '.join(KINDS)}")
+    try:
+        parse_url(url) if kind == "logger" else parse_bus_url(url)
+    except (ValueError, BusUrlError) as exc:
+        raise fail(f"{where}.url", str(exc)) from None
+    name = s.get("name", url)
+    if not isinstance(name, str) or not name.strip():
+        raise fail(f"{where}.name", "must be a non-empty string")
+    zone = None
+    if "timezone" in s:
+        try:
+            zone = ZoneInfo(str(s["timezone"]))
+        except (ZoneInfoNotFoundError, ValueError):
+            raise fail(f"{where}.timezone", f"unknown time zone {s['timezone']!r}") from None
+    modules = s.get("modules", [])
+    if kind == "logger" and ("modules" in s or "units" in s):
+        raise fail(f"{where}.modules", "only a bus source has modules and units")
+    if not isinstance(modules, list) or not all(isinstance(m, str) and m for m in modules):
+        raise fail(f"{where}.modules", "must be a list of module IDs")
+    units = s.get("units", {})
+    if not isinstance(units, dict) or not all(isinstance(v, str) for v in units.values()):
+        raise fail(f"{where}.units", 'must be a table of module ID = "unit"')
+    retry = _number(s, "retry", 5.0, where, fail)
+    return SourceConfig(
+        name=name,
+        url=url,
+        kind=kind,
+        interval=_number(s, "interval", 60.0, where, fail),
+        zone=zone,
+        timeout=_number(s, "timeout", 5.0, where, fail),
+        retry=retry,
+        retry_max=max(retry, _number(s, "retry_max", 600.0, where, fail)),
+        modules=tuple(modules),
+        units=dict(units),
+    )

@@ -1,0 +1,186 @@
+"""The collector's loop: one asyncio task per source, batches to every sink, retry with backoff.
+
+- Each source is contacted every ``interval`` seconds (start to start; the first contacts are
+  spread over up to 5 s, or the shortest interval, so a thousand sources do not all dial at
+  once).
+- A failed contact (unreachable, no answer, garbage) sets the source's state to ``offline``
+  with the error in the ``sources`` table, the log and the events table, and is retried after
+  ``retry`` seconds, doubling up to ``retry_max`` (then every ``interval`` again once it works).
+- Every batch goes to each configured sink through the on-disk buffer
+  (:mod:`sondalog.collect.buffer`): a sink that is down (:class:`SinkUnavailable`) keeps its
+  batches queued, and a task replays them every few seconds. Then the readings and the
+  source's cursor are committed to the SQLite store in one transaction. Sinks insert
+  idempotently, so a batch replayed after a crash is stored once.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from typing import Any
+
+from sondalog.collect.buffer import DiskBuffer, deliver, drain
+from sondalog.collect.config import CollectorConfig
+from sondalog.collect.model import Reading, Sink, SinkUnavailable
+from sondalog.collect.sinks import load_sink
+from sondalog.collect.sources import Source, make_source
+from sondalog.collect.store_sqlite import SqliteStore, now_text
+
+log = logging.getLogger(__name__)
+#: Seconds between replays of the buffered batches of sinks that were down.
+REPLAY_PERIOD = 5.0
+#: The first contacts are spread over at most this many seconds.
+SPREAD = 5.0
+
+
+def describe(exc: BaseException) -> str:
+    """``ConnectionRefusedError: [Errno 111] ...``: the error's type and message."""
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+
+
+class Collector:
+    """Runs the sources of ``config`` until :meth:`run`'s ``stop`` event is set."""
+
+    def __init__(self, config: CollectorConfig) -> None:
+        self.config = config
+        self.store = SqliteStore(config.store, readings=config.keep_readings)
+        self.sinks: list[Sink] = []
+        self._opened: set[str] = set()
+        self.buffer: DiskBuffer | None = None
+        self.sources: list[Source] = []
+        self.contacts = 0
+        #: Sources whose last contact failed.
+        self.failing: set[str] = set()
+
+    def open(self) -> None:
+        """Open the store and build the sinks; raises :class:`ConfigError` for a bad sink
+        table (or an unknown/missing sink) and ``StoreError``."""
+        self.store.open_sync()
+        for name, table in self.config.sinks.items():
+            try:
+                self.sinks.append(load_sink(name, table))
+            except ValueError as exc:
+                raise self.config.sink_error(name, exc) from None
+        if self.sinks:
+            self.buffer = DiskBuffer(self.config.buffer)
+        for source_config in self.config.sources:
+            self.store.add_source(source_config.name, source_config.url, source_config.kind)
+            self.sources.append(make_source(source_config, self.store))
+
+    async def run(self, stop: asyncio.Event, *, once: bool = False) -> None:
+        """Contact every source until ``stop`` is set (``once``: one contact each, then return)."""
+        if not self.store.is_open:
+            self.open()
+        for sink in self.sinks:
+            await self._open_sink(sink)
+        count = len(self.sources)
+        spread = 0.0 if once else min([SPREAD, *(s.config.interval for s in self.sources)])
+        tasks = [
+            asyncio.create_task(
+                self._loop(source, spread * i / count, once),
+                name=f"source {source.config.name}",
+            )
+            for i, source in enumerate(self.sources)
+        ]
+        replay = asyncio.create_task(self._replay(), name="sink replay")
+        try:
+            if once:
+                await asyncio.gather(*tasks)
+                await self._replay_once()
+            else:
+                stopper = asyncio.create_task(stop.wait())
+                await asyncio.wait([stopper, *tasks], return_when=asyncio.FIRST_COMPLETED)
+                stopper.cancel()
+        finally:
+            for task in [*tasks, replay]:
+                task.cancel()
+            for task in [*tasks, replay]:
+                with contextlib.suppress(asyncio.CancelledError, Exception):
+                    await task
+            await self.close()
+
+    async def close(self) -> None:
+        for sink in self.sinks:
+            if sink.name in self._opened:
+                with contextlib.suppress(Exception):
+                    await sink.close()
+        self._opened.clear()
+        if self.buffer is not None:
+            self.buffer.close()
+            self.buffer = None
+        self.store.close_sync()
+
+    async def _open_sink(self, sink: Sink) -> bool:
+        try:
+            await sink.open()
+        except (SinkUnavailable, OSError) as exc:
+            log.warning(
+                "sink %s is down (%s): batches wait in %s", sink.name, exc, self.config.buffer
+            )
+            return False
+        self._opened.add(sink.name)
+        return True
+
+    async def deliver(
+        self, source: str, batch: list[Reading], cursor: str | None, **state: Any
+    ) -> None:
+        """Hand ``batch`` to every sink (through the buffer), then commit it with the cursor."""
+        if batch and self.buffer is not None:
+            for sink in self.sinks:
+                if sink.name in self._opened:
+                    await deliver(self.buffer, sink, batch)
+                else:
+                    self.buffer.append(sink.name, batch)
+        self.store.commit_chunk(source, batch, cursor, **state)
+
+    async def _loop(self, source: Source, delay: float, once: bool) -> None:
+        cfg = source.config
+        await asyncio.sleep(delay)
+        failures = 0
+        while True:
+            started = time.monotonic()
+            self.store.set_state(cfg.name, state="contacting")
+            try:
+                summary = await source.poll(self.deliver)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # a failing source must never stop the collector
+                failures += 1
+                wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
+                text = f"{describe(exc)}; retry in {wait:g} s"
+                log.warning("source %s offline: %s", cfg.name, text)
+                self.store.set_state(cfg.name, state="offline", last_error=describe(exc))
+                self.store.event(cfg.name, "error", text)
+                self.failing.add(cfg.name)
+            else:
+                failures = 0
+                self.failing.discard(cfg.name)
+                wait = max(0.0, cfg.interval - (time.monotonic() - started))
+                log.info("source %s: %s", cfg.name, summary)
+                self.store.set_state(cfg.name, state="ok", last_error=None, last_contact=now_text())
+                self.store.event(cfg.name, "download", summary)
+            self.contacts += 1
+            if once:
+                return
+            await asyncio.sleep(wait)
+
+    async def _replay(self) -> None:
+        while True:
+            await asyncio.sleep(REPLAY_PERIOD)
+            await self._replay_once()
+
+    async def _replay_once(self) -> None:
+        if self.buffer is None:
+            return
+        for sink in self.sinks:
+            if sink.name not in self._opened and not await self._open_sink(sink):
+                continue
+            try:
+                done = await drain(self.buffer, sink)
+            except Exception as exc:  # a sink's bug must not stop the collector
+                log.warning("sink %s: replay failed: %s", sink.name, describe(exc))
+                continue
+            if done:
+                log.info("sink %s: %d buffered batches delivered", sink.name, done)

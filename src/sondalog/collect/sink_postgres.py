@@ -1,0 +1,275 @@
+"""The PostgreSQL sink: readings in a ``readings`` table, inserted idempotently by COPY.
+
+Configured by the ``[postgres]`` table::
+
+    [postgres]
+    dsn = "host=db.example port=5432 dbname=sensors user=collector"  # or postgresql://...
+    timescaledb = "auto"      # "auto" (hypertable when the extension is there), "on", "off"
+    connect_timeout = 5       # seconds
+
+The schema (:data:`DDL`, the columns of :mod:`sondalog.collect.schema` with PostgreSQL types)
+is created and migrated by the sink when it connects, under an advisory lock so that several
+collectors sharing one database do not race; ``meta`` holds ``schema_version`` and
+``layout``. A batch is copied (``COPY``) into a temporary table and moved by
+``INSERT ... ON CONFLICT DO NOTHING`` in one transaction: the whole batch or nothing, and a
+row seen twice (two collectors, a replay after a crash) is stored once.
+
+Time index: a TimescaleDB hypertable on ``time`` when the extension is available (or asked
+for), otherwise a BRIN index on ``time`` (small, and good for rows that arrive roughly in time
+order). See :func:`choose_layout`.
+
+A server that is down or goes away makes :meth:`PostgresSink.write` raise
+:class:`SinkUnavailable`; the next write connects again.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Sequence
+
+import psycopg
+from psycopg import conninfo
+
+from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.schema import SCHEMA_VERSION
+
+log = logging.getLogger(__name__)
+
+_KEYS = {"dsn", "timescaledb", "connect_timeout"}
+_LOCK_ID = 0x50D4_1064  # advisory lock of the schema migration ("sondalog")
+
+HYPERTABLE = "hypertable"
+BRIN = "brin"
+
+COLUMNS = ("logger", "channel", "time", "counter", "type", "value", "text", "name", "unit", "utc")
+
+#: Schema version 1 (the columns of :mod:`sondalog.collect.schema`).
+DDL = """
+CREATE TABLE IF NOT EXISTS readings (
+    logger  text             NOT NULL,
+    channel integer          NOT NULL,
+    time    timestamp        NOT NULL,
+    counter integer          NOT NULL,
+    type    smallint         NOT NULL,
+    value   double precision,
+    text    text,
+    name    text,
+    unit    text,
+    utc     timestamptz,
+    PRIMARY KEY (logger, time, counter, channel)
+)
+"""
+
+#: ``MIGRATIONS[n]`` turns schema version ``n - 1`` into ``n`` (0: no schema yet).
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: (DDL,)}
+
+
+class SchemaTooNew(RuntimeError):
+    """The database was migrated by a newer collector: refuse to write into it."""
+
+
+def migration_plan(current: int, target: int = SCHEMA_VERSION) -> list[int]:
+    """The migration steps from schema version ``current`` (0 = empty) to ``target``."""
+    if current > target:
+        raise SchemaTooNew(
+            f"postgres: the database has schema version {current}, this collector knows {target}"
+        )
+    return list(range(current + 1, target + 1))
+
+
+def choose_layout(setting: str, available: bool) -> str:
+    """Hypertable or BRIN: ``setting`` is ``auto``/``on``/``off``, ``available`` whether
+    ``timescaledb`` is in ``pg_available_extensions``."""
+    if setting == "off":
+        return BRIN
+    if setting == "on":
+        if not available:
+            raise ValueError("postgres: timescaledb = 'on' but the extension is not available")
+        return HYPERTABLE
+    if setting == "auto":
+        return HYPERTABLE if available else BRIN
+    raise ValueError(f"postgres: timescaledb must be auto, on or off, not {setting!r}")
+
+
+def layout_ddl(layout: str) -> tuple[str, ...]:
+    """The statements that give ``readings`` its time index for ``layout``."""
+    if layout == HYPERTABLE:
+        return (
+            "CREATE EXTENSION IF NOT EXISTS timescaledb",
+            "SELECT create_hypertable('readings', 'time', if_not_exists => TRUE,"
+            " migrate_data => TRUE)",
+        )
+    return ("CREATE INDEX IF NOT EXISTS readings_time_brin ON readings USING brin (time)",)
+
+
+def _clean(text: str | None) -> str | None:
+    """PostgreSQL text cannot hold NUL: a stray one from a line is dropped, not fatal."""
+    return text.replace("\x00", "") if text and "\x00" in text else text
+
+
+def _row(r: Reading) -> tuple[object, ...]:
+    return (
+        _clean(r.logger),
+        r.channel,
+        r.time,
+        r.counter,
+        r.type,
+        r.value,
+        _clean(r.text),
+        _clean(r.name),
+        _clean(r.unit),
+        r.utc,
+    )
+
+
+class PostgresSink:
+    """Stores readings in PostgreSQL (see the module docstring)."""
+
+    name = "postgres"
+
+    def __init__(self, dsn: str, *, timescaledb: str = "auto", connect_timeout: int = 5) -> None:
+        self.dsn = dsn
+        self.timescaledb = timescaledb
+        self.connect_timeout = connect_timeout
+        self.layout: str | None = None
+        self.inserted = 0  # rows new to the table (duplicates not counted)
+        self._conn: psycopg.AsyncConnection[tuple[object, ...]] | None = None
+        self._lock = asyncio.Lock()
+
+    async def open(self) -> None:
+        """Connect and migrate now if the server is there; if not, the first write will."""
+        async with self._lock:
+            try:
+                await self._connection()
+            except SinkUnavailable as e:
+                log.warning("%s", e)
+
+    async def close(self) -> None:
+        async with self._lock:
+            if self._conn is not None:
+                await self._conn.close()
+                self._conn = None
+
+    async def write(self, batch: Sequence[Reading]) -> None:
+        if not batch:
+            return
+        async with self._lock:
+            conn = await self._connection()
+            try:
+                async with conn.transaction(), conn.cursor() as cur:
+                    cols = ", ".join(COLUMNS)
+                    async with cur.copy(f"COPY readings_in ({cols}) FROM STDIN") as copy:
+                        for r in batch:
+                            await copy.write_row(_row(r))
+                    await cur.execute(
+                        f"INSERT INTO readings ({cols}) SELECT {cols} FROM readings_in"
+                        " ON CONFLICT DO NOTHING"
+                    )
+                    self.inserted += max(cur.rowcount, 0)
+            except (psycopg.OperationalError, psycopg.InterfaceError) as e:
+                await self._drop()
+                raise SinkUnavailable(f"postgres: {e}".strip()) from e
+
+    async def _drop(self) -> None:
+        conn, self._conn = self._conn, None
+        if conn is not None:
+            with contextlib.suppress(psycopg.Error):  # closing a broken connection
+                await conn.close()
+
+    async def _connection(self) -> psycopg.AsyncConnection[tuple[object, ...]]:
+        if self._conn is not None and not self._conn.broken and not self._conn.closed:
+            return self._conn
+        await self._drop()
+        try:
+            conn = await psycopg.AsyncConnection.connect(
+                self.dsn, connect_timeout=self.connect_timeout, autocommit=True
+            )
+        except psycopg.OperationalError as e:
+            raise SinkUnavailable(f"postgres: cannot connect: {e}".strip()) from e
+        try:
+            self.layout = await self._migrate(conn)
+            await conn.execute(
+                "CREATE TEMP TABLE IF NOT EXISTS readings_in"
+                " (LIKE readings INCLUDING DEFAULTS) ON COMMIT DELETE ROWS"
+            )
+        except (psycopg.OperationalError, psycopg.InterfaceError) as e:
+            await conn.close()
+            raise SinkUnavailable(f"postgres: {e}".strip()) from e
+        except BaseException:
+            await conn.close()
+            raise
+        self._conn = conn
+        return conn
+
+    async def _migrate(self, conn: psycopg.AsyncConnection[tuple[object, ...]]) -> str:
+        """Create or migrate the schema; return the time layout in use."""
+        async with conn.transaction():
+            await conn.execute("SELECT pg_advisory_xact_lock(%s)", (_LOCK_ID,))
+            await conn.execute(
+                "CREATE TABLE IF NOT EXISTS meta (key text PRIMARY KEY, value text NOT NULL)"
+            )
+            cur = await conn.execute("SELECT key, value FROM meta")
+            meta = {str(k): str(v) for k, v in await cur.fetchall()}
+            steps = migration_plan(int(meta.get("schema_version", "0")))
+            for step in steps:
+                for sql in MIGRATIONS[step]:
+                    await conn.execute(sql)
+            layout = meta.get("layout")
+            if layout is None:
+                cur = await conn.execute(
+                    "SELECT count(*) FROM pg_available_extensions WHERE name = 'timescaledb'"
+                )
+                row = await cur.fetchone()
+                layout = choose_layout(self.timescaledb, bool(row and row[0]))
+                layout = await self._apply_layout(conn, layout)
+            await conn.execute(
+                "INSERT INTO meta (key, value) VALUES ('schema_version', %s), ('layout', %s)"
+                " ON CONFLICT (key) DO UPDATE SET value = excluded.value",
+                (str(SCHEMA_VERSION), layout),
+            )
+        if steps:
+            log.info("postgres: schema migrated to version %d (%s)", SCHEMA_VERSION, layout)
+        return layout
+
+    async def _apply_layout(
+        self, conn: psycopg.AsyncConnection[tuple[object, ...]], layout: str
+    ) -> str:
+        """Give ``readings`` its time index; a failing ``auto`` hypertable falls back to BRIN."""
+        try:
+            async with conn.transaction():  # a savepoint: a failure here keeps the migration
+                for sql in layout_ddl(layout):
+                    await conn.execute(sql)
+        except psycopg.DatabaseError as e:
+            if layout != HYPERTABLE or self.timescaledb != "auto":
+                raise
+            log.warning("postgres: no hypertable (%s); using a BRIN index on time", e)
+            layout = BRIN
+            for sql in layout_ddl(layout):
+                await conn.execute(sql)
+        return layout
+
+
+def create(table: dict[str, object]) -> PostgresSink:
+    """The registry's entry point: a PostgreSQL sink from the ``[postgres]`` table."""
+    unknown = sorted(set(table) - _KEYS)
+    if unknown:
+        raise ValueError(
+            f"postgres: unknown key {unknown[0]!r} (known: {', '.join(sorted(_KEYS))})"
+        )
+    dsn = table.get("dsn")
+    if not isinstance(dsn, str) or not dsn:
+        raise ValueError("postgres: dsn is required (a libpq connection string or URL)")
+    try:
+        conninfo.conninfo_to_dict(dsn)
+    except psycopg.ProgrammingError as e:
+        raise ValueError(f"postgres: dsn is not a valid connection string: {e}") from None
+    setting = table.get("timescaledb", "auto")
+    if not isinstance(setting, str):
+        raise ValueError("postgres: timescaledb must be auto, on or off")
+    choose_layout(setting, True)  # validates the spelling
+    timeout = table.get("connect_timeout", 5)
+    if not isinstance(timeout, int) or isinstance(timeout, bool) or timeout < 1:
+        raise ValueError("postgres: connect_timeout must be a whole number of seconds >= 1")
+    return PostgresSink(dsn, timescaledb=setting, connect_timeout=timeout)

@@ -1,0 +1,149 @@
+"""The collector's sources: loggers by URL (incremental download) and HCTMPS1 buses (polled).
+
+A source's :meth:`poll` makes one contact and hands every batch of readings to a
+:data:`Deliver` callback with the source's new cursor; the runner stores both in one
+transaction (:meth:`~sondalog.collect.store_sqlite.SqliteStore.commit_chunk`) after passing the
+batch to the other sinks. A logger source resumes after the cursor kept in the store's
+``sources`` table (one per logger), so a collector killed at any moment goes on where the
+store stands.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Awaitable, Callable
+from datetime import datetime
+from typing import Any, Protocol
+
+from sondalog.client import Ala1Client, BusMaster
+from sondalog.client.download import Download
+from sondalog.client.records import UTC
+from sondalog.collect.config import SourceConfig
+from sondalog.collect.model import Reading
+from sondalog.collect.readings import rows_to_readings
+from sondalog.collect.store_sqlite import SqliteStore, now_text
+
+log = logging.getLogger(__name__)
+
+#: ``deliver(source name, batch, cursor, **source state columns)``
+Deliver = Callable[..., Awaitable[None]]
+
+
+class Source(Protocol):
+    config: SourceConfig
+
+    async def poll(self, deliver: Deliver) -> str:
+        """One contact; returns a one-line summary for the log and the events table."""
+        ...
+
+
+class LoggerSource:
+    """An ALA1 logger: incremental download after the store's cursor (§6.6.1.1)."""
+
+    kind = "logger"
+
+    def __init__(self, config: SourceConfig, store: SqliteStore) -> None:
+        self.config = config
+        self.store = store
+
+    async def poll(self, deliver: Deliver) -> str:
+        cfg, store = self.config, self.store
+        client = await Ala1Client.connect(cfg.url, timeout=cfg.timeout)
+        try:
+            known = store.source(cfg.name) or {}
+            download = Download(client, after=known.get("cursor"), zone=cfg.zone)
+            info = await download.identify()
+            status = await client.command("read record status")
+            state: dict[str, Any] = {
+                "logger": info.snumber,
+                "last_contact": now_text(),
+                "offset_s": info.clock.offset,
+                "record_fill": status.lines[0] if status.ok and status.lines else None,
+            }
+            if known.get("logger") not in (None, info.snumber):
+                text = (
+                    f"another logger answers at {cfg.url}: {info.snumber} instead of "
+                    f"{known['logger']}; reading its record from the oldest row"
+                )
+                log.warning("%s: %s", cfg.name, text)
+                store.event(cfg.name, "logger", text)
+                download.after = None
+                state["cursor"] = None
+            store.set_state(cfg.name, **state)
+            rows = readings = 0
+            first = last = None
+            async for chunk in download.chunks():
+                if chunk.gap is not None:
+                    log.warning("%s: %s", cfg.name, chunk.gap.describe())
+                    store.event(cfg.name, "gap", chunk.gap.describe())
+                batch = rows_to_readings(chunk.rows, info.snumber, info.channels, cfg.zone)
+                await deliver(cfg.name, batch, chunk.cursor)
+                rows += len(chunk.rows)
+                readings += len(batch)
+                first = first or (chunk.rows[0].key if chunk.rows else None)
+                last = chunk.cursor or last
+        finally:
+            await client.close()
+        span = f" ({first} .. {last})" if rows else ""
+        return (
+            f"logger {info.snumber}: {rows} new rows, {readings} readings{span}; "
+            f"{info.clock.describe()}"
+        )
+
+
+class BusSource:
+    """HCTMPS1 modules on a bus: each contact reads every module's value (``PV``)."""
+
+    kind = "bus"
+
+    def __init__(
+        self, config: SourceConfig, store: SqliteStore, clock: Callable[[], float] = time.time
+    ) -> None:
+        self.config = config
+        self.store = store
+        self.clock = clock
+
+    async def poll(self, deliver: Deliver) -> str:
+        cfg = self.config
+        master = await BusMaster.open(cfg.url)
+        try:
+            modules = list(cfg.modules) or list(await master.scan())
+            batch: list[Reading] = []
+            failed: list[str] = []
+            for module in modules:
+                try:
+                    value = await master.pv(module)
+                except Exception as exc:  # one silent module must not hide the others
+                    failed.append(f"{module} ({exc})")
+                    continue
+                now = self.clock()
+                local = datetime.fromtimestamp(now, cfg.zone).replace(tzinfo=None, microsecond=0)
+                utc = datetime.fromtimestamp(now, UTC).replace(microsecond=0)
+                batch.append(
+                    Reading(
+                        f"bus:{module}",
+                        1,
+                        local,
+                        0,
+                        1,
+                        value,
+                        None,
+                        module,
+                        cfg.units.get(module),
+                        utc if cfg.zone is not None else None,
+                    )
+                )
+        finally:
+            await master.close()
+        if modules and not batch:
+            raise OSError(f"no module answered: {', '.join(failed)}")
+        await deliver(cfg.name, batch, None, last_contact=now_text(), logger="bus")
+        text = f"bus: {len(batch)} of {len(modules)} modules read"
+        return text + (f"; no answer from {', '.join(failed)}" if failed else "")
+
+
+def make_source(config: SourceConfig, store: SqliteStore) -> Source:
+    if config.kind == "bus":
+        return BusSource(config, store)
+    return LoggerSource(config, store)

@@ -1,0 +1,239 @@
+"""The collector's SQLite store: readings, sources with their cursors, events (the schema of
+:mod:`sondalog.collect.schema`).
+
+- WAL mode, ``synchronous=NORMAL``: a crash can lose the last transactions but never
+  corrupts the file; readings and the source's cursor are committed in one transaction
+  (:meth:`SqliteStore.commit_chunk`), so whatever is lost is downloaded again.
+- Inserts are ``INSERT OR IGNORE`` on the key ``(logger, time, counter, channel)``: a row seen
+  twice (a download read again after a crash, a data message) is stored once.
+- ``meta.schema_version`` tells which schema the file has; opening an older file migrates it,
+  a newer one is refused.
+
+The store is also the ``sqlite`` sink (:func:`create`), so the collector can hand it batches
+like any other sink.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Iterable, Sequence
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.schema import SCHEMA_VERSION, SQLITE_DDL
+
+_INSERT = (
+    "INSERT OR IGNORE INTO readings "
+    "(logger, channel, time, counter, type, value, text, name, unit, utc) "
+    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+)
+#: Migrations from version N to N + 1 (none yet: version 1 is the first).
+MIGRATIONS: dict[int, tuple[str, ...]] = {}
+_STATE_COLUMNS = (
+    "url",
+    "kind",
+    "logger",
+    "state",
+    "last_contact",
+    "last_error",
+    "offset_s",
+    "cursor",
+    "record_fill",
+    "signal",
+    "credit",
+)
+
+
+class StoreError(Exception):
+    """The store cannot be used (not a collector store, a newer schema, unwritable)."""
+
+
+def row_of(r: Reading) -> tuple[Any, ...]:
+    return (
+        r.logger,
+        r.channel,
+        r.time.isoformat(timespec="seconds"),
+        r.counter,
+        r.type,
+        r.value,
+        r.text,
+        r.name,
+        r.unit,
+        None if r.utc is None else r.utc.strftime("%Y-%m-%dT%H:%M:%SZ"),
+    )
+
+
+def now_text() -> str:
+    return datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+class SqliteStore:
+    """One SQLite file; ``readings=False`` keeps sources and events only."""
+
+    name = "sqlite"
+
+    def __init__(self, path: str | Path, *, readings: bool = True) -> None:
+        self.path = Path(path)
+        self.keep_readings = readings
+        self._db: sqlite3.Connection | None = None
+
+    # -- the Sink protocol ------------------------------------------------------------------
+    async def open(self) -> None:
+        self.open_sync()
+
+    async def write(self, batch: Sequence[Reading]) -> None:
+        try:
+            with self.db:
+                self._insert(batch)
+        except sqlite3.OperationalError as exc:
+            raise SinkUnavailable(f"sqlite {self.path}: {exc}") from exc
+
+    async def close(self) -> None:
+        self.close_sync()
+
+    # -- synchronous API --------------------------------------------------------------------
+    @property
+    def is_open(self) -> bool:
+        return self._db is not None
+
+    @property
+    def db(self) -> sqlite3.Connection:
+        if self._db is None:
+            raise StoreError("the store is not open")
+        return self._db
+
+    def open_sync(self) -> SqliteStore:
+        if self._db is not None:
+            return self
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+        except (OSError, sqlite3.Error) as exc:
+            raise StoreError(f"{self.path}: cannot open: {exc}") from exc
+        try:
+            db.execute("PRAGMA busy_timeout=10000")
+            db.execute("PRAGMA journal_mode=WAL")
+            db.execute("PRAGMA synchronous=NORMAL")
+            self._migrate(db)
+        except sqlite3.DatabaseError as exc:
+            db.close()
+            raise StoreError(f"{self.path} is not a collector store: {exc}") from exc
+        except BaseException:
+            db.close()
+            raise
+        db.isolation_level = "DEFERRED"  # `with db:` makes a transaction
+        self._db = db
+        return self
+
+    def _migrate(self, db: sqlite3.Connection) -> None:
+        tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        version = 0
+        if "meta" in tables:
+            row = db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            version = int(row[0]) if row else 0
+        elif tables - {"sqlite_sequence"}:
+            raise StoreError(f"{self.path} is not a collector store (tables {sorted(tables)})")
+        if version > SCHEMA_VERSION:
+            raise StoreError(
+                f"{self.path} has schema version {version}; this sondalog knows up to "
+                f"{SCHEMA_VERSION}: upgrade sondalog"
+            )
+        if version == SCHEMA_VERSION:
+            return
+        script = ["BEGIN IMMEDIATE;", SQLITE_DDL if version == 0 else ""]
+        for step in range(max(version, 1), SCHEMA_VERSION):
+            script.extend(f"{sql};" for sql in MIGRATIONS[step])
+        script.append(
+            "INSERT OR REPLACE INTO meta (key, value) "
+            f"VALUES ('schema_version', '{SCHEMA_VERSION}'); COMMIT;"
+        )
+        try:
+            db.executescript("\n".join(script))
+        except BaseException:
+            if db.in_transaction:
+                db.execute("ROLLBACK")
+            raise
+
+    def close_sync(self) -> None:
+        if self._db is not None:
+            self._db.close()
+            self._db = None
+
+    def _insert(self, batch: Iterable[Reading]) -> None:
+        if self.keep_readings:
+            self.db.executemany(_INSERT, [row_of(r) for r in batch])
+
+    def commit_chunk(
+        self, source: str, batch: Sequence[Reading], cursor: str | None, **state: Any
+    ) -> None:
+        """Readings and the source's new cursor (and state columns) in one transaction."""
+        with self.db:
+            self._insert(batch)
+            if cursor is not None:
+                state["cursor"] = cursor
+            self._update(source, state)
+
+    # -- sources and events -----------------------------------------------------------------
+    def add_source(self, name: str, url: str, kind: str) -> None:
+        """Register a source (kept with its cursor if it exists; the URL may change)."""
+        with self.db:
+            self.db.execute(
+                "INSERT INTO sources (name, url, kind) VALUES (?, ?, ?) "
+                "ON CONFLICT (name) DO UPDATE SET url = excluded.url, kind = excluded.kind",
+                (name, url, kind),
+            )
+
+    def source(self, name: str) -> dict[str, Any] | None:
+        cur = self.db.execute(
+            f"SELECT {', '.join(_STATE_COLUMNS)} FROM sources WHERE name = ?", (name,)
+        )
+        row = cur.fetchone()
+        return None if row is None else dict(zip(_STATE_COLUMNS, row, strict=True))
+
+    def cursor(self, name: str) -> str | None:
+        row = self.source(name)
+        return None if row is None else row["cursor"]
+
+    def set_state(self, name: str, **state: Any) -> None:
+        with self.db:
+            self._update(name, state)
+
+    def _update(self, name: str, state: dict[str, Any]) -> None:
+        if not state:
+            return
+        unknown = set(state) - set(_STATE_COLUMNS)
+        if unknown:
+            raise ValueError(f"unknown source columns {sorted(unknown)}")
+        assignments = ", ".join(f"{column} = ?" for column in state)
+        self.db.execute(f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name))
+
+    def event(self, source: str, kind: str, text: str, time: str | None = None) -> None:
+        with self.db:
+            self.db.execute(
+                "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
+                (time or now_text(), source, kind, text),
+            )
+
+    def events(self, source: str | None = None) -> list[tuple[str, str, str, str]]:
+        sql = "SELECT time, source, kind, text FROM events"
+        args: tuple[Any, ...] = ()
+        if source is not None:
+            sql += " WHERE source = ?"
+            args = (source,)
+        return [tuple(r) for r in self.db.execute(sql + " ORDER BY id", args)]
+
+
+def create(table: dict[str, Any]) -> SqliteStore:
+    """The ``[sqlite]`` table: ``path`` (required here), ``readings`` (default true)."""
+    unknown = sorted(set(table) - {"path", "readings"})
+    if unknown:
+        raise ValueError(f"sqlite.{unknown[0]}: unknown key (known: path, readings)")
+    path = table.get("path")
+    if not isinstance(path, str | Path) or not str(path):
+        raise ValueError("sqlite.path: must be a file name")
+    readings = table.get("readings", True)
+    if not isinstance(readings, bool):
+        raise ValueError("sqlite.readings: must be true or false")
+    return SqliteStore(path, readings=readings)

@@ -1,0 +1,184 @@
+"""The PostgreSQL sink against a real PostgreSQL server (issue 13, "The collector")."""
+
+from __future__ import annotations
+
+import asyncio
+import subprocess
+import sys
+from pathlib import Path
+
+import psycopg
+import pytest
+import services
+from readings_gen import rows, text_row
+
+from sondalog.collect import sink_postgres
+from sondalog.collect.buffer import DiskBuffer, deliver, drain
+from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.sink_postgres import (
+    BRIN,
+    HYPERTABLE,
+    SchemaTooNew,
+    choose_layout,
+    migration_plan,
+)
+
+HERE = Path(__file__).parent
+
+
+def count(dsn: str, where: str = "true") -> int:
+    with psycopg.connect(dsn) as c:
+        row = c.execute(f"SELECT count(*) FROM readings WHERE {where}").fetchone()  # type: ignore[arg-type]
+        assert row is not None
+        return int(row[0])
+
+
+def keys(dsn: str) -> set[tuple[str, str, int, int]]:
+    with psycopg.connect(dsn) as c:
+        got = c.execute("SELECT logger, time, counter, channel FROM readings").fetchall()
+    return {(lg, t.isoformat(timespec="seconds"), cnt, ch) for lg, t, cnt, ch in got}
+
+
+async def write_all(dsn: str, *batches: list[Reading]) -> sink_postgres.PostgresSink:
+    sink = sink_postgres.create({"dsn": dsn})
+    await sink.open()
+    try:
+        for b in batches:
+            await sink.write(b)
+    finally:
+        await sink.close()
+    return sink
+
+
+# -- the decisions, without a server ------------------------------------------------------
+
+
+def test_layout_decision() -> None:
+    assert choose_layout("auto", True) == HYPERTABLE
+    assert choose_layout("auto", False) == BRIN
+    assert choose_layout("off", True) == BRIN
+    assert choose_layout("on", True) == HYPERTABLE
+    with pytest.raises(ValueError, match="not available"):
+        choose_layout("on", False)
+    with pytest.raises(ValueError, match="auto, on or off"):
+        choose_layout("yes", True)
+
+
+def test_migration_plan() -> None:
+    assert migration_plan(0, 1) == [1]
+    assert migration_plan(1, 1) == []
+    assert migration_plan(1, 3) == [2, 3]
+    with pytest.raises(SchemaTooNew):
+        migration_plan(2, 1)
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        ({}, "dsn is required"),
+        ({"dsn": "host=x", "bogus": 1}, "unknown key 'bogus'"),
+        ({"dsn": "host=x port"}, "not a valid connection string"),
+        ({"dsn": "host=x", "timescaledb": "maybe"}, "auto, on or off"),
+        ({"dsn": "host=x", "connect_timeout": 0}, "connect_timeout"),
+    ],
+)
+def test_bad_config_is_refused(table: dict[str, object], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        sink_postgres.create(table)
+
+
+# -- against the server --------------------------------------------------------------------
+
+
+def test_schema_created_with_brin_and_version(pg_dsn: str) -> None:
+    batch = [*rows("1001", 0, 10), text_row("1001", 3, "door open\x00")]
+    sink = asyncio.run(write_all(pg_dsn, batch))
+    assert sink.layout == BRIN  # Debian has no timescaledb
+    with psycopg.connect(pg_dsn) as c:
+        meta = dict(c.execute("SELECT key, value FROM meta").fetchall())
+        assert meta == {"schema_version": "1", "layout": "brin"}
+        idx = c.execute("SELECT indexdef FROM pg_indexes WHERE tablename = 'readings'").fetchall()
+        assert any('USING brin ("time")' in d or "USING brin (time)" in d for (d,) in idx)
+        text = c.execute("SELECT text, type FROM readings WHERE channel = 0").fetchall()
+        assert text == [("door open", 3)]
+        none = c.execute("SELECT count(*) FROM readings WHERE value IS NULL AND channel > 0")
+        assert none.fetchone() == (sum(1 for r in batch if r.channel and r.value is None),)
+    assert count(pg_dsn) == len(batch)
+
+
+def test_same_batch_twice_is_stored_once(pg_dsn: str) -> None:
+    batch = rows("1001", 0, 40)
+    overlap = rows("1001", 20, 40)  # 20 rows already there, 20 new
+    sink = asyncio.run(write_all(pg_dsn, batch, batch, overlap))
+    assert count(pg_dsn) == 60 * 3
+    assert sink.inserted == 60 * 3
+    # a second collector (a new connection, the schema already there) changes nothing
+    again = asyncio.run(write_all(pg_dsn, overlap))
+    assert again.inserted == 0 and count(pg_dsn) == 60 * 3
+    assert keys(pg_dsn) == {r.key for r in batch + overlap}
+
+
+def test_newer_schema_is_refused(pg_dsn: str) -> None:
+    asyncio.run(write_all(pg_dsn, rows("1", 0, 1)))
+    with psycopg.connect(pg_dsn) as c:
+        c.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    with pytest.raises(SchemaTooNew, match="version 99"):
+        asyncio.run(write_all(pg_dsn, rows("1", 1, 1)))
+    assert count(pg_dsn) == 3
+
+
+def test_two_writer_processes_with_overlapping_sources(pg_dsn: str) -> None:
+    # Both start on an empty database (they race to create the schema) and write the same
+    # logger's rows 100..299 besides their own: every row is stored once.
+    cmd = [sys.executable, str(HERE / "pg_writer.py"), pg_dsn]
+    a = subprocess.Popen([*cmd, "A", "0", "300"], stdout=subprocess.PIPE, text=True)
+    b = subprocess.Popen([*cmd, "A", "100", "300"], stdout=subprocess.PIPE, text=True)
+    c = subprocess.Popen([*cmd, "B", "0", "100"], stdout=subprocess.PIPE, text=True)
+    outs = [p.communicate(timeout=60)[0] for p in (a, b, c)]
+    assert [p.returncode for p in (a, b, c)] == [0, 0, 0]
+    assert count(pg_dsn, "logger = 'A'") == 400 * 3
+    assert count(pg_dsn, "logger = 'B'") == 100 * 3
+    assert sum(int(o) for o in outs) == 500 * 3  # each row inserted by exactly one writer
+
+
+def test_server_stopped_mid_run_then_restarted(
+    postgres: services.PostgresServer, pg_dsn: str, tmp_path: Path
+) -> None:
+    buf = DiskBuffer(tmp_path / "buffer.sqlite")
+    batches = [rows("7", i * 10, 10) for i in range(6)]
+
+    async def run() -> None:
+        sink = sink_postgres.create({"dsn": pg_dsn, "connect_timeout": 2})
+        await sink.open()
+        assert await deliver(buf, sink, batches[0])
+        assert await deliver(buf, sink, batches[1])
+        postgres.stop()
+        try:
+            for b in batches[2:5]:
+                assert not await deliver(buf, sink, b)  # down: buffered on disk
+            with pytest.raises(SinkUnavailable):
+                await sink.write(batches[5])
+            assert buf.count("postgres") == 3
+        finally:
+            postgres.start()
+        assert await drain(buf, sink) == 3  # reconnected, replayed in order
+        assert await deliver(buf, sink, batches[5])
+        await sink.close()
+
+    asyncio.run(run())
+    assert buf.count("postgres") == 0
+    assert count(pg_dsn) == 60 * 3
+    assert keys(pg_dsn) == {r.key for b in batches for r in b}
+
+
+def test_unreachable_server_raises_unavailable() -> None:
+    port = services.free_port()  # nothing listens there
+
+    async def run() -> None:
+        sink = sink_postgres.create({"dsn": f"host=127.0.0.1 port={port} user=x dbname=x"})
+        await sink.open()  # does not fail: the collector starts and buffers
+        with pytest.raises(SinkUnavailable, match="cannot connect"):
+            await sink.write(rows("1", 0, 1))
+        await sink.close()
+
+    asyncio.run(run())

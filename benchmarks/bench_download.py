@@ -26,12 +26,12 @@ import time
 from pathlib import Path
 
 from sondalog.ala1 import Engine
+from sondalog.app.logger import DATABASE_FILE, load_identity
+from sondalog.backends.sim.logger import Analog, SimHardware
+from sondalog.backends.sim.signals import sine
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.client import Client
 from sondalog.collect.to_file import download_to_file
-from sondalog.sim.logger import Analog, SimHardware
-from sondalog.sim.signals import sine
-from sondalog.storage.ala1_nv import SqliteNvStore
-from sondalog.transport.instance import DATABASE_FILE, load_identity
 
 T0 = 1_000_000_000.0
 SERVE = [sys.executable, "-m", "sondalog", "logger", "serve"]

@@ -44,7 +44,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus import BusUrlError, parse_bus_url
-from sondalog.sim.logger import locate
+from sondalog.sitefile import locate
 
 _TOP = {"sqlite", "buffer", "source", "postgres", "mqtt"}
 _SOURCE = {

@@ -64,7 +64,10 @@ _HEADER_HINTS = {
     "number": "number N: lines are numbered from N, and not together with counter (§8.5.6)",
     "iaddress": "iaddress needs a string with a boundary: `iaddress/A1/ read date` (§8.6.1)",
 }
-_STRING_HINT = "a string needs a boundary: `read text/hi there/` (any character not in the text)"
+_STRING_HINT = (
+    "a string needs a boundary, the character right after its keyword: `read text/hi there/`"
+    " (not `read text /hi there/`: after a space the string is the next word)"
+)
 
 
 @dataclass(frozen=True)
@@ -391,8 +394,9 @@ Local commands (not sent to the logger):
 A command line (manual §5, §7, §8): [headers] read|write PARAMETER [VALUE] [more commands]
   read i version                       one parameter
   read channel 1 3 4 value             several channels: `1 3 4` or `010304`
-  write channel 1 name /Air temp/      a string carries its own boundary: /.../ or *...*
-  write channel 1 period 001 start 0   sample every 10 minutes, starting now
+  write channel 1 name/Air temp/       a string starts with its boundary, right after the
+                                       keyword: name/Air temp/ or name*Air temp*
+  write channel 1 sampling period 0010  sample every 10 minutes (hhmmss, filled on the right)
   write date 20260130120000            a date; fewer digits fill from the left: `1200` = mmss
   read record 10 from start            the oldest 10 rows of the record
   read record 5 from last read shift   rows since the last download, then move the mark

@@ -23,10 +23,8 @@ ROWS = 150  # 150 rows of 23 bytes + OK: about 3.6 s at 9600 baud, longer than -
 
 
 def _rows() -> list[str]:
-    return [
-        f"200701{1 + i // 86400 % 28:02d}{i // 3600 % 24:02d}{i // 60 % 60:02d}{i % 60:02d}.0,2,{i:04d}"
-        for i in range(ROWS)
-    ]
+    """Rows of type 2 (§9), one a minute from 2007-01-01 00:00."""
+    return [f"20070101{i // 60:02d}{i % 60:02d}00.0,2,{i:04d}" for i in range(ROWS)]
 
 
 def _logger_with_record(serve: Serve, tmp_path: Path) -> tuple[ServedLogger, Path]:

@@ -124,7 +124,7 @@ def serve(
 ) -> None:
     """Run a virtual RS-485 bus (hctmps1.md §1, §2).
 
-    Prints ``listening on HOST:PORT`` once ready. SIGINT or SIGTERM stop it cleanly.
+    Prints "listening on HOST:PORT" once ready. SIGINT or SIGTERM stop it cleanly.
     """
     start = functools.partial(
         start_bus_server,

@@ -64,6 +64,14 @@ _HEADER_HINTS = {
     "number": "number N: lines are numbered from N, and not together with counter (§8.5.6)",
     "iaddress": "iaddress needs a string with a boundary: `iaddress/A1/ read date` (§8.6.1)",
 }
+_DATE_FIELDS = {
+    2: "ss",
+    4: "mmss",
+    6: "hhmmss",
+    8: "DDhhmmss",
+    10: "MMDDhhmmss",
+    14: "YYYYMMDDhhmmss",
+}
 _STRING_HINT = (
     "a string needs a boundary, the character right after its keyword: `read text/hi there/`"
     " (not `read text /hi there/`: after a space the string is the next word)"
@@ -303,7 +311,12 @@ class _Walk:
         try:
             vtype.parse(cur, self.ctx)
         except ParseError as exc:
-            raise self.reject(start, _expected(leaf, vtype, str(exc), self.limits)) from None
+            error = str(exc)
+            if isinstance(vtype, Date) and error.startswith("impossible date"):
+                digits = "".join(cur.rest().lstrip(" ").split(" ")[0:1]).strip()
+                fields = _DATE_FIELDS.get(len(digits), "")
+                error = f"{len(digits)} digits are read as {fields}, which is no calendar date"
+            raise self.reject(start, _expected(leaf, vtype, error, self.limits)) from None
         self.string_boundary = None
         if isinstance(vtype, Text | TextRow) and cur.pos > start:
             used = cur.text[start : cur.pos]
@@ -324,9 +337,9 @@ def _expected(leaf: Leaf, vtype: ValueType, error: str, limits: object) -> str:
     """What a value of ``vtype`` looks like, after the parser's own complaint."""
     if isinstance(vtype, Date):
         return (
-            f"{error}. `{leaf.pattern}` takes a date YYYYMMDDhhmmss and fills it from the"
-            " left with the logger's clock: give at least YYYYMMDDhh..., i.e. 14 digits, or the"
-            " last 2, 4, 6, 8 or 10 (ss, mmss, hhmmss, DDhhmmss, MMDDhhmmss; §4.3.2)"
+            f"{error}. `{leaf.pattern}` fills from the left: the fields missing on the left come"
+            " from the logger's clock, so 2, 4, 6, 8 or 10 digits are ss, mmss, hhmmss,"
+            " DDhhmmss or MMDDhhmmss; give all 14 (YYYYMMDDhhmmss) to set the year (§4.3.2)"
         )
     if isinstance(vtype, Period):
         return (

@@ -172,6 +172,14 @@ def _id_list(text: str) -> list[str]:
     return [] if text == "<EMPTY>" else text.split(",")
 
 
+def _foreign_text(line: bytes) -> bool:
+    return (
+        len(line) >= 4
+        and all(0x20 <= byte < 0x7F for byte in line)
+        and not any(sep in line for sep in (b":", b",", b"|"))
+    )
+
+
 class BusMaster:
     """The host's side of the bus protocol (hctmps1.md §2, §4)."""
 
@@ -361,10 +369,13 @@ class BusMaster:
 
     def _refuse_foreign(self) -> None:
         """Raise :class:`ForeignPeer` if what was heard holds a text line that no HCTMPS1
-        frame (nor a collision of frames, which keeps its ``:``) can be."""
+        frame can become: printable ASCII, at least 4 characters, with none of the frame's
+        separators ``:`` ``,`` ``|`` (noise or a collision rarely removes all four of a
+        frame's, and rarely leaves 4 printable characters; an ALA1 ``ERROR`` is such a line).
+        """
         heard = bytes(self.heard)
         lines = [line.strip() for line in heard.replace(b"\r", b"\n").split(b"\n")]
-        if any(line and b":" not in line for line in lines):
+        if any(_foreign_text(line) for line in lines):
             raise ForeignPeer(
                 f"the peer answers, but not with HCTMPS1 frames (:DST,SRC,BODY|CRC): it sent"
                 f" {heard[-80:]!r}",

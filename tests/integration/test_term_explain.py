@@ -3,9 +3,13 @@ and lines the logger cannot receive, against a served logger over TCP."""
 
 from __future__ import annotations
 
+import os
+import pty
 import re
+import select
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -132,3 +136,51 @@ def test_explain_accepts_what_the_logger_accepts(line: str) -> None:
     finally:
         logger.close()
     assert explain(line).accepted, explain(line).render()
+
+
+def _read_pty(fd: int, until: bytes, timeout: float = 10.0) -> bytes:
+    deadline = time.monotonic() + timeout
+    buf = b""
+    while until not in buf:
+        remaining = deadline - time.monotonic()
+        assert remaining > 0, f"timed out waiting for {until!r}; got {buf!r}"
+        if select.select([fd], [], [], remaining)[0]:
+            try:
+                buf += os.read(fd, 65536)
+            except OSError:
+                break
+    return buf
+
+
+def test_local_commands_on_an_interactive_terminal(
+    shared_logger: ServedLogger, tmp_path: Path
+) -> None:
+    controller, terminal = pty.openpty()
+    proc = subprocess.Popen(
+        [*TERM, shared_logger.url],
+        stdin=terminal,
+        stdout=terminal,
+        stderr=terminal,
+        env={**os.environ, "TERM": "xterm", "PROMPT_TOOLKIT_NO_CPR": "1"},
+        close_fds=True,
+    )
+    os.close(terminal)
+    log = tmp_path / "pty.log"
+    try:
+        assert b":help lists the local commands" in _read_pty(controller, b"ala1>")
+        os.write(controller, f":log {log}\r".encode())
+        _read_pty(controller, b"logging the session")
+        os.write(controller, b"reed date\r")
+        _read_pty(controller, b"(:explain tells which part the logger refused)")
+        os.write(controller, b":explain\r")
+        _read_pty(controller, b"expected read, write or a header keyword")
+        os.write(controller, "read text/°/\r".encode())
+        _read_pty(controller, b"(DEGREE SIGN) cannot be sent")
+        os.write(controller, b":quit\r")
+        assert proc.wait(timeout=10) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(controller)
+    assert log.read_text() == "> reed date\nreed date\nERROR\n"

@@ -221,6 +221,7 @@ async def _interactive(client: Ala1Client, local: _Local) -> int:
 
     session: PromptSession[str] = PromptSession(history=InMemoryHistory())
     closed = asyncio.Event()
+    hinted: list[bool] = []  # the :explain hint is shown once a session
 
     async def show_incoming() -> None:
         try:
@@ -228,8 +229,12 @@ async def _interactive(client: Ala1Client, local: _Local) -> int:
                 data = await client.receive_raw(3600.0)
                 if data:
                     text = _text(data)
+                    refused = local.refused
                     local.received(text)
                     print(text, end="", flush=True)
+                    if local.refused != refused and not hinted:
+                        print("(:explain tells which part the logger refused)", flush=True)
+                        hinted.append(True)
         except ClientError:
             print("connection closed by the logger", flush=True)
             closed.set()

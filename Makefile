@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m sondalog.demo
+	$(BIN)/python -m sondalog.demo $(ARGS)
 
 test: $(STAMP) lint typecheck pytest
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import logging
 import signal
 import sys
 from collections.abc import Awaitable, Callable
@@ -27,13 +28,17 @@ from sondalog.client.bus import (
     BusMaster,
     BusUrlError,
     DataFrame,
+    ForeignPeer,
+    NoReply,
     parse_bus_url,
 )
 from sondalog.io.clock import make_clock
 from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id
 from sondalog.sitefile import SiteError
+from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
 
 T = TypeVar("T")
+log = logging.getLogger(__name__)
 
 
 class _Refused(click.ClickException):
@@ -121,7 +126,7 @@ def serve(
 ) -> None:
     """Run a virtual RS-485 bus (hctmps1.md §1, §2).
 
-    Prints ``listening on HOST:PORT`` once ready. SIGINT or SIGTERM stop it cleanly.
+    Prints "listening on HOST:PORT" once ready. SIGINT or SIGTERM stop it cleanly.
     """
     start = functools.partial(
         start_bus_server,
@@ -188,6 +193,10 @@ def _run_master(
 
     try:
         return asyncio.run(go())
+    except ForeignPeer as exc:
+        raise click.ClickException(
+            f"{url}: {exc}. Is this an ALA1 logger? Talk to it with: sondalog term {url}"
+        ) from exc
     except BusError as exc:
         raise click.ClickException(str(exc)) from exc
     except OSError as exc:
@@ -197,12 +206,68 @@ def _run_master(
 @bus.command()
 @_master_options
 def scan(url: str, host_id: str, timeout: float | None) -> None:
-    """Find every module on the bus (broadcast HELLO until no new one answers)."""
-    found = _run_master(url, host_id, timeout, lambda m: m.scan())
+    """Find every module on the bus (broadcast HELLO until no new one answers).
+
+    Each round broadcasts HELLO and listens for the random reply delays of all modules
+    (about 1.7 s at 9600 baud). On a terminal a progress line shows the rounds; -v logs one
+    line per round. A peer that answers with something other than HCTMPS1 frames (an ALA1
+    logger) is reported after the first round.
+    """
+
+    async def work(master: BusMaster) -> dict[str, str]:
+        if not sys.stderr.isatty():
+            return await master.scan(progress=_log_round)
+        from rich.console import Console
+        from rich.progress import Progress, SpinnerColumn, TextColumn
+
+        with Progress(
+            SpinnerColumn(),
+            TextColumn("{task.description}"),
+            console=Console(stderr=True),
+            transient=True,
+        ) as bar:
+            task = bar.add_task("scanning: round 1 (HELLO to *)", total=None)
+
+            def show(number: int, rounds: int, found: dict[str, str]) -> None:
+                _log_round(number, rounds, found)
+                names = ", ".join(found) or "none yet"
+                bar.update(task, description=f"scanning: round {number + 1}, found {names}")
+
+            return await master.scan(progress=show)
+
+    found = _run_master(url, host_id, timeout, work)
     for module_id, hello in found.items():
         click.echo(f"{module_id:<8} {hello}")
     if not found:
-        raise click.ClickException("no module answered")
+        raise click.ClickException(
+            f"no module answered HELLO at {url} (check the URL, the bus speed and the wiring)"
+        )
+
+
+def _log_round(number: int, rounds: int, found: dict[str, str]) -> None:
+    log.info("scan round %d/%d: HELLO to *, modules so far: %s", number, rounds, found or "none")
+
+
+def _why_no_reply(module_id: str, command: str, host_id: str) -> str:
+    """What a module needs before it answers ``command`` (hctmps1.md §4)."""
+    if command == "CONNECT":
+        return (
+            f"no reply from {module_id} to CONNECT: a wrong password gets none, and after 5"
+            " wrong ones in 60 s the module ignores CONNECT for 60 s (factory password 0000)"
+        )
+    if command in CONNECT_COMMANDS:
+        return (
+            f"no reply from {module_id} to {command}: {command} is answered only inside"
+            f" <connect>. Open it first with the same --host-id ({host_id}):"
+            f" sondalog bus ask URL {module_id} CONNECT PASSWORD (it lasts 300 s without"
+            " commands), or use: sondalog bus config"
+        )
+    if command not in COMMAND_NAMES:
+        return (
+            f"no reply from {module_id} to {command}: a module ignores commands it does not"
+            f" know; the commands are {', '.join(sorted(COMMAND_NAMES))}"
+        )
+    return f"no reply from {module_id} to {command}, though it answers HELLO"
 
 
 @bus.command()
@@ -218,12 +283,21 @@ def ask(
     command: str,
     param: str | None,
 ) -> None:
-    """Send one command to module ID (``*``: broadcast) and print the reply."""
+    """Send one command to module ID (* for broadcast) and print the reply.
+
+    Commands are upper case (HELLO, PV, CONNECT 0000, LISTSUP, ...); the settings commands
+    need CONNECT first, from the same --host-id.
+    """
     if module_id != BROADCAST and not is_valid_id(module_id):
         raise _Refused(f"ID {module_id!r}: 1 to 8 of A-Z a-z 0-9 _ -, or * for broadcast")
     body = command if param is None else f"{command}.{param}"
     if not command or "." in command or not body.isascii() or "|" in body:
         raise _Refused(f"bad command {body!r}: printable ASCII without '|'")
+    if command != command.upper() and command.upper() in COMMAND_NAMES:
+        raise _Refused(
+            f"{command!r}: HCTMPS1 commands are upper case, and a module ignores anything"
+            f" else: {command.upper()}"
+        )
 
     async def work(master: BusMaster) -> list[str]:
         if module_id == BROADCAST:
@@ -231,7 +305,18 @@ def ask(
         if body == "REPLY":
             data = await master.reply(module_id)
             return ["RREPLY.NODATA" if data is None else f"RPV.{data.value} (to {data.addressee})"]
-        reply = await master.command(module_id, command, param)
+        try:
+            reply = await master.command(module_id, command, param)
+        except NoReply:
+            if command != "HELLO":
+                try:
+                    await master.hello(module_id)
+                except NoReply:
+                    raise click.ClickException(
+                        f"no reply from {module_id} to {command}, nor to HELLO: is {module_id}"
+                        " on this bus? (bus scan lists the modules)"
+                    ) from None
+            raise click.ClickException(_why_no_reply(module_id, command, host_id)) from None
         return [f"R{command}.{reply}"]
 
     try:

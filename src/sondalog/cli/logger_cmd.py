@@ -113,8 +113,8 @@ def serve(
 ) -> None:
     """Serve one virtual ALA1 logger over TCP (§6.11.5.2.4: port 10001), ptys and serial ports.
 
-    Prints ``listening on HOST:PORT`` once connections are accepted, then one line per pty
-    (``pty PATH -> /dev/pts/N``) and per serial port (``serial DEVICE``). Each line has its own
+    Prints "listening on HOST:PORT" once connections are accepted, then one line per pty
+    ("pty PATH -> /dev/pts/N") and per serial port ("serial DEVICE"). Each line has its own
     line state; pty and serial lines are paced at com speed (§6.11.2). SIGINT or SIGTERM stop
     it cleanly and remove the pty symlinks.
     """

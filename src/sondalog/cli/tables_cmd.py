@@ -12,7 +12,15 @@ from typing import TypeVar
 
 import click
 from rich.console import Console
-from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TransferSpeedColumn
+from rich.progress import (
+    BarColumn,
+    DownloadColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeRemainingColumn,
+    TransferSpeedColumn,
+)
 
 from sondalog.client.ala1 import Ala1Client, ClientError
 from sondalog.client.tables import TableProblem, explain, pull, push, read_folder
@@ -39,14 +47,29 @@ def _run(url: str, work: Callable[[Ala1Client], Awaitable[T]], timeout: float) -
 
 
 def _progress() -> Progress:
+    """One bar per phase (bytes on the wire, total and time left when known), on stderr;
+    kept on a terminal, nothing at all when stderr is not one."""
     return Progress(
-        TextColumn("{task.description}"),
+        TextColumn("{task.description:<13}"),
         BarColumn(),
         DownloadColumn(),
         TransferSpeedColumn(),
+        TimeRemainingColumn(),
         console=_err,
-        transient=True,
+        transient=not _err.is_terminal,
     )
+
+
+def _phases(bar: Progress) -> Callable[[str, int, int], None]:
+    """A ``progress(phase, done, total)`` callback that gives each phase its own bar."""
+    tasks: dict[str, TaskID] = {}
+
+    def update(phase: str, done: int, total: int) -> None:
+        if phase not in tasks:
+            tasks[phase] = bar.add_task(phase, total=total or None)
+        bar.update(tasks[phase], completed=done, total=total or None)
+
+    return update
 
 
 @click.group()
@@ -72,12 +95,7 @@ def push_cmd(folder: Path, url: str, timeout: float) -> None:
 
     async def work(client: Ala1Client) -> tuple[bytes, bytes]:
         with _progress() as bar:
-            task = bar.add_task("upload", total=None)
-
-            def progress(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total or None)
-
-            return await push(client, found, progress)
+            return await push(client, found, _phases(bar))
 
     try:
         listing, data = _run(url, work, timeout)
@@ -99,8 +117,7 @@ def pull_cmd(url: str, folder: Path, timeout: float) -> None:
 
     async def work(client: Ala1Client) -> dict[str, bytes]:
         with _progress() as bar:
-            task = bar.add_task("download", total=None)
-            return await pull(client, lambda done, _: bar.update(task, completed=done))
+            return await pull(client, _phases(bar))
 
     found = _run(url, work, timeout)
     folder.mkdir(parents=True, exist_ok=True)

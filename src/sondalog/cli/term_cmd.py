@@ -8,9 +8,15 @@ typed; Ctrl-D quits.
 
 Scripted (stdin is not a terminal): each stdin line is sent as one command and its answer is
 printed once it is complete: a final ``OK`` (plain or decorated, ``00154,OK``) or ``ERROR``
-line, or a short silence after the last byte (``quiet`` answers). A command with no answer
-within ``--timeout`` seconds (a failed ``check``, a ``quiet`` write) is reported on stderr and
-makes the exit status 1. The command exits at the end of stdin. Example::
+line. The ``--timeout`` runs from the last byte received, so a long answer on a slow line is
+never cut; a line with a ``quiet`` header (§8.5.3), which has no final line, ends after a
+short silence. A command with no answer (a failed ``check``), or an answer that stops without
+its final line (the line died), is reported on stderr and makes the exit status 1; a line the
+logger cannot receive (a character outside ASCII) is not sent, is reported, and makes it 2.
+
+Both modes know local commands, lines starting with ``:`` that are not sent: ``:help``,
+``:log FILE``, ``:explain [LINE]``, ``:quit`` (see :data:`sondalog.client.explain.HELP`).
+Example::
 
     printf 'read i version\\n' | sondalog term tcp://127.0.0.1:10001
     printf 'read i version\\n' | sondalog term "serial:///tmp/ala1?baud=9600"
@@ -21,6 +27,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import sys
+from pathlib import Path
 from typing import TextIO
 
 import click
@@ -31,12 +38,80 @@ from sondalog.client import (
     Endpoint,
     parse_url,
 )
-from sondalog.client.ala1 import ConnectionLost
+from sondalog.client.ala1 import ConnectionLost, ends_final
+from sondalog.client.explain import HELP, explain, header_words, unsendable
 
 
 def _text(data: bytes) -> str:
     """Received bytes for a text terminal: CR LF becomes a newline."""
     return data.decode("latin-1").replace("\r\n", "\n")
+
+
+class _Local:
+    """What the local commands (``:help``, ``:log``, ``:explain``) need across lines."""
+
+    def __init__(self) -> None:
+        self.log: TextIO | None = None
+        self.refused: str | None = None
+        """The last line the logger refused, as it echoed it (§3.3.1)."""
+        self.quit = False
+        self._tail = ""
+
+    def sent(self, line: str) -> None:
+        if self.log is not None:
+            self.log.write(f"> {line}\n")
+            self.log.flush()
+
+    def received(self, text: str) -> None:
+        """Text from the logger: log it and remember the line an ``ERROR`` refers to."""
+        if self.log is not None:
+            self.log.write(text)
+            self.log.flush()
+        lines = (self._tail + text).split("\n")
+        self._tail = lines.pop()
+        for before, line in zip(["", *lines], lines, strict=False):
+            if line.rstrip("\r") == "ERROR" and before:
+                self.refused = before.rstrip("\r")
+
+    def run(self, line: str) -> tuple[str, int]:
+        """Run local command ``line`` (``:name args``): its output and an exit status."""
+        name, _, arg = line[1:].strip().partition(" ")
+        arg = arg.strip()
+        if name in ("help", "h", "?"):
+            return HELP, 0
+        if name in ("quit", "q", "exit"):
+            self.quit = True
+            return "", 0
+        if name == "log":
+            return self._set_log(arg)
+        if name == "explain":
+            target = arg or self.refused
+            if not target:
+                return (
+                    "nothing to explain yet: no line was refused (or give one: :explain LINE)\n",
+                    0,
+                )
+            return explain(target).render() + "\n", 0
+        return f"unknown local command {line!r}; :help lists them\n", 2
+
+    def _set_log(self, arg: str) -> tuple[str, int]:
+        if self.log is not None:
+            self.log.close()
+            self.log = None
+            if not arg:
+                return "log closed\n", 0
+        if not arg:
+            return "no log is open (:log FILE starts one)\n", 0
+        try:
+            self.log = Path(arg).expanduser().open("a", encoding="latin-1", newline="\n")
+        except OSError as exc:
+            return f"cannot log to {arg}: {exc.strerror or exc}\n", 2
+        return f"logging the session to {arg}\n", 0
+
+    def close(self) -> None:
+        if self.log is not None:
+            self.log.close()
+            self.log = None
 
 
 @click.command()
@@ -46,12 +121,16 @@ def _text(data: bytes) -> str:
     type=click.FloatRange(min=0, min_open=True),
     default=2.0,
     show_default=True,
-    help="Seconds to wait for each answer when reading commands from stdin.",
+    help="Seconds of silence after which an answer read from stdin counts as ended.",
 )
 def term(url: str, timeout: float) -> None:
     """Talk to an ALA1 logger at URL (tcp://HOST:PORT, serial:///DEVICE?baud=9600).
 
-    A serial URL also opens the pty of `logger serve --pty PATH`: serial://PATH?baud=9600.
+    A serial URL also opens the pty of "logger serve --pty PATH": serial://PATH?baud=9600.
+    Lines starting with ":" are local commands (:help, :log FILE, :explain, :quit).
+
+    Reading commands from stdin, exit status 1 means a command got no answer or an
+    incomplete one (reported on stderr), 2 that a line could not be sent.
     """
     try:
         endpoint = parse_url(url)
@@ -66,66 +145,121 @@ def term(url: str, timeout: float) -> None:
 
 async def _session(endpoint: Endpoint, timeout: float, stdin: TextIO) -> int:
     client = await Ala1Client.connect(endpoint, timeout)
-    if stdin.isatty():
-        return await _interactive(client)
-    return await _scripted(client, stdin, timeout)
+    local = _Local()
+    try:
+        if stdin.isatty():
+            return await _interactive(client, local)
+        return await _scripted(client, stdin, timeout, local)
+    finally:
+        local.close()
 
 
-async def _scripted(client: Ala1Client, stdin: TextIO, timeout: float) -> int:
+def _incomplete(line: str, answer: bytes, timeout: float) -> str | None:
+    """Why ``answer`` is not a whole answer to ``line``, or None when it is."""
+    if ends_final(answer):
+        return None
+    last = answer.rstrip(b"\r\n").rsplit(b"\n", 1)[-1]
+    headers = header_words(line)
+    if "quiet" in headers:
+        return None  # §8.5.3: no final line to wait for
+    if headers & {"startline", "endline"} and (b"OK" in last or b"ERROR" in last):
+        return None  # a decorated final line
+    lines = answer.count(b"\n")
+    return (
+        f"incomplete answer to {line!r}: {lines} lines ({len(answer)} bytes) and no final OK"
+        f" or ERROR; nothing more came for {timeout:g} s (--timeout)"
+    )
+
+
+async def _scripted(client: Ala1Client, stdin: TextIO, timeout: float, local: _Local) -> int:
     status = 0
     try:
         for raw_line in stdin:
             line = raw_line.rstrip("\r\n")
             if not line.strip(" "):
                 continue  # the logger ignores empty lines: nothing to wait for
-            try:
-                answer = await client.exchange_raw(line, timeout=timeout)
-            except ValueError as exc:
-                click.echo(f"not sent: {exc}", err=True)
-                status = 1
+            if line.startswith(":"):
+                output, code = local.run(line)
+                click.echo(output, nl=False)
+                status = max(status, code)
+                if local.quit:
+                    break
                 continue
+            problem = unsendable(line)
+            if problem is not None:
+                click.echo(f"not sent: {line!r}: {problem}", err=True)
+                status = 2
+                continue
+            quiet = "quiet" in header_words(line)
+            local.sent(line)
+            answer = await client.exchange_raw(
+                line, timeout=timeout, quiet_period=None if quiet else timeout
+            )
+            text = _text(answer)
+            click.echo(text, nl=False)
+            local.received(text)
             if not answer:
                 click.echo(f"no answer to {line!r}", err=True)
-                status = 1
-            click.echo(_text(answer), nl=False)
+                status = max(status, 1)
+            elif (why := _incomplete(line, answer, timeout)) is not None:
+                if not text.endswith("\n"):
+                    click.echo("")
+                click.echo(why, err=True)
+                status = max(status, 1)
     except ConnectionLost as exc:
         click.echo(f"connection lost: {exc}", err=True)
-        status = 1
+        status = max(status, 1)
     finally:
         await client.close()
     return status
 
 
-async def _interactive(client: Ala1Client) -> int:
+async def _interactive(client: Ala1Client, local: _Local) -> int:
     from prompt_toolkit import PromptSession
     from prompt_toolkit.history import InMemoryHistory
     from prompt_toolkit.patch_stdout import patch_stdout
 
     session: PromptSession[str] = PromptSession(history=InMemoryHistory())
     closed = asyncio.Event()
+    hinted: list[bool] = []  # the :explain hint is shown once a session
 
     async def show_incoming() -> None:
         try:
             while True:
                 data = await client.receive_raw(3600.0)
                 if data:
-                    print(_text(data), end="", flush=True)
+                    text = _text(data)
+                    refused = local.refused
+                    local.received(text)
+                    print(text, end="", flush=True)
+                    if local.refused != refused and not hinted:
+                        print("(:explain tells which part the logger refused)", flush=True)
+                        hinted.append(True)
         except ClientError:
             print("connection closed by the logger", flush=True)
             closed.set()
 
+    print("connected; :help lists the local commands, Ctrl-D quits", flush=True)
     with patch_stdout():
         reader = asyncio.create_task(show_incoming())
         try:
-            while not closed.is_set():
+            while not closed.is_set() and not local.quit:
                 try:
                     line = await session.prompt_async("ala1> ")
                 except KeyboardInterrupt:
                     continue
                 except EOFError:
                     break
+                if line.startswith(":"):
+                    print(local.run(line)[0], end="", flush=True)
+                    continue
+                problem = unsendable(line)
+                if problem is not None:
+                    print(f"not sent: {problem}", flush=True)
+                    continue
                 if not closed.is_set():
-                    await client.send_raw(line.encode("latin-1", "replace") + b"\r")
+                    local.sent(line)
+                    await client.send_raw(line.encode("ascii") + b"\r")
         finally:
             reader.cancel()
             with contextlib.suppress(asyncio.CancelledError):

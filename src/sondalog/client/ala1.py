@@ -23,7 +23,8 @@ Header options the client can add and check (§8):
 
 Without ``quiet``, nothing at all within ``timeout`` raises :class:`NoAnswer`; some bytes but
 no final line raises :class:`IncompleteAnswer` (e.g. a ``quiet`` or ``startline``/``endline``
-header written by hand in the command text, which the client does not interpret).
+header written by hand in the command text, which the client does not interpret). The timeout
+runs from the last byte received: an answer still arriving on a slow line is never finished.
 
 Limitation: a data line that reads exactly like the final line (``read text/OK/``) ends the
 answer early; its rest is discarded before the next command is sent.
@@ -236,6 +237,15 @@ def parse_answer(request: Request, raw_lines: Sequence[bytes]) -> Response | Non
     return Response(sent, tuple(data), Status.OK, raw, echo, crc)
 
 
+def ends_final(answer: bytes) -> bool:
+    """Does ``answer`` end with a line that looks final: ``OK``, ``ERROR`` or a decorated
+    ``...,OK`` (``sum``, ``number``; §3.3.1, §8.4.2)?"""
+    if not answer.endswith(b"\n"):
+        return False
+    final = answer.rstrip(b"\r\n").rsplit(b"\n", 1)[-1].rstrip(b"\r")
+    return final in (b"OK", b"ERROR") or final.endswith(b",OK")
+
+
 class _Stream(asyncio.Protocol):
     """Received bytes, split into lines on demand."""
 
@@ -347,7 +357,8 @@ class Ala1Client:
         self, stream: _Stream, request: Request, timeout: float | None
     ) -> Response:
         loop = asyncio.get_running_loop()
-        deadline = loop.time() + (self.timeout if timeout is None else timeout)
+        wait = self.timeout if timeout is None else timeout
+        deadline = loop.time() + wait
         lines: list[bytes] = []
         while True:
             line = stream.take_line()
@@ -364,6 +375,7 @@ class Ala1Client:
                 remaining = min(remaining, self.quiet_period)
             if stream.closed or remaining <= 0 or not await stream.wait(remaining):
                 break
+            deadline = loop.time() + wait  # an answer still arriving is not finished
         raw = b"".join(lines) + bytes(stream.buffer)
         stream.buffer.clear()
         if request.quiet:
@@ -390,13 +402,16 @@ class Ala1Client:
         For terminals: the answer ends at a line that looks final (``OK``, a decorated
         ``...,OK`` or ``ERROR``), or once bytes have arrived and then ``quiet_period`` seconds
         pass in silence (``quiet``, or decorations this heuristic does not see). Returns b""
-        when nothing arrives within ``timeout``.
+        when nothing arrives within ``timeout``. Both periods run from the last byte
+        received: an answer still arriving on a slow line is never cut (issue 16); the
+        caller tells a silent end from a final line with :func:`ends_final`.
         """
         stream = self._require_stream()
         if any(c in text for c in "\r\n"):
             raise ValueError("a command line may not contain CR or LF")
         loop = asyncio.get_running_loop()
-        deadline = loop.time() + (self.timeout if timeout is None else timeout)
+        wait = self.timeout if timeout is None else timeout
+        deadline = loop.time() + wait
         period = self.quiet_period if quiet_period is None else quiet_period
         async with self._lock:
             stream.buffer.clear()
@@ -407,8 +422,7 @@ class Ala1Client:
                 line = stream.take_line()
                 if line is not None:
                     received += line
-                    final = line.rstrip(b"\r\n")
-                    if final in (b"OK", b"ERROR") or final.endswith(b",OK"):
+                    if ends_final(line):
                         return bytes(received)
                     continue
                 remaining = deadline - loop.time()
@@ -420,6 +434,7 @@ class Ala1Client:
                     if not received and stream.closed:
                         raise ConnectionLost("connection closed")
                     return bytes(received)
+                deadline = loop.time() + wait  # the timeout runs from the last byte
 
     async def send_raw(self, data: bytes) -> None:
         """Send bytes as they are (terminal use: partial lines, ESC, ...)."""

@@ -52,6 +52,18 @@ class UnexpectedReply(BusError):
     """A reply came but is not one the command can give."""
 
 
+class ForeignPeer(BusError):
+    """The peer answers with bytes that are not HCTMPS1 frames (an ALA1 logger, a modem)."""
+
+    def __init__(self, message: str, heard: bytes) -> None:
+        super().__init__(message)
+        self.heard = heard
+
+
+#: ``progress(round, max_rounds, found)`` after each ``HELLO`` broadcast of :meth:`scan`.
+ScanProgress = Callable[[int, int, dict[str, str]], None]
+
+
 class BusUrlError(ValueError):
     """A bus URL cannot be understood."""
 
@@ -166,6 +178,14 @@ def _id_list(text: str) -> list[str]:
     return [] if text == "<EMPTY>" else text.split(",")
 
 
+def _foreign_text(line: bytes) -> bool:
+    return (
+        len(line) >= 4
+        and all(0x20 <= byte < 0x7F for byte in line)
+        and not any(sep in line for sep in (b":", b",", b"|"))
+    )
+
+
 class BusMaster:
     """The host's side of the bus protocol (hctmps1.md §2, §4)."""
 
@@ -193,6 +213,9 @@ class BusMaster:
         self._reader: asyncio.Task[None] | None = None
         self._lock = asyncio.Lock()
         self.closed = False
+        #: The last bytes received (for telling a foreign peer), and frames from others.
+        self.heard = bytearray()
+        self.frames_from_others = 0
 
     @classmethod
     async def open(
@@ -237,7 +260,9 @@ class BusMaster:
 
     async def _read_loop(self) -> None:
         while data := await self.link.receive():
+            self.heard = (self.heard + data)[-256:]
             for frame in self._decoder.feed(data):
+                self.frames_from_others += frame.src != self.host_id
                 self._frames.put_nowait(frame)
         self.closed = True
         self._frames.put_nowait(None)
@@ -318,23 +343,50 @@ class BusMaster:
 
     # -- discovery and polling ---------------------------------------------------------------
 
-    async def scan(self, *, max_rounds: int = 30, window: float | None = None) -> dict[str, str]:
+    async def scan(
+        self,
+        *,
+        max_rounds: int = 30,
+        window: float | None = None,
+        progress: ScanProgress | None = None,
+    ) -> dict[str, str]:
         """Every module on the bus: ``{id: HELLO text}``.
 
         Broadcasts ``HELLO`` round after round until a round brings no new module and no
-        garbled bytes (a collision or noise may have hidden one), or ``max_rounds``.
+        garbled bytes (a collision or noise may have hidden one), or ``max_rounds``. Raises
+        :class:`ForeignPeer` after the first round when the peer answered only with text
+        lines that are no frames (``ERROR`` from an ALA1 logger).
         """
         found: dict[str, str] = {}
-        for _ in range(max_rounds):
+        for number in range(1, max_rounds + 1):
             garbage = self.garbage
             new = False
             for frame in await self.broadcast("HELLO", window):
                 if frame.src not in found:
                     found[frame.src] = frame.body[len("RHELLO.") :]
                     new = True
+            if progress is not None:
+                progress(number, max_rounds, dict(found))
+            if number == 1 and self.frames_from_others == 0 and self.garbage:
+                self._refuse_foreign()
             if not new and self.garbage == garbage:
                 break
         return dict(sorted(found.items()))
+
+    def _refuse_foreign(self) -> None:
+        """Raise :class:`ForeignPeer` if what was heard holds a text line that no HCTMPS1
+        frame can become: printable ASCII, at least 4 characters, with none of the frame's
+        separators ``:`` ``,`` ``|`` (noise or a collision rarely removes all four of a
+        frame's, and rarely leaves 4 printable characters; an ALA1 ``ERROR`` is such a line).
+        """
+        heard = bytes(self.heard)
+        lines = [line.strip() for line in heard.replace(b"\r", b"\n").split(b"\n")]
+        if any(_foreign_text(line) for line in lines):
+            raise ForeignPeer(
+                f"the peer answers, but not with HCTMPS1 frames (:DST,SRC,BODY|CRC): it sent"
+                f" {heard[-80:]!r}",
+                heard,
+            )
 
     async def reply(self, module: str) -> DataFrame | None:
         """``REPLY``: one queued data frame of ``module``, or None for ``NODATA`` (§4)."""

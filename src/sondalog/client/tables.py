@@ -4,10 +4,17 @@
 most 10 characters, sizes against the memory partition), builds the list and data files,
 uploads both by XMODEM and reads them back to verify. ``check`` tells, for each channel of a
 logger, whether the tables it names are there and usable, and if not, why.
+
+Progress: ``progress(phase, done, total)`` (total 0 when unknown) for every phase of the
+work: ``upload list``, ``upload data``, ``check list``, ``check data`` for a push;
+``download list``, ``download data`` for a pull (the data's size is known from the list).
+Each phase reports ``done = 0`` first and ``done = total`` last; ``done`` counts bytes the
+other side has taken (acknowledged or verified blocks, see :mod:`sondalog.client.transfer`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +30,16 @@ from sondalog.protocol.tables import (
 )
 
 MAX_NAME = 10
+#: ``progress(phase, done, total)``, see the module docstring.
+PhaseProgress = Callable[[str, int, int], None]
+
+
+def _phase(progress: PhaseProgress | None, name: str, total: int) -> Progress | None:
+    """Announce phase ``name`` and return the byte-level callback of its transfer."""
+    if progress is None:
+        return None
+    progress(name, 0, total)
+    return lambda done, known: progress(name, done, known or total)
 
 
 class TableProblem(ValueError):
@@ -93,30 +110,54 @@ def check_fits(tables: dict[str, bytes], part: Partition) -> tuple[bytes, bytes]
 
 
 async def push(
-    client: Ala1Client, tables: dict[str, bytes], progress: Progress | None = None
+    client: Ala1Client, tables: dict[str, bytes], progress: PhaseProgress | None = None
 ) -> tuple[bytes, bytes]:
     """Upload ``tables`` (already checked by :func:`read_folder`) and verify them."""
     listing, data = check_fits(tables, await partition(client))
-    await upload(client, "write special file list xmodem", listing, progress)
-    await upload(client, "write special file data xmodem", data, progress)
-    got_list, got_data = await pull_files(client)
+    for area, body in (("list", listing), ("data", data)):
+        bar = _phase(progress, f"upload {area}", len(body))
+        await upload(client, f"write special file {area} xmodem", body, bar)
+        if progress is not None:
+            progress(f"upload {area}", len(body), len(body))
+    got_list, got_data = await pull_files(client, progress, expect=(listing, data))
     if got_list != listing or got_data != data:
         raise TransferFailed("the tables read back differ from the ones sent")
     return listing, data
 
 
-async def pull_files(client: Ala1Client, progress: Progress | None = None) -> tuple[bytes, bytes]:
-    """The list and data areas, padding removed using the list's lengths (§10.4)."""
-    listing = (await download(client, "read special file list xmodem", progress)).rstrip(b"\x1a")
-    data = await download(client, "read special file data xmodem", progress)
+async def pull_files(
+    client: Ala1Client,
+    progress: PhaseProgress | None = None,
+    *,
+    expect: tuple[bytes, bytes] | None = None,
+) -> tuple[bytes, bytes]:
+    """The list and data areas, padding removed using the list's lengths (§10.4).
+
+    ``expect``: the files just sent (a push's read-back check: phases ``check ...``).
+    """
+    verb = "download" if expect is None else "check"
+    known = None if expect is None else len(expect[0])
+    bar = _phase(progress, f"{verb} list", known or 0)
+    raw = await download(client, "read special file list xmodem", bar, expected=known)
+    listing = raw.rstrip(b"\x1a")
+    if progress is not None:
+        progress(f"{verb} list", len(listing), len(listing))
     try:
-        total = sum(length for _, length in parse_list(listing))
+        total: int | None = sum(length for _, length in parse_list(listing))
     except TableError:
-        return listing, data.rstrip(b"\x1a")
-    return listing, data[:total] if total <= len(data) else data.rstrip(b"\x1a")
+        total = None
+    bar = _phase(progress, f"{verb} data", total or 0)
+    data = await download(client, "read special file data xmodem", bar, expected=total)
+    if total is None or total > len(data):
+        data = data.rstrip(b"\x1a")
+    else:
+        data = data[:total]
+    if progress is not None:
+        progress(f"{verb} data", len(data), len(data))
+    return listing, data
 
 
-async def pull(client: Ala1Client, progress: Progress | None = None) -> dict[str, bytes]:
+async def pull(client: Ala1Client, progress: PhaseProgress | None = None) -> dict[str, bytes]:
     listing, data = await pull_files(client, progress)
     return split_tables(listing, data)
 

@@ -3,6 +3,10 @@
 The command goes out as a line; then the pure XMODEM peer (:mod:`sondalog.protocol.xmodem`) runs on
 the same connection with the event loop's clock; then the logger's final answer (``OK`` or
 the error response) is read.
+
+Progress (``progress(done, total)``, total 0 when unknown) counts bytes the other side has
+taken: blocks the logger acknowledged when sending, complete blocks received when receiving;
+never bytes merely queued for the line.
 """
 
 from __future__ import annotations
@@ -31,12 +35,23 @@ async def upload(
 
 
 async def download(
-    client: Ala1Client, command: str, progress: Progress | None = None, max_size: int | None = None
+    client: Ala1Client,
+    command: str,
+    progress: Progress | None = None,
+    max_size: int | None = None,
+    expected: int | None = None,
 ) -> bytes:
     """Run ``command`` (``read special ... xmodem``) and receive the area by XMODEM; the
-    result keeps the 0x1A padding (cut it with the lengths in the table list, §10.4)."""
+    result keeps the 0x1A padding (cut it with the lengths in the table list, §10.4).
+    ``expected``: the size the caller knows the content has (the total for ``progress``)."""
     receiver = XmodemReceiver(max_size=max_size)
-    leftover = await _run(client, command, receiver, progress, lambda: (receiver.received, 0))
+
+    def state() -> tuple[int, int]:
+        if expected is None:
+            return receiver.received, 0
+        return min(receiver.received, expected), expected
+
+    leftover = await _run(client, command, receiver, progress, state)
     await _final(client, command, leftover, receiver.ok, receiver.error)
     return receiver.data
 

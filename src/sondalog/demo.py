@@ -17,8 +17,8 @@ from datetime import datetime
 from pathlib import Path
 
 from sondalog.app.logger import Logger, start_logger
-from sondalog.io.address import format_address, parse_listen
 from sondalog.client import Ala1Client, Request, Response
+from sondalog.io.address import format_address, parse_listen
 from sondalog.io.clock import RealClock
 from sondalog.io.tcp import DEFAULT_PORT
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from ala1_served import ServedLogger
 
-from sondalog.ala1.virtual import VirtualLogger
-from sondalog.client.explain import HELP, explain
+from sondalog.app.explain import HELP, explain
+from sondalog.app.virtual import VirtualLogger
 
 TERM = [sys.executable, "-m", "sondalog", "term"]
 

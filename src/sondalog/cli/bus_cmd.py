@@ -32,10 +32,10 @@ from sondalog.client.bus import (
     NoReply,
     parse_bus_url,
 )
+from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
 from sondalog.io.clock import make_clock
 from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id
 from sondalog.sitefile import SiteError
-from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)

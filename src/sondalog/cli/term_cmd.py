@@ -15,7 +15,7 @@ its final line (the line died), is reported on stderr and makes the exit status 
 logger cannot receive (a character outside ASCII) is not sent, is reported, and makes it 2.
 
 Both modes know local commands, lines starting with ``:`` that are not sent: ``:help``,
-``:log FILE``, ``:explain [LINE]``, ``:quit`` (see :data:`sondalog.client.explain.HELP`).
+``:log FILE``, ``:explain [LINE]``, ``:quit`` (see :data:`sondalog.app.explain.HELP`).
 Example::
 
     printf 'read i version\\n' | sondalog term tcp://127.0.0.1:10001
@@ -32,6 +32,7 @@ from typing import TextIO
 
 import click
 
+from sondalog.app.explain import HELP, explain, header_words, unsendable
 from sondalog.client import (
     Ala1Client,
     ClientError,
@@ -39,7 +40,6 @@ from sondalog.client import (
     parse_url,
 )
 from sondalog.client.ala1 import ConnectionLost, ends_final
-from sondalog.client.explain import HELP, explain, header_words, unsendable
 
 
 def _text(data: bytes) -> str:

@@ -2,7 +2,7 @@
 
 The error response (§3.3.1) says only that a line was refused. :func:`explain` walks the
 line with the logger's own tokenizer and parameter tree (:mod:`sondalog.ala1.tokens`,
-:mod:`sondalog.ala1.params`, :mod:`sondalog.ala1.commands`, used read-only as a library),
+:mod:`sondalog.ala1.params`, :mod:`sondalog.ala1.headers`, used read-only as a library),
 the way the interpreter does (header §8.2, switch and body §5, chaining §7), and reports the
 first token it rejects and what the grammar expected there::
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 import unicodedata
 from dataclasses import dataclass
 
-from sondalog.ala1.commands import Headers
+from sondalog.ala1.headers import HEADER_WORDS, Headers
 from sondalog.ala1.model import Version
 from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
 from sondalog.ala1.tokens import Cursor, ParseError
@@ -35,25 +35,9 @@ from sondalog.ala1.values import (
     TextRow,
     ValueType,
 )
-from sondalog.ala1.virtual import VirtualLogger
+from sondalog.app.virtual import VirtualLogger
 from sondalog.client.ala1 import MAX_LINE, edited
 
-#: Header keywords of §8.2 (spec notes §3), each at most once, before ``read``/``write``.
-HEADER_WORDS = (
-    "check",
-    "crcsum",
-    "sum",
-    "pause",
-    "comspeed",
-    "quiet",
-    "startline",
-    "endline",
-    "iname",
-    "counter",
-    "number",
-    "date",
-    "iaddress",
-)
 _HEADER_HINTS = {
     "check": "check N: N is the sum of the byte values after N (`check 890 read date`, §8.3.1)",
     "pause": "pause N: seconds below 3600 (`pause 10 read channel value`, §8.5.1)",

@@ -7,7 +7,8 @@ import asyncio
 import pytest
 from bus_helpers import START, make_module, ramp, run_virtual, start_bus
 
-from sondalog.client.bus import BusMaster, NoReply
+from sondalog.client.bus import BusMaster
+from sondalog.client.bus_errors import NoReply
 from sondalog.hctmps1 import encode_frame
 from sondalog.io.clock import SteppedClock
 from sondalog.io.host import DeviceHost

@@ -36,7 +36,7 @@ from sondalog.ala1.values import (
     ValueType,
 )
 from sondalog.app.virtual import VirtualLogger
-from sondalog.client.ala1 import MAX_LINE, edited
+from sondalog.client.ala1_codec import MAX_LINE, edited
 
 _HEADER_HINTS = {
     "check": "check N: N is the sum of the byte values after N (`check 890 read date`, §8.3.1)",

@@ -22,16 +22,9 @@ import click
 
 from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
-from sondalog.client.bus import (
-    DEFAULT_HOST_ID,
-    BusError,
-    BusMaster,
-    BusUrlError,
-    DataFrame,
-    ForeignPeer,
-    NoReply,
-    parse_bus_url,
-)
+from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster, DataFrame
+from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
+from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
 from sondalog.io.clock import make_clock
 from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id

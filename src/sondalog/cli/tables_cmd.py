@@ -22,7 +22,8 @@ from rich.progress import (
     TransferSpeedColumn,
 )
 
-from sondalog.client.ala1 import Ala1Client, ClientError
+from sondalog.client.ala1 import Ala1Client
+from sondalog.client.ala1_codec import ClientError
 from sondalog.client.tables import TableProblem, explain, pull, push, read_folder
 
 T = TypeVar("T")

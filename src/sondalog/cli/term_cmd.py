@@ -39,7 +39,7 @@ from sondalog.client import (
     Endpoint,
     parse_url,
 )
-from sondalog.client.ala1 import ConnectionLost, ends_final
+from sondalog.client.ala1_codec import ConnectionLost, ends_final
 
 
 def _text(data: bytes) -> str:

@@ -9,10 +9,9 @@
   XMODEM transfers with a logger (§6.16, §10).
 """
 
-from sondalog.client.ala1 import (
-    Ala1Client,
+from sondalog.client.ala1 import Ala1Client, Client
+from sondalog.client.ala1_codec import (
     ChecksumError,
-    Client,
     ClientError,
     CommandFailed,
     ConnectionLost,
@@ -25,16 +24,9 @@ from sondalog.client.ala1 import (
     SumMismatch,
     with_check,
 )
-from sondalog.client.bus import (
-    BlockingBusMaster,
-    BusLink,
-    BusMaster,
-    BusUrlError,
-    DataFrame,
-    NoReply,
-    UnexpectedReply,
-    parse_bus_url,
-)
+from sondalog.client.bus import BlockingBusMaster, BusMaster, DataFrame
+from sondalog.client.bus_errors import NoReply, UnexpectedReply
+from sondalog.client.bus_links import BusLink, BusUrlError, parse_bus_url
 from sondalog.client.endpoints import Endpoint, SerialEndpoint, TcpEndpoint, parse_url
 
 __all__ = [

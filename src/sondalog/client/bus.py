@@ -18,9 +18,16 @@ import logging
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterable
 from dataclasses import dataclass
-from typing import Protocol, TypeVar
-from urllib.parse import parse_qs, urlsplit
+from typing import TypeVar
 
+from sondalog.client.bus_commands import BusCommands
+from sondalog.client.bus_errors import ForeignPeer, NoReply
+from sondalog.client.bus_links import (
+    BusLink,
+    BusUrl,
+    open_link,
+    parse_bus_url,
+)
 from sondalog.protocol.hctmps1_frames import (
     BROADCAST,
     Frame,
@@ -32,128 +39,15 @@ from sondalog.protocol.hctmps1_frames import (
 
 log = logging.getLogger(__name__)
 
+#: ``progress(round, max_rounds, found)`` after each ``HELLO`` broadcast of :meth:`scan`.
+ScanProgress = Callable[[int, int, dict[str, str]], None]
+
 T = TypeVar("T")
 
 DEFAULT_HOST_ID = "PC"
 DEFAULT_BAUD = 9600
 #: Longest frame the master expects, for timeouts (a full LISTSUP reply is about 110 bytes).
 LONGEST_FRAME = 128
-
-
-class BusError(Exception):
-    """Base of the bus master's errors."""
-
-
-class NoReply(BusError):
-    """No valid reply came within the timeout, after every retry."""
-
-
-class UnexpectedReply(BusError):
-    """A reply came but is not one the command can give."""
-
-
-class ForeignPeer(BusError):
-    """The peer answers with bytes that are not HCTMPS1 frames (an ALA1 logger, a modem)."""
-
-    def __init__(self, message: str, heard: bytes) -> None:
-        super().__init__(message)
-        self.heard = heard
-
-
-#: ``progress(round, max_rounds, found)`` after each ``HELLO`` broadcast of :meth:`scan`.
-ScanProgress = Callable[[int, int, dict[str, str]], None]
-
-
-class BusUrlError(ValueError):
-    """A bus URL cannot be understood."""
-
-
-@dataclass(frozen=True, slots=True)
-class BusUrl:
-    """Where the bus is: ``tcp`` (host, port) or ``serial`` (device, baud)."""
-
-    scheme: str
-    host: str = ""
-    port: int = 0
-    device: str = ""
-    baud: int = DEFAULT_BAUD
-
-
-def parse_bus_url(url: str) -> BusUrl:
-    """``tcp://HOST:PORT`` or ``serial:///dev/ttyX[?baud=N]``."""
-    parts = urlsplit(url)
-    if parts.scheme == "tcp":
-        try:
-            port = parts.port
-        except ValueError as exc:
-            raise BusUrlError(f"{url}: bad port ({exc})") from None
-        if not parts.hostname or port is None:
-            raise BusUrlError(f"{url}: expected tcp://HOST:PORT")
-        return BusUrl("tcp", host=parts.hostname, port=port)
-    if parts.scheme == "serial":
-        if parts.netloc or not parts.path.startswith("/"):
-            raise BusUrlError(f"{url}: expected serial:///path/to/device[?baud=N]")
-        query = parse_qs(parts.query, strict_parsing=False)
-        unknown = set(query) - {"baud"}
-        if unknown:
-            raise BusUrlError(f"{url}: unknown option {sorted(unknown)[0]!r} (known: baud)")
-        baud = DEFAULT_BAUD
-        if "baud" in query:
-            text = query["baud"][-1]
-            if not text.isdigit() or int(text) <= 0:
-                raise BusUrlError(f"{url}: baud must be a positive integer, not {text!r}")
-            baud = int(text)
-        return BusUrl("serial", device=parts.path, baud=baud)
-    raise BusUrlError(f"{url}: unknown URL form (use tcp://HOST:PORT or serial:///dev/X?baud=N)")
-
-
-class BusLink(Protocol):
-    """A byte pipe to the bus."""
-
-    async def send(self, data: bytes) -> None: ...
-
-    async def receive(self) -> bytes:
-        """Received bytes; ``b""`` once the link is closed."""
-        ...
-
-    async def close(self) -> None: ...
-
-
-class StreamLink:
-    """A link over asyncio streams (TCP or serial)."""
-
-    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        self._reader = reader
-        self._writer = writer
-
-    async def send(self, data: bytes) -> None:
-        self._writer.write(data)
-        await self._writer.drain()
-
-    async def receive(self) -> bytes:
-        try:
-            return await self._reader.read(4096)
-        except (ConnectionError, OSError):
-            return b""
-
-    async def close(self) -> None:
-        self._writer.close()
-        with contextlib.suppress(ConnectionError, OSError):
-            await self._writer.wait_closed()
-
-
-async def open_link(url: str | BusUrl) -> StreamLink:
-    """Open the bus at ``url``."""
-    where = parse_bus_url(url) if isinstance(url, str) else url
-    if where.scheme == "tcp":
-        reader, writer = await asyncio.open_connection(where.host, where.port)
-    else:
-        import serial_asyncio_fast
-
-        reader, writer = await serial_asyncio_fast.open_serial_connection(
-            url=where.device, baudrate=where.baud
-        )
-    return StreamLink(reader, writer)
 
 
 @dataclass(frozen=True, slots=True)
@@ -166,18 +60,6 @@ class DataFrame:
     received: float
 
 
-def _status(text: str) -> bool:
-    if text == "<OK>":
-        return True
-    if text == "<FA>":
-        return False
-    raise UnexpectedReply(f"expected <OK> or <FA>, got {text!r}")
-
-
-def _id_list(text: str) -> list[str]:
-    return [] if text == "<EMPTY>" else text.split(",")
-
-
 def _foreign_text(line: bytes) -> bool:
     return (
         len(line) >= 4
@@ -186,7 +68,7 @@ def _foreign_text(line: bytes) -> bool:
     )
 
 
-class BusMaster:
+class BusMaster(BusCommands):
     """The host's side of the bus protocol (hctmps1.md §2, §4)."""
 
     def __init__(
@@ -443,91 +325,6 @@ class BusMaster:
                     yield data
             if not got:
                 await asyncio.sleep(idle)
-
-    # -- typed helpers, one per command of §4 ---------------------------------------------
-
-    async def hello(self, module: str) -> str:
-        return await self.command(module, "HELLO")
-
-    async def getver(self, module: str) -> str:
-        return await self.command(module, "GETVER")
-
-    async def connect(self, module: str, password: str) -> bool:
-        """Open ``<connect>``; False if the module stays silent (wrong password, lockout)."""
-        try:
-            return _status(await self.command(module, "CONNECT", password, retries=1))
-        except NoReply:
-            return False
-
-    async def disconnect(self, module: str) -> None:
-        _status(await self.command(module, "DISCONNECT"))
-
-    async def reinit(self, module: str) -> None:
-        _status(await self.command(module, "REINIT"))
-
-    async def resee(self, module: str) -> None:
-        _status(await self.command(module, "RESEE"))
-
-    async def saveee(self, module: str) -> None:
-        _status(await self.command(module, "SAVEEE"))
-
-    async def setmid(self, module: str, new_id: str) -> bool:
-        return _status(await self.command(module, "SETMID", new_id))
-
-    async def addsup(self, module: str, supervisor: str) -> bool:
-        return _status(await self.command(module, "ADDSUP", supervisor))
-
-    async def delsup(self, module: str, supervisor: str) -> bool:
-        return _status(await self.command(module, "DELSUP", supervisor))
-
-    async def listsup(self, module: str) -> list[str]:
-        return _id_list(await self.command(module, "LISTSUP"))
-
-    async def addp(self, module: str, symbol: str) -> bool:
-        return _status(await self.command(module, "ADDP", symbol))
-
-    async def delp(self, module: str, symbol: str) -> bool:
-        return _status(await self.command(module, "DELP", symbol))
-
-    async def listp(self, module: str) -> str | None:
-        text = await self.command(module, "LISTP")
-        return None if text == "<EMPTY>" else text
-
-    async def newpw(self, module: str, password: str) -> bool:
-        return _status(await self.command(module, "NEWPW", password))
-
-    async def pv_text(self, module: str) -> str:
-        """``PV`` as the module sends it (``21.44``)."""
-        return await self.command(module, "PV")
-
-    async def pv(self, module: str) -> float:
-        text = await self.pv_text(module)
-        try:
-            return float(text)
-        except ValueError:
-            raise UnexpectedReply(f"RPV.{text} is not a number") from None
-
-    async def csservon(self, module: str, target: str) -> bool:
-        return _status(await self.command(module, "CSSERVON", target))
-
-    async def csservoff(self, module: str, target: str) -> bool:
-        return _status(await self.command(module, "CSSERVOFF", target))
-
-    async def csservlist(self, module: str) -> list[str]:
-        return _id_list(await self.command(module, "CSSERVLIST"))
-
-    async def autoon(self, module: str) -> None:
-        _status(await self.command(module, "AUTOON"))
-
-    async def autooff(self, module: str) -> None:
-        _status(await self.command(module, "AUTOOFF"))
-
-    async def getmode(self, module: str) -> bool:
-        """True if autonomous mode is on (``MDISON``)."""
-        text = await self.command(module, "GETMODE")
-        if text not in ("MDISON", "MDISOF"):
-            raise UnexpectedReply(f"RGETMODE.{text}")
-        return text == "MDISON"
 
 
 class BlockingBusMaster:

@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from zoneinfo import ZoneInfo
 
-from sondalog.client.ala1 import (
-    Ala1Client,
+from sondalog.client.ala1 import Ala1Client
+from sondalog.client.ala1_codec import (
     ChecksumError,
     CommandFailed,
     IncompleteAnswer,

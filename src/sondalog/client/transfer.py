@@ -14,7 +14,8 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Callable
 
-from sondalog.client.ala1 import Ala1Client, ClientError
+from sondalog.client.ala1 import Ala1Client
+from sondalog.client.ala1_codec import ClientError
 from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
 
 Progress = Callable[[int, int], None]

@@ -43,7 +43,7 @@ from typing import Any
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
-from sondalog.client.bus import BusUrlError, parse_bus_url
+from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.sitefile import locate
 
 _TOP = {"sqlite", "buffer", "source", "postgres", "mqtt"}

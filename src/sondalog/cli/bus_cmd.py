@@ -14,7 +14,6 @@ import logging
 import signal
 import sys
 from collections.abc import Awaitable, Callable
-from datetime import datetime
 from pathlib import Path
 from typing import TypeVar
 
@@ -22,7 +21,14 @@ import click
 
 from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
-from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster, DataFrame
+from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster
+from sondalog.client.bus_actions import (
+    ConnectRefused,
+    ModuleSettings,
+    configure_module,
+    format_data,
+    watch_modules,
+)
 from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
@@ -349,35 +355,13 @@ def config(
 ) -> None:
     """Open <connect> on module ID, apply the settings, optionally SAVEEE, DISCONNECT."""
 
+    settings = ModuleSettings(add, delete, symbol, new_password, new_id, save)
+
     async def work(m: BusMaster) -> list[str]:
-        if not await m.connect(module_id, password):
-            raise click.ClickException(
-                f"{module_id}: CONNECT got no reply (wrong password, locked out or absent)"
-            )
-        lines = [f"CONNECT {module_id}: <OK>"]
-        target = module_id
-
-        def status(what: str, ok: bool) -> None:
-            lines.append(f"{what}: {'<OK>' if ok else '<FA>'}")
-
-        for supervisor in add:
-            status(f"ADDSUP {supervisor}", await m.addsup(target, supervisor))
-        for supervisor in delete:
-            status(f"DELSUP {supervisor}", await m.delsup(target, supervisor))
-        if symbol is not None:
-            status(f"ADDP {symbol}", await m.addp(target, symbol))
-        if new_password is not None:
-            status("NEWPW", await m.newpw(target, new_password))
-        if new_id is not None:
-            ok = await m.setmid(target, new_id)
-            status(f"SETMID {new_id}", ok)
-            target = new_id if ok else target
-        if save:
-            await m.saveee(target)
-            lines.append("SAVEEE: <OK>")
-        await m.disconnect(target)
-        lines.append(f"DISCONNECT {target}: <OK>")
-        return lines
+        try:
+            return await configure_module(m, module_id, password, settings)
+        except ConnectRefused as exc:
+            raise click.ClickException(str(exc)) from exc
 
     for line in _run_master(url, host_id, timeout, work):
         click.echo(line)
@@ -406,29 +390,17 @@ def watch(
         targets = list(modules) or list(await m.scan())
         if not targets:
             raise click.ClickException("no module answered")
-        for target in targets:
-            await m.csservon(target, host_id)
-            await m.autoon(target)
         click.echo(f"watching {', '.join(targets)}", err=True)
         seen = 0
+        stream = watch_modules(m, targets, host_id)
         try:
-            async for data in m.watch(targets):
-                click.echo(_format_data(data))
+            async for data in stream:
+                click.echo(format_data(data))
                 seen += 1
                 if count is not None and seen >= count:
                     break
         finally:
-            for target in targets:
-                try:
-                    await m.autooff(target)
-                    await m.csservoff(target, host_id)
-                except BusError:
-                    pass
+            await stream.aclose()
 
     with contextlib.suppress(KeyboardInterrupt):
         _run_master(url, host_id, timeout, work)
-
-
-def _format_data(data: DataFrame) -> str:
-    stamp = datetime.fromtimestamp(data.received).astimezone().isoformat(timespec="milliseconds")
-    return f"{stamp} {data.module} -> {data.addressee} {data.value}"

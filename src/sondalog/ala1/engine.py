@@ -66,8 +66,20 @@ class Engine:
     """One ALA1 module: its state and the lines attached to it."""
 
     def __init__(
-        self, identity: Identity, store: NvStore, now: float, hardware: Hardware | None = None
+        self,
+        identity: Identity,
+        store: NvStore,
+        now: float,
+        hardware: Hardware | None = None,
+        *,
+        line_time_scale: float = 1.0,
     ) -> None:
+        """``line_time_scale``: how many clock seconds pass in one second of line time.
+
+        With ``--speed S`` the clock runs S times faster than real time, but what happens on
+        a line (byte pacing, the entry timeout, XON/XOFF, ``pause``, XMODEM) follows real
+        time: line durations are S clock seconds long (docs/decisions.md "Time base")."""
+        self.scale = line_time_scale
         self.identity = identity
         self.state = ModuleState(identity, store, now, hardware)
         self.interpreter = Interpreter(self.state)
@@ -145,49 +157,45 @@ class Engine:
             if line.pending is not None:
                 deadlines.append(line.run_at)
             elif line.started is not None:
-                deadlines.append(line.started + ENTRY_TIMEOUT)
+                deadlines.append(line.started + ENTRY_TIMEOUT * self.scale)
             if line.transfer is not None:
                 transfer = line.transfer
-                due = (
-                    transfer.peer.next_deadline()
-                    if transfer.grace_until is None
-                    else transfer.grace_until
-                )
-                if due is not None:
-                    deadlines.append(due)
+                if transfer.grace_until is not None:
+                    deadlines.append(transfer.grace_until)
+                elif (due := transfer.peer.next_deadline()) is not None:
+                    deadlines.append(due * self.scale)
             paced = line.pacer.next_deadline()
             if paced is not None:
-                deadlines.append(paced)
+                deadlines.append(paced * self.scale)
         return min(deadlines, default=None)
 
     # -- internals ---------------------------------------------------------------------------
     def _drain(self, now: float) -> list[LineSend]:
         out = []
         for line_id, line in self._lines.items():
-            for data, baud in line.pacer.take(now):
+            for data, baud in line.pacer.take(now / self.scale):
                 out.append(LineSend(line_id, data, baud))
         return out
 
     def _send(self, line: _Line, data: bytes, now: float, baud: int | None = None) -> None:
-        line.pacer.push(data, baud or self.com_speed, now)
+        line.pacer.push(data, baud or self.com_speed, now / self.scale)
 
-    @staticmethod
-    def _flow_control(line: _Line, data: bytes, now: float) -> bytes:
+    def _flow_control(self, line: _Line, data: bytes, now: float) -> bytes:
         """§6.11.1: XON/XOFF steer the line's output; they are never command text."""
         if XON not in data and XOFF not in data:
             return data
         for byte in data:
             if byte == XOFF:
-                line.pacer.xoff(now)
+                line.pacer.xoff(now / self.scale)
             elif byte == XON:
-                line.pacer.xon(now)
+                line.pacer.xon(now / self.scale)
         return data.replace(bytes([XON]), b"").replace(bytes([XOFF]), b"")
 
     def _expire(self, line_id: int, line: _Line, now: float) -> None:
         transfer = line.transfer
         if transfer is not None:
             if transfer.grace_until is None:
-                self._send(line, transfer.peer.advance(now), now, transfer.speed)
+                self._send(line, transfer.peer.advance(now / self.scale), now, transfer.speed)
                 self._finish_transfer(line, now)
             elif now >= transfer.grace_until:
                 line.transfer = None
@@ -198,7 +206,7 @@ class Engine:
                 backlog, line.backlog = bytes(line.backlog), bytearray()
                 if backlog:
                     self._feed(line_id, line, backlog, now)
-        if line.started is not None and now - line.started >= ENTRY_TIMEOUT:
+        if line.started is not None and now - line.started >= ENTRY_TIMEOUT * self.scale:
             self._break(line, now)
 
     def _break(self, line: _Line, now: float) -> None:
@@ -284,7 +292,8 @@ class Engine:
         try:
             answer = self.interpreter.run_line(text, now, overflow=overflow, paused=paused)
         except NeedWait as wait:  # §8.5.1 pause, §6.5.13 sensors: the line runs again later
-            line.pending, line.run_at, line.speed = text, now + wait.seconds, speed
+            delay = wait.seconds * (self.scale if wait.line_time else 1.0)
+            line.pending, line.run_at, line.speed = text, now + delay, speed
             return
         except Exception:  # DESIGN.md point 6: never stop the device loop
             log.exception("internal error on line %r", text)
@@ -314,7 +323,7 @@ class Engine:
         else:
             peer = XmodemReceiver(max_size=request.max_size)
         line.transfer = _Transfer(text, request.area, peer, speed)
-        self._send(line, peer.start(now), now, speed)
+        self._send(line, peer.start(now / self.scale), now, speed)
 
     def _transfer_input(self, line: _Line, data: bytes, now: float) -> bytes:
         """Bytes of a running transfer go to XMODEM, not to the command parser; returns
@@ -323,11 +332,11 @@ class Engine:
         assert transfer is not None
         if transfer.grace_until is not None:
             if data and all(byte == EOT for byte in data):
-                self._send(line, transfer.peer.receive(data, now), now, transfer.speed)
+                self._send(line, transfer.peer.receive(data, now / self.scale), now, transfer.speed)
                 return b""
             line.transfer = None
             return data
-        self._send(line, transfer.peer.receive(data, now), now, transfer.speed)
+        self._send(line, transfer.peer.receive(data, now / self.scale), now, transfer.speed)
         self._finish_transfer(line, now)
         return b""
 
@@ -349,4 +358,5 @@ class Engine:
         else:
             error = self.interpreter.error_answer(transfer.command).data
             self._send(line, error, now, transfer.speed)
-        transfer.grace_until = now + TRANSFER_GRACE if isinstance(peer, XmodemReceiver) else now
+        grace = TRANSFER_GRACE * self.scale if isinstance(peer, XmodemReceiver) else 0.0
+        transfer.grace_until = now + grace

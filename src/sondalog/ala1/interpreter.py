@@ -68,7 +68,7 @@ class Interpreter:
         if failed:
             return self._error(line, headers)
         if headers.pause and not paused:
-            raise NeedWait(headers.pause)
+            raise NeedWait(headers.pause, line_time=True)
         txn = self.state.begin(host_now)
         try:
             if named is not None:

@@ -73,11 +73,13 @@ class NvStore(Protocol):
 
 
 class NeedWait(Exception):
-    """A measurement needs its switch advance or a DS18B20 conversion first (§6.5.13)."""
+    """The line must wait: a measurement needs its switch advance or a DS18B20 conversion
+    first (§6.5.13: module time), or a ``pause`` header asks for it (§8.5.1: line time)."""
 
-    def __init__(self, seconds: float) -> None:
+    def __init__(self, seconds: float, *, line_time: bool = False) -> None:
         super().__init__(seconds)
         self.seconds = seconds
+        self.line_time = line_time
 
 
 class ModuleState:

@@ -123,7 +123,7 @@ async def start_logger(
     store = SqliteNvStore(state_dir / DATABASE_FILE)
     logger: Logger | None = None
     try:
-        engine = Engine(identity, store, clock.now(), hardware)
+        engine = Engine(identity, store, clock.now(), hardware, line_time_scale=clock.speed)
         host = DeviceHost(engine, clock)
         logger = Logger(identity, store, host, [])
         logger.servers.append(await serve_tcp(host, *listen, paced=line_rate))

@@ -22,6 +22,14 @@ from typing import Protocol
 class Clock(Protocol):
     """What transports need from a clock."""
 
+    @property
+    def speed(self) -> float:
+        """How many clock seconds pass in one real second (``--speed``; 1 for the others).
+
+        Device work (sampling, the module clock) follows the clock; what happens on a line
+        (pacing, timeouts, XMODEM) follows real time, that is clock time divided by this."""
+        ...
+
     def now(self) -> float:
         """Current clock time in seconds."""
         ...
@@ -33,6 +41,8 @@ class Clock(Protocol):
 
 class RealClock:
     """Wall-clock time."""
+
+    speed = 1.0
 
     def now(self) -> float:
         return time.time()
@@ -65,6 +75,8 @@ class AcceleratedClock:
 class SteppedClock:
     """A clock for tests: it moves only when told to."""
 
+    speed = 1.0
+
     def __init__(self, start: float = 946684800.0) -> None:
         self._now = start
         self._changed = asyncio.Event() if _loop_running() else None
@@ -96,6 +108,8 @@ class LoopClock:
     monotonic clock; a test running a virtual-time event loop gets a bus that runs in virtual
     time, with the host's asyncio timeouts on the same time base.
     """
+
+    speed = 1.0
 
     def __init__(self, start: float | None = None) -> None:
         self._loop = asyncio.get_running_loop()

@@ -106,33 +106,31 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def _wait_listening(name: str, process: subprocess.Popen[bytes], log: Path) -> tuple[str, int]:
-    """Wait for ``listening on HOST:PORT`` in the log, then for an accepted connection."""
+def _wait_accepting(name: str, process: subprocess.Popen[bytes], port: int, log: Path) -> None:
+    """Wait until the server accepts a TCP connection on ``port`` (the log is not parsed)."""
     deadline = time.monotonic() + 20
     while time.monotonic() < deadline:
         if process.poll() is not None:
             sys.exit(f"{name} exited at start:\n{log.read_text(errors='replace')}")
-        for line in log.read_text(errors="replace").splitlines():
-            if line.startswith("listening on "):
-                host, _, port = line.removeprefix("listening on ").strip().rpartition(":")
-                try:
-                    socket.create_connection((host, int(port)), timeout=1).close()
-                except OSError:
-                    break
-                return host, int(port)
-        time.sleep(0.05)
+        try:
+            socket.create_connection((HOST, port), timeout=1).close()
+            return
+        except OSError:
+            time.sleep(0.02)
     process.kill()
     sys.exit(f"{name} did not accept connections within 20 s:\n{log.read_text(errors='replace')}")
 
 
 @contextmanager
-def running(name: str, argv: list[str], workdir: Path) -> Iterator[Server]:
+def running(name: str, argv: Callable[[int], list[str]], workdir: Path) -> Iterator[Server]:
+    """Run ``argv(port)`` with a free port, its output going to ``NAME.log``."""
     log = workdir / f"{name}.log"
+    port = free_port()
     with open(log, "wb") as out:
-        process = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT)
+        process = subprocess.Popen(argv(port), stdout=out, stderr=subprocess.STDOUT)
     try:
-        host, port = _wait_listening(name, process, log)
-        yield Server(name, process, host, port, loop=loop_of(process.pid))
+        _wait_accepting(name, process, port, log)
+        yield Server(name, process, HOST, port, loop=loop_of(process.pid))
     finally:
         process.terminate()
         try:
@@ -151,10 +149,18 @@ def loop_of(pid: int) -> str:
     return "uvloop" if "/uvloop/" in maps else "asyncio"
 
 
-def sondalog_argv(state: Path, uvloop: bool) -> list[str]:
+def sondalog_argv(state: Path, uvloop: bool) -> Callable[[int], list[str]]:
     head = [sys.executable, "-c", UVLOOP_LAUNCHER] if uvloop else [sys.executable, "-m", "sondalog"]
-    serve = ["logger", "serve", "--listen", f"{HOST}:0", "--state", str(state)]
-    return [*head, *serve, "--site", str(SITE)]
+
+    def argv(port: int) -> list[str]:
+        serve = ["logger", "serve", "--listen", f"{HOST}:{port}", "--state", str(state)]
+        return [*head, *serve, "--site", str(SITE)]
+
+    return argv
+
+
+def peer_argv(*args: str) -> Callable[[int], list[str]]:
+    return lambda port: [sys.executable, str(PEERS), *args, "--port", str(port)]
 
 
 class SetupError(Exception):
@@ -335,21 +341,26 @@ def print_table(
 
 def print_details(figures: dict[Key, Figures], settings: Settings) -> None:
     print(
-        "\nDetails (medians): closed loop req/s and the client process's CPU share (near 100 %"
-        f" the client is the limit); at {settings.rate:,.0f} req/s offered: achieved rate,"
-        " latency p50/p99, errors\n"
+        "\nDetails (medians): closed loop req/s and the CPU share of server and client (a"
+        " saturated server near 100 %; lower means other processes took the core, or the"
+        f" client is the limit); at {settings.rate:,.0f} req/s offered: achieved rate, latency"
+        " p50/p99; errors (error answers and dropped connections)\n"
     )
-    print("| server | request | closed req/s | client CPU | achieved | p50 ms | p99 ms | errors |")
-    print("|---|---|---|---|---|---|---|---|")
+    print(
+        "| server | request | closed req/s | server CPU | client CPU | achieved "
+        "| p50 ms | p99 ms | errors |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
     for (name, request), fig in figures.items():
         what = request.line.decode().strip() if request.kind == "line" else f"{request.count} reg"
         share = statistics.median(r.client_cpu / r.elapsed for r in fig.closed)
+        busy = statistics.median(r.server_cpu / r.elapsed for r in fig.closed)
         latencies = sorted(x for r in fig.fixed for x in r.latencies)
         p50 = latencies[len(latencies) // 2] * 1e3 if latencies else float("nan")
         p99 = latencies[int(len(latencies) * 0.99)] * 1e3 if latencies else float("nan")
         errors = sum(r.errors + r.dropped for r in fig.closed + fig.fixed)
         print(
-            f"| {name} | {what} | {rates(fig)[1]:,.0f} | {share:.0%} "
+            f"| {name} | {what} | {rates(fig)[1]:,.0f} | {busy:.0%} | {share:.0%} "
             f"| {reached(fig, settings):,.0f} | {p50:.2f} | {p99:.2f} | {errors} |"
         )
         if errors:
@@ -385,23 +396,23 @@ def main() -> None:
         f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}; "
         f"{settings.clients} clients, python {sys.version.split()[0]}"
     )
+    if os.getloadavg()[0] > 1.0:
+        print("NOTE: other processes are busy on this machine; expect noisy figures")
     with tempfile.TemporaryDirectory() as tmp, ExitStack() as stack:
         work = Path(tmp)
         servers: dict[str, Server] = {}
 
-        def start(name: str, argv: list[str]) -> Server:
+        def start(name: str, argv: Callable[[int], list[str]]) -> Server:
             server = stack.enter_context(running(name, argv, work))
             servers[name] = server
             return server
 
-        pm_port = free_port()
-        peers = [sys.executable, str(PEERS)]
         start("sondalog", sondalog_argv(work / "sondalog", uvloop=False))
-        start("pymodbus", [*peers, "pymodbus", "--port", str(pm_port)])
-        start("floor", [*peers, "floor"])
+        start("pymodbus", peer_argv("pymodbus"))
+        start("floor", peer_argv("floor"))
         if uvloop:
             start("sondalog+uvloop", sondalog_argv(work / "sondalog-uv", uvloop=True))
-            start("floor+uvloop", [*peers, "floor", "--uvloop"])
+            start("floor+uvloop", peer_argv("floor", "--uvloop"))
         sondalog_uvloop = uvloop
         for name in [name for name in servers if name.startswith("sondalog")]:
             try:

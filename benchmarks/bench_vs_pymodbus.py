@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import math
 import os
 import socket
 import statistics
@@ -38,7 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from loadgen import Job, Request, Result, client_process
+from loadgen import Job, Mode, Request, Result, client_process
 
 ROOT = Path(__file__).resolve().parent.parent
 SITE = ROOT / "examples" / "bench-site.toml"
@@ -248,13 +249,17 @@ def measure(
         print(f"run {index + 1}/{settings.runs} ...", flush=True)
         for key in pairs:
             server = servers[key[0]]
-            for mode, (window, warmup) in (("closed", settings.closed), ("fixed", settings.fixed)):
+            modes: tuple[tuple[Mode, tuple[float, float]], ...] = (
+                ("closed", settings.closed),
+                ("fixed", settings.fixed),
+            )
+            for mode, (window, warmup) in modes:
                 job = Job(
                     host=server.host,
                     port=server.port,
                     pid=server.pid,
                     request=key[1],
-                    mode=mode,  # type: ignore[arg-type]
+                    mode=mode,
                     seconds=window,
                     warmup=warmup,
                     clients=settings.clients,
@@ -281,7 +286,7 @@ def cpu(figures: Figures) -> tuple[float, float]:
     return best_median([r.us_per_request for r in figures.fixed], False)
 
 
-def reached(figures: Figures, settings: Settings) -> float:
+def reached(figures: Figures) -> float:
     """Median achieved rate at the fixed offered load."""
     return statistics.median(r.rate for r in figures.fixed)
 
@@ -291,14 +296,17 @@ def fmt(pair: tuple[float, float]) -> str:
 
 
 def fmt_ratio(a: tuple[float, float], b: tuple[float, float]) -> str:
-    return f"{a[0] / b[0]:.2f} / {a[1] / b[1]:.2f}"
+    def ratio(x: float, y: float) -> str:
+        return f"{x / y:.2f}" if y and math.isfinite(x) and math.isfinite(y) else "-"
+
+    return f"{ratio(a[0], b[0])} / {ratio(a[1], b[1])}"
 
 
 def cpu_cell(figures: Figures, settings: Settings) -> str:
     if not all(r.requests for r in figures.fixed):
         return "no answers"
     cell = fmt(cpu(figures))
-    achieved = reached(figures, settings)
+    achieved = reached(figures)
     if achieved < 0.97 * settings.rate:
         cell += f" (cannot reach {settings.rate:,.0f}: {achieved:,.0f} req/s)"
     return cell
@@ -361,7 +369,7 @@ def print_details(figures: dict[Key, Figures], settings: Settings) -> None:
         errors = sum(r.errors + r.dropped for r in fig.closed + fig.fixed)
         print(
             f"| {name} | {what} | {rates(fig)[1]:,.0f} | {busy:.0%} | {share:.0%} "
-            f"| {reached(fig, settings):,.0f} | {p50:.2f} | {p99:.2f} | {errors} |"
+            f"| {reached(fig):,.0f} | {p50:.2f} | {p99:.2f} | {errors} |"
         )
         if errors:
             print(f"WARNING: {name}: {errors} error answers or dropped connections ({what!r})")

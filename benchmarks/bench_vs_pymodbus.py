@@ -351,14 +351,14 @@ def print_details(figures: dict[Key, Figures], settings: Settings) -> None:
     print(
         "\nDetails (medians): closed loop req/s and the CPU share of server and client (a"
         " saturated server near 100 %; lower means other processes took the core, or the"
-        f" client is the limit); at {settings.rate:,.0f} req/s offered: achieved rate, latency"
-        " p50/p99; errors (error answers and dropped connections)\n"
+        f" client is the limit); at {settings.rate:,.0f} req/s offered: server CPU us/req,"
+        " achieved rate, latency p50/p99; errors (error answers and dropped connections)\n"
     )
     print(
-        "| server | request | closed req/s | server CPU | client CPU | achieved "
+        "| server | request | closed req/s | server CPU | client CPU | us/req | achieved "
         "| p50 ms | p99 ms | errors |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for (name, request), fig in figures.items():
         what = request.line.decode().strip() if request.kind == "line" else f"{request.count} reg"
         share = statistics.median(r.client_cpu / r.elapsed for r in fig.closed)
@@ -369,6 +369,7 @@ def print_details(figures: dict[Key, Figures], settings: Settings) -> None:
         errors = sum(r.errors + r.dropped for r in fig.closed + fig.fixed)
         print(
             f"| {name} | {what} | {rates(fig)[1]:,.0f} | {busy:.0%} | {share:.0%} "
+            f"| {cpu(fig)[1]:,.0f} "
             f"| {reached(fig):,.0f} | {p50:.2f} | {p99:.2f} | {errors} |"
         )
         if errors:

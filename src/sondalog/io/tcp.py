@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from typing import cast
 
 from sondalog.io.host import DeviceHost
 
@@ -34,12 +35,12 @@ class _LineProtocol(asyncio.Protocol):
         self._line: int | None = None
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self._transport = transport
-        transport.set_write_buffer_limits(high=HIGH_WATER)
-        self._line = self._host.attach(self._send, paced=self._paced, flow=transport)
+        # uvloop's transports are not asyncio.Transport subclasses: take the interface.
+        stream = self._transport = cast(asyncio.Transport, transport)
+        stream.set_write_buffer_limits(high=HIGH_WATER)
+        self._line = self._host.attach(self._send, paced=self._paced, flow=stream)
         self._connections.add(self)
-        log.info("line %d: connected from %s", self._line, transport.get_extra_info("peername"))
+        log.info("line %d: connected from %s", self._line, stream.get_extra_info("peername"))
 
     def data_received(self, data: bytes) -> None:
         if self._line is not None:

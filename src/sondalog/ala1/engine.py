@@ -60,6 +60,7 @@ class _Line:
     backlog: bytearray = field(default_factory=bytearray)  # received while a command waits
     blocks_messages: bool = False  # §6.14.9.2
     transfer: _Transfer | None = None
+    ident: int = 0  # the line id
 
 
 class Engine:
@@ -84,6 +85,9 @@ class Engine:
         self.state = ModuleState(identity, store, now, hardware)
         self.interpreter = Interpreter(self.state)
         self._lines: dict[int, _Line] = {}
+        #: Lines that may have output, a timer or a transfer (issue 11: idle lines cost no
+        #: work per command); a line joins on input or output, leaves once idle.
+        self._busy: dict[int, _Line] = {}
         self._next_id = 1
 
     # -- lines -----------------------------------------------------------------------------
@@ -94,12 +98,13 @@ class Engine:
         """
         line_id = self._next_id
         self._next_id += 1
-        self._lines[line_id] = _Line(Pacer(paced))
+        self._lines[line_id] = _Line(Pacer(paced), ident=line_id)
         return line_id
 
     def close_line(self, line_id: int) -> None:
         """The line is gone (disconnected): it no longer blocks messages (§6.14.9.2)."""
         self._lines.pop(line_id, None)
+        self._busy.pop(line_id, None)
 
     @property
     def messages_blocked(self) -> bool:
@@ -114,7 +119,7 @@ class Engine:
 
     @property
     def com_speed(self) -> int:
-        return int(self.state.get("com speed"))
+        return int(self.state.setting("com speed"))
 
     def line_speed(self) -> int:
         """§6.11.2: every line of the module runs at ``com speed``."""
@@ -129,6 +134,7 @@ class Engine:
     def receive(self, line_id: int, data: bytes, now: float) -> list[LineSend]:
         """Bytes received on a line at time ``now``; returns what to send now."""
         line = self._lines[line_id]
+        self._busy[line_id] = line
         self.state.run_sampling(now)
         self._expire(line_id, line, now)
         if line.transfer is not None:
@@ -145,7 +151,7 @@ class Engine:
     def advance(self, now: float) -> list[LineSend]:
         """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
         self.state.run_sampling(now)
-        for line_id, line in list(self._lines.items()):
+        for line_id, line in list(self._busy.items()):
             self._expire(line_id, line, now)
         return self._drain(now)
 
@@ -153,7 +159,16 @@ class Engine:
         """Clock time at which :meth:`advance` must be called next (None: only on input)."""
         sampling = self.state.next_event_host()
         deadlines = [] if sampling is None else [sampling]
-        for line in self._lines.values():
+        idle: list[int] = []
+        for line in self._busy.values():
+            if (
+                line.pending is None
+                and line.started is None
+                and line.transfer is None
+                and line.pacer.idle()
+            ):
+                idle.append(line.ident)
+                continue
             if line.pending is not None:
                 deadlines.append(line.run_at)
             elif line.started is not None:
@@ -167,17 +182,22 @@ class Engine:
             paced = line.pacer.next_deadline()
             if paced is not None:
                 deadlines.append(paced * self.scale)
+        for line_id in idle:
+            del self._busy[line_id]
         return min(deadlines, default=None)
 
     # -- internals ---------------------------------------------------------------------------
     def _drain(self, now: float) -> list[LineSend]:
         out = []
-        for line_id, line in self._lines.items():
+        for line_id, line in self._busy.items():
+            if line.pacer.idle():
+                continue
             for data, baud in line.pacer.take(now / self.scale):
                 out.append(LineSend(line_id, data, baud))
         return out
 
     def _send(self, line: _Line, data: bytes, now: float, baud: int | None = None) -> None:
+        self._busy[line.ident] = line
         line.pacer.push(data, baud or self.com_speed, now / self.scale)
 
     def _flow_control(self, line: _Line, data: bytes, now: float) -> bytes:

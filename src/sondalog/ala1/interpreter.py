@@ -9,15 +9,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sondalog.ala1.headers import HEADER_OPTIONS, MAX_LINE, Headers
+from sondalog.ala1.headers import HEADER_WORDS, MAX_LINE, Headers
 from sondalog.ala1.model import CommandError, Unavailable, View
 from sondalog.ala1.params import ROOT, IndexSpec, Node
-from sondalog.ala1.parser import SWITCHES, Command, parse_command, parse_switch
+from sondalog.ala1.parser import Command, parse_command, parse_switch
 from sondalog.ala1.special import TransferRequest, request
 from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
 from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
 from sondalog.protocol.cksum import cksum
+
+#: Keyword sets matched on every line (one-word keywords: :meth:`Cursor.choose_word`).
+_SWITCH_WORDS = ("read", "write")
+_HEADER_OR_SWITCH = (*HEADER_WORDS, *_SWITCH_WORDS)
 
 
 @dataclass
@@ -62,7 +66,7 @@ class Interpreter:
             failed = True
         if not headers.check_ok():
             return None
-        own = self.state.get("i address")
+        own = self.state.setting("i address")
         if own and named is None and headers.iaddress != own:
             return None
         if failed:
@@ -100,16 +104,16 @@ class Interpreter:
             cur.skip_spaces()
             start = cur.pos
             name = self._named_at(cur.rest())
-            word = cur.choose_keyword([*HEADER_OPTIONS, *SWITCHES])
+            word = cur.choose_word(_HEADER_OR_SWITCH)
             if name is not None and (word is None or len(name) > cur.pos - start):
                 cur.pos = start
                 return name
             if word is None:
                 raise ParseError("header keyword, read, write or a command name expected")
-            if word[0] in ("read", "write"):
+            if word in ("read", "write"):
                 cur.pos = start
                 return None
-            headers.parse_one(word[0], cur)
+            headers.parse_one(word, cur)
 
     def _named_at(self, text: str) -> str | None:
         """The longest command name that prefixes ``text`` (case-sensitive, §6.8.2)."""
@@ -164,8 +168,8 @@ class Interpreter:
 
     @staticmethod
     def _switch(cur: Cursor) -> str | None:
-        word = cur.choose_keyword(SWITCHES)
-        return None if word is None else ("R" if word[0] == "read" else "W")
+        word = cur.choose_word(_SWITCH_WORDS)
+        return None if word is None else ("R" if word == "read" else "W")
 
     def _command(
         self, cur: Cursor, switch: str, node: Node, view: View
@@ -174,11 +178,11 @@ class Interpreter:
         indices: Indices = {}
         channels: list[int] | None = None
         while True:
-            word = cur.choose_keyword([(w,) for w in node.words])
+            word = cur.choose_word(node.words)
             if word is not None:
                 if node is ROOT:
-                    first_word = word[0]
-                node = node.words[word[0]]
+                    first_word = word
+                node = node.words[word]
                 continue
             if node.index is not None:
                 spec, child = node.index

@@ -57,6 +57,10 @@ class Pacer:
             self._free_at = max(self._free_at, now)
         self._queue.append((data, baud))
 
+    def idle(self) -> bool:
+        """Nothing queued and not stopped by XOFF: no output and no deadline."""
+        return not self._queue and self._stopped_at is None
+
     def pending(self) -> int:
         return sum(len(d) for d, _ in self._queue) - self._offset
 

@@ -12,6 +12,7 @@ from sondalog.ala1.tokens import Cursor, ParseError
 from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
 
 SWITCHES = [("read",), ("write",)]
+_SWITCH_WORDS = ("read", "write")
 
 
 @dataclass
@@ -28,8 +29,8 @@ class Command:
 
 
 def parse_switch(cur: Cursor) -> str | None:
-    word = cur.choose_keyword(SWITCHES)
-    return None if word is None else ("R" if word[0] == "read" else "W")
+    word = cur.choose_word(_SWITCH_WORDS)
+    return None if word is None else ("R" if word == "read" else "W")
 
 
 def parse_command(cur: Cursor, switch: str, node: Node, view: View) -> tuple[Command, str | None]:
@@ -37,11 +38,11 @@ def parse_command(cur: Cursor, switch: str, node: Node, view: View) -> tuple[Com
     indices: Indices = {}
     channels: list[int] | None = None
     while True:
-        word = cur.choose_keyword([(w,) for w in node.words])
+        word = cur.choose_word(node.words)
         if word is not None:
             if node is ROOT:
-                first_word = word[0]
-            node = node.words[word[0]]
+                first_word = word
+            node = node.words[word]
             continue
         if node.index is not None:
             spec, child = node.index

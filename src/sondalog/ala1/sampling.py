@@ -72,15 +72,15 @@ class Outputs:
 
     def update(self, now: float, offset: float) -> None:
         """Recompute every output's state at module time ``now`` and tell the hardware."""
+        usable, applied = self.usable, self.applied
         for output in range(1, 8):
-            manual = self.manual.get(output, "NO")
-            if not self.usable.get(output, False):
+            if not usable.get(output, False):
                 on = False
-            elif manual != "NO":
+            elif (manual := self.manual.get(output, "NO")) != "NO":
                 on = manual == "1"
             else:
                 on = bool(self.scheduled.get(output)) or self.held_until.get(output, -1) > now
-            if on != self.applied.get(output, False):
+            if on != applied.get(output, False):
                 self.applied[output] = on
                 if on:
                     self.on_since[output] = now

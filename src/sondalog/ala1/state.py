@@ -16,7 +16,7 @@ from datetime import datetime
 from typing import Protocol
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
-from sondalog.ala1.measure import Input, Measurer, channel_config, format_value
+from sondalog.ala1.measure import ChannelConfig, Input, Measurer, channel_config, format_value
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.moduleclock import (
     CLOCK_MAX,
@@ -119,6 +119,12 @@ class ModuleState:
         self.sampler = Sampler(self.measurer, self.outputs)
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
+        #: Typed channel configurations of the committed parameters (speed, issue 11):
+        #: emptied whenever a parameter commits (:meth:`Transaction.commit`, ``_repair``).
+        self._configs: dict[int, ChannelConfig] = {}
+        self._settings: dict[str, str] = {}  # committed values read per command, likewise
+        #: The sampler's next event (module time) while nothing changed it; None: unknown.
+        self._event: tuple[float | None] | None = None
         self._prepared: float | None = None
         self._repair(host_now)
         self.configure(host_now)
@@ -141,6 +147,8 @@ class ModuleState:
             self.store.commit(bad, None, seen=host_now)
             for key in bad:
                 del self.values[key]
+            self._configs.clear()
+            self._settings.clear()
 
     # -- time --------------------------------------------------------------------------------
     def module_seconds(self, host_now: float) -> float:
@@ -167,6 +175,20 @@ class ModuleState:
             self._names = names
         return self._names
 
+    def setting(self, key: str) -> str:
+        """A committed value read on every command (``com speed``), cached until a commit."""
+        value = self._settings.get(key)
+        if value is None:
+            value = self._settings[key] = self.get(key)
+        return value
+
+    def channel_config(self, ch: int) -> ChannelConfig:
+        """Channel ``ch``'s typed configuration from the committed parameters (cached)."""
+        cfg = self._configs.get(ch)
+        if cfg is None:
+            cfg = self._configs[ch] = channel_config(Transaction(self, 0.0), ch)
+        return cfg
+
     def begin(self, host_now: float) -> Transaction:
         return Transaction(self, host_now)
 
@@ -174,7 +196,9 @@ class ModuleState:
         """Apply committed parameters to sampling, outputs, the record and the tables."""
         view = Transaction(self, host_now)
         max_number = int(view.get("channel max number"))
-        configs = [channel_config(view, ch) for ch in range(1, max_number + 1)]
+        self._configs.clear()
+        self._event = None
+        configs = [self.channel_config(ch) for ch in range(1, max_number + 1)]
         now = math.floor(self.module_seconds(host_now))
         self.sampler.configure(configs, max_number, now)
         self.measurer.timing = int(view.get("global timing"))
@@ -204,12 +228,14 @@ class ModuleState:
     def run_sampling(self, host_now: float) -> None:
         """Take every scheduled sample up to ``host_now`` and store the rows (§6.5.14)."""
         target = self.module_seconds(host_now)
-        event = self.sampler.next_event()
+        event = self._next_event()
         if event is None or event > target:
-            self.outputs.update(target, self.clock_offset)
+            # Nothing due: the outputs are as the last event, measurement or configuration
+            # left them (each of those updates them and forgets the cached event).
             return
         mark = self.record.mark()
         try:
+            self._event = None
             self.sampler.run_until(target, self.clock_offset, self._store_row)
             changes = self.record.take_changes()
             if changes is not None:
@@ -230,8 +256,19 @@ class ModuleState:
         stamp = format_stamp(from_seconds(module_second))
         self.record.append(stamp, "1," + ",".join(fields))
 
+    def _next_event(self) -> float | None:
+        """The sampler's next event, computed once per change (issue 11)."""
+        cached = self._event
+        if cached is None:
+            cached = self._event = (self.sampler.next_event(),)
+        return cached[0]
+
+    def forget_schedule(self) -> None:
+        """Sampling, switch or hold state changed outside the sampler's own run."""
+        self._event = None
+
     def next_event_host(self) -> float | None:
-        event = self.sampler.next_event()
+        event = self._next_event()
         if event is None or event > CLOCK_MAX:
             return None  # past the end of the calendar nothing is ever due
         return event - self.clock_offset
@@ -300,7 +337,7 @@ class Transaction:
     def measure(self, ch: int) -> str:
         """§6.5.8: measure channel ``ch`` now; a switched or DS18B20 input may need time."""
         state = self.state
-        cfg = channel_config(self, ch)
+        cfg = state.channel_config(ch) if self._pristine() else channel_config(self, ch)
         now = state.module_seconds(self.host_now)
         outputs = state.outputs
         hold = period_seconds(self.get("command channel switch hold")) or 0
@@ -318,6 +355,7 @@ class Transaction:
                 conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
                 ready_at = max(ready_at, conversion)
         outputs.update(now, state.clock_offset)
+        state.forget_schedule()  # a hold may have started
         if ready_at > now:
             self.waits.append(ready_at - now)
             return ""
@@ -331,6 +369,10 @@ class Transaction:
             state.sampler.faults.report(ch, exc, self.host_now)
             value = None
         return format_value(cfg, value)
+
+    def _pristine(self) -> bool:
+        """True while this line has staged no parameter change (the committed view holds)."""
+        return not self.changes and not self.reset_all
 
     def _detect(self, inp: Input, ch: int) -> None:
         """§6.4.3.1.1: a detection address learns the sensor's ROM code."""
@@ -376,9 +418,12 @@ class Transaction:
                 state.values[key] = value
         if changes:
             state._names = None  # command names may have changed
+            state._configs.clear()  # and so may channel configurations
+            state._settings.clear()
         if offset is not None:
             state.clock_offset = offset
         if any(key.startswith(_LIVE_PREFIXES) for key in changes) or self.reset_all:
             state.configure(self.host_now)
         if offset is not None:
             state.sampler.reschedule(math.floor(state.module_seconds(self.host_now)))
+            state.forget_schedule()

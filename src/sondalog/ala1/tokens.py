@@ -9,7 +9,7 @@ and leaves the cursor where it was.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from decimal import ROUND_HALF_UP, Context, Decimal
@@ -65,11 +65,23 @@ _WIDE = Context(prec=40)
 class Cursor:
     """A position in a command line (§4)."""
 
-    __slots__ = ("pos", "text")
+    __slots__ = ("_lower", "pos", "text")
 
     def __init__(self, text: str, pos: int = 0) -> None:
         self.text = text
         self.pos = pos
+        self._lower: str | None = None
+
+    def _lowered(self) -> str | None:
+        """The line in lower case, once per cursor; None when lowering changes its length
+        (a character such as U+0130 lowers to two): then keywords compare slice by slice."""
+        lower = self._lower
+        if lower is None:
+            lower = self.text.lower()
+            if len(lower) != len(self.text):
+                return None
+            self._lower = lower
+        return lower
 
     # -- basics -----------------------------------------------------------------------------
     def skip_spaces(self) -> None:
@@ -97,15 +109,37 @@ class Cursor:
     def try_keyword(self, words: tuple[str, ...]) -> bool:
         """Consume the keyword words (any case, spaces optional before each word, §4.2.2)."""
         text, pos = self.text, self.pos
+        lower = self._lowered()
         for word in words:
             while pos < len(text) and text[pos] == " ":
                 pos += 1
             end = pos + len(word)
-            if text[pos:end].lower() != word:
+            if lower is not None:
+                if not lower.startswith(word, pos):
+                    return False
+            elif text[pos:end].lower() != word:
                 return False
             pos = end
         self.pos = pos
         return True
+
+    def choose_word(self, words: Iterable[str]) -> str | None:
+        """Consume the longest single keyword of ``words`` that matches here (any case,
+        spaces before it optional), or return None: :meth:`choose_keyword` for one-word
+        options, through an index by first letter built once per collection (the trie's
+        word dictionaries live as long as the program)."""
+        text, pos, end = self.text, self.pos, len(self.text)
+        while pos < end and text[pos] == " ":
+            pos += 1
+        lower = self._lowered()
+        if pos >= end or lower is None:
+            found = self.choose_keyword([(w,) for w in words])
+            return None if found is None else found[0]
+        for word in _word_index(words).get(lower[pos], ()):
+            if lower.startswith(word, pos):
+                self.pos = pos + len(word)
+                return word
+        return None
 
     def choose_keyword(self, options: Sequence[tuple[str, ...]]) -> tuple[str, ...] | None:
         """Consume the longest of ``options`` that matches here, or return None."""
@@ -276,6 +310,25 @@ class Cursor:
                 self.pos = start
                 raise ParseError("a run of channel numbers must have an even length")
         return channels or None
+
+
+#: Word collections seen by :meth:`Cursor.choose_word`, by identity: (the collection, its
+#: words by first letter, longest first). The collection is held so its id stays unique.
+_WORD_INDEXES: dict[int, tuple[object, dict[str, tuple[str, ...]]]] = {}
+
+
+def _word_index(words: Iterable[str]) -> dict[str, tuple[str, ...]]:
+    entry = _WORD_INDEXES.get(id(words))
+    if entry is not None and entry[0] is words:
+        return entry[1]
+    by_first: dict[str, list[str]] = {}
+    for word in sorted(words, key=len, reverse=True):
+        if word:
+            by_first.setdefault(word[0], []).append(word)
+    index = {first: tuple(group) for first, group in by_first.items()}
+    if len(_WORD_INDEXES) < 4096:  # the trie has a few hundred nodes; never grow unbounded
+        _WORD_INDEXES[id(words)] = (words, index)
+    return index
 
 
 def parse_stamp(digits: str) -> datetime:

@@ -15,7 +15,10 @@ MARKUP = re.compile(r"`|\*\*|:(?:class|func|mod|meth|data):|^\s*\.\. ", re.MULTI
 
 def _commands(group: click.Group, path: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
     found = [path]
-    for name, command in sorted(group.commands.items()):
+    ctx = click.Context(group)
+    for name in group.list_commands(ctx):  # lazy groups import their commands here
+        command = group.get_command(ctx, name)
+        assert command is not None, name
         if isinstance(command, click.Group):
             found += _commands(command, (*path, name))
         else:

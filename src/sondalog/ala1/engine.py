@@ -11,6 +11,7 @@ one at a time, and each answer goes to the line that sent the command.
 from __future__ import annotations
 
 import logging
+import re
 from dataclasses import dataclass, field
 
 from sondalog.ala1 import special
@@ -30,6 +31,9 @@ CR, LF, BS, DEL, ESC, XON, XOFF = 0x0D, 0x0A, 0x08, 0x7F, 0x1B, 0x11, 0x13
 ENTRY_TIMEOUT = 60.0
 BREAK = b"BREAK\r\n"
 EOT = 0x04
+_PLUS = ord("+")
+#: Bytes the byte-by-byte loop of ``Engine._feed`` treats specially inside a line.
+_EDITING = re.compile(rb"[\r\n\x08\x7f\x1b]")
 #: After a completed upload, repeated EOTs (the host lost our last ACK) are still answered.
 TRANSFER_GRACE = 2.0
 
@@ -244,6 +248,19 @@ class Engine:
 
     def _feed(self, line_id: int, line: _Line, data: bytes, now: float) -> None:
         data = self._flow_control(line, data, now)
+        if (
+            data
+            and data[-1] == CR
+            and not line.buffer
+            and line.started is None
+            and data[0] != _PLUS
+            and len(data) <= MAX_LINE + 1
+            and not _EDITING.search(data, 0, len(data) - 1)
+        ):
+            # Fast path (issue 11): one whole command line without echo or editing keys,
+            # as a host sends it; the same as the loop below, byte for byte.
+            self._complete(line_id, line, data[:-1].decode("latin-1"), False, now)
+            return
         echo = bytearray()
         for index, byte in enumerate(data):
             if byte in (CR, LF):

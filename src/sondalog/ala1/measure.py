@@ -211,4 +211,19 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
     """A value in the channel's format; no value is an empty field (spec notes §7)."""
     if value is None or not math.isfinite(value) or abs(value) >= _VALUE_LIMIT:
         return ""  # beyond what a reading can show: no valid value (docs/decisions.md)
-    return cfg.format.render(Decimal(repr(value)))
+    fmt = cfg.format
+    key = (value, fmt.width, fmt.decimals)
+    text = _RENDERED.get(key)
+    if text is None:
+        text = fmt.render(Decimal(repr(value)))
+        if len(_RENDERED) >= _RENDERED_MAX:
+            _RENDERED.clear()
+        _RENDERED[key] = text
+    return text
+
+
+#: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the
+#: decimal rendering costs more than the rest of a measurement. -0.0 and 0.0 share an
+#: entry: both render without a sign.
+_RENDERED: dict[tuple[float, int, int], str] = {}
+_RENDERED_MAX = 8192

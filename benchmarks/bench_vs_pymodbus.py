@@ -398,6 +398,9 @@ def parse() -> tuple[Settings, bool]:
 
 def main() -> None:
     settings, want_uvloop = parse()
+    # sondalog's serving commands pick uvloop when it is installed (sondalog[fast]); the
+    # standard rows are measured on the standard loop, the --uvloop rows through the launcher.
+    os.environ["SONDALOG_LOOP"] = "asyncio"
     uvloop = want_uvloop and importlib.util.find_spec("uvloop") is not None
     if want_uvloop and not uvloop:
         print("uvloop is not installed (pip install 'sondalog[fast]'): asyncio only")

@@ -32,6 +32,7 @@ from sondalog.client.bus_actions import (
 from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
+from sondalog.io import loop as serve_loop
 from sondalog.io.clock import make_clock
 from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id
 from sondalog.sitefile import SiteError
@@ -140,7 +141,7 @@ def serve(
         seed=seed,
     )
     try:
-        asyncio.run(_serve(start))
+        serve_loop.run(_serve(start))
     except (SiteError, FileExistsError) as exc:
         raise _Refused(str(exc)) from exc
     except OSError as exc:

@@ -22,6 +22,7 @@ from sondalog.app.logger import (
     valid_serial_number,
 )
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
+from sondalog.io import loop as serve_loop
 from sondalog.io.clock import Clock, make_clock
 from sondalog.io.tcp import DEFAULT_PORT
 from sondalog.sitefile import SiteError
@@ -129,7 +130,7 @@ def serve(
     except SiteError as exc:
         raise _Refused(str(exc)) from exc
     try:
-        asyncio.run(
+        serve_loop.run(
             _serve(
                 state_dir,
                 listen,

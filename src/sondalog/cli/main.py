@@ -140,4 +140,10 @@ cli.lazy = COMMANDS
 
 
 def main() -> None:
-    cli()
+    from sondalog.io.loop import LoopChoiceError
+
+    try:
+        cli()
+    except LoopChoiceError as exc:
+        click.echo(f"Error: {exc}", err=True)
+        raise SystemExit(2) from None

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from sondalog.cli.common import Refused, allow_remote_option, is_loopback
+from sondalog.io import loop as serve_loop
 
 
 @click.command()
@@ -53,7 +54,7 @@ def serve(ctx: click.Context, site: Path, state_dir: Path | None, speed: float) 
                 )
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
-        asyncio.run(_serve(plan, state, speed))
+        serve_loop.run(_serve(plan, state, speed))
     except SiteError as exc:
         raise Refused(str(exc)) from exc
     except OSError as exc:

@@ -38,6 +38,8 @@ class ChannelRun:
     event_active: bool = False  # type 6: the last sample met the condition
     sample: float | None = None  # last scheduled sample (unformatted)
     sampled: bool = False
+    #: ``Measurer.compiled(cfg)``, made at the first sample after a configuration.
+    measure: Callable[[float, float], float | None] | None = None
 
     def schedule(self, now: int) -> None:
         cfg = self.cfg
@@ -143,7 +145,7 @@ class Sampler:
                 run = fresh
                 run.schedule(now)
             else:
-                run.cfg = cfg
+                run.cfg, run.measure = cfg, None
             self.runs[cfg.number] = run
         for output in list(self.outputs.scheduled):
             self.outputs.scheduled[output].clear()
@@ -223,13 +225,33 @@ class Sampler:
             outputs.update(float(t), offset)
         host_t = t - offset
         fields: dict[int, str] = {}
+        self.measurer.begin_instant()
+        try:
+            self._measure_due(t, host_t, due, fields)
+        finally:
+            self.measurer.end_instant()
+        if switched:
+            for run in due:
+                for output, _ in run.cfg.switches:
+                    outputs.scheduled.get(output, set()).discard(run.cfg.number)
+            outputs.update(float(t), offset)
+        if fields:
+            sink(t, [fields.get(n, "") for n in range(1, self.max_number + 1)])
+
+    def _measure_due(
+        self, t: int, host_t: float, due: list[ChannelRun], fields: dict[int, str]
+    ) -> None:
+        """Measure the channels due at ``t``; the values written go to ``fields``."""
         for run in due:
             cfg = run.cfg
             window = float(t - run.last_t) if run.last_t is not None else float(cfg.period)
             run.last_t = t
             run.next_t = t + cfg.period
             try:
-                value = self.measurer.value(cfg, host_t, window)
+                measure = run.measure
+                if measure is None:
+                    measure = run.measure = self.measurer.compiled(cfg)
+                value = measure(host_t, window)
                 run.sample, run.sampled = value, True
                 written = self._decide(run, value)
             except Exception as exc:
@@ -243,13 +265,6 @@ class Sampler:
                     written = None
             if written is not None and cfg.number <= self.max_number:
                 fields[cfg.number] = written
-        if switched:
-            for run in due:
-                for output, _ in run.cfg.switches:
-                    outputs.scheduled.get(output, set()).discard(run.cfg.number)
-            outputs.update(float(t), offset)
-        if fields:
-            sink(t, [fields.get(n, "") for n in range(1, self.max_number + 1)])
 
     @staticmethod
     def _decide(run: ChannelRun, value: float | None) -> str | None:

@@ -17,7 +17,7 @@ from typing import Protocol
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
 from sondalog.ala1.measure import ChannelConfig, Input, Measurer, channel_config, format_value
-from sondalog.ala1.model import CommandError, Identity
+from sondalog.ala1.model import CommandError, Identity, Version
 from sondalog.ala1.moduleclock import (
     CLOCK_MAX,
     CLOCK_MIN,
@@ -72,6 +72,18 @@ class NvStore(Protocol):
         ...
 
 
+_KEYS: dict[Version, dict[str, KeyInfo]] = {}
+
+
+def _keys_of(version: Version) -> dict[str, KeyInfo]:
+    """The storage keys of a protocol version, built once and shared by every module of
+    that version (read only; ~300 KiB each: a fleet of loggers shares one, issue 11)."""
+    keys = _KEYS.get(version)
+    if keys is None:
+        keys = _KEYS[version] = storage_keys(version)
+    return keys
+
+
 class NeedWait(Exception):
     """The line must wait: a measurement needs its switch advance or a DS18B20 conversion
     first (§6.5.13: module time), or a ``pause`` header asks for it (§8.5.1: line time)."""
@@ -95,7 +107,7 @@ class ModuleState:
         self.identity = identity
         self.store = store
         self.hardware: Hardware = hardware or NoHardware()
-        self.keys: dict[str, KeyInfo] = storage_keys(identity.version)
+        self.keys: dict[str, KeyInfo] = _keys_of(identity.version)
         values, offset = store.load()
         self.values = {k: v for k, v in values.items() if k in self.keys}
         if offset is None:
@@ -239,7 +251,11 @@ class ModuleState:
             self.sampler.run_until(target, self.clock_offset, self._store_row)
             changes = self.record.take_changes()
             if changes is not None:
-                self.store.commit({}, None, changes, seen=host_now)
+                scheduled = getattr(self.store, "commit_scheduled", None)
+                if scheduled is not None:  # a fleet's store: group commit (issue 11)
+                    scheduled(changes, host_now)
+                else:
+                    self.store.commit({}, None, changes, seen=host_now)
         except BaseException:
             self.record.rollback(mark)
             raise

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
+from sondalog.app.fleet import RunningFleet, start_fleet
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
@@ -36,8 +37,11 @@ class RunningSite:
     bus: BusServer | None = None
     mail: MailHub | None = None
     acquisition: asyncio.Task[None] | None = None
+    fleet: RunningFleet | None = None
 
     async def close(self) -> None:
+        if self.fleet is not None:
+            await self.fleet.close()
         if self.acquisition is not None:
             self.acquisition.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -86,6 +90,8 @@ async def start_site(
             )
             for pty in running.logger.ptys:
                 announce(f"logger pty {pty.link} -> {pty.device}")
+        if plan.fleet:
+            running.fleet = await start_fleet(plan.fleet, state, clock, plan.path, announce)
         if plan.bus is not None:
             bus = plan.bus
             running.bus = await start_bus_server(

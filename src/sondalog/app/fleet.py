@@ -1,0 +1,184 @@
+"""A fleet of virtual loggers served by one process (issue 11; docs/scaling.md).
+
+The wiring of :mod:`sondalog.app.fleet_site`'s ``[[loggers]]``: every logger has its own
+engine, :class:`~sondalog.io.host.DeviceHost` and TCP server on the one event loop, its own
+state directory ``STATE/loggers/SERIAL`` (``identity.json``: protocol and serial number, as
+for ``sondalog logger serve``) and its memory in the fleet's shared database
+``STATE/loggers/fleet.sqlite`` (:mod:`sondalog.backends.store.fleet`): the rows all loggers
+sample in one event-loop turn are committed in one transaction, a command line's changes at
+once, before its ``OK``. Log lines written while a logger works start with
+``[logger SERIAL]``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextvars
+import logging
+import resource
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sondalog.ala1 import Engine, Identity, Version
+from sondalog.ala1.hardware import Hardware
+from sondalog.app.fleet_site import FleetLogger
+from sondalog.app.logger import IdentityConflict, load_identity
+from sondalog.backends.sim.logger import default_hardware, parse_logger_site
+from sondalog.backends.store.fleet import FleetDatabase
+from sondalog.io.address import format_address
+from sondalog.io.clock import Clock
+from sondalog.io.host import DeviceHost
+from sondalog.io.tcp import TcpServer, serve_tcp
+from sondalog.protocol.device import Effect, Event
+from sondalog.sitefile import SiteError, read_site_file
+
+DATABASE_FILE = "fleet.sqlite"
+
+#: The serial number of the logger whose engine is running (for log lines).
+_CURRENT: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "sondalog_logger", default=None
+)
+
+
+class NamedDevice:
+    """A logger's engine, with its serial number on every log line it writes."""
+
+    def __init__(self, engine: Engine, name: str) -> None:
+        self.engine = engine
+        self.name = name
+
+    def open_line(self, *, paced: bool = False) -> int:
+        return self.engine.open_line(paced=paced)
+
+    def close_line(self, line: int) -> None:
+        token = _CURRENT.set(self.name)
+        try:
+            self.engine.close_line(line)
+        finally:
+            _CURRENT.reset(token)
+
+    def line_speed(self) -> int:
+        return self.engine.line_speed()
+
+    def receive(self, line: int, data: bytes, now: float) -> Sequence[Effect]:
+        token = _CURRENT.set(self.name)
+        try:
+            return self.engine.receive(line, data, now)
+        finally:
+            _CURRENT.reset(token)
+
+    def handle(self, event: Event, now: float) -> Sequence[Effect]:
+        token = _CURRENT.set(self.name)
+        try:
+            return self.engine.handle(event, now)
+        finally:
+            _CURRENT.reset(token)
+
+    def advance(self, now: float) -> Sequence[Effect]:
+        token = _CURRENT.set(self.name)
+        try:
+            return self.engine.advance(now)
+        finally:
+            _CURRENT.reset(token)
+
+    def next_deadline(self) -> float | None:
+        return self.engine.next_deadline()
+
+
+def install_log_names() -> None:
+    """Prefix the log lines written inside a fleet logger's engine with its name."""
+    previous = logging.getLogRecordFactory()
+    if getattr(previous, "sondalog_fleet", False):
+        return
+
+    def factory(*args: Any, **kwargs: Any) -> logging.LogRecord:
+        record = previous(*args, **kwargs)
+        name = _CURRENT.get()
+        if name is not None:  # serial numbers hold no '%' (fleet_site._SERIAL)
+            record.msg = f"[logger {name}] {record.msg}"
+        return record
+
+    factory.sondalog_fleet = True  # type: ignore[attr-defined]
+    logging.setLogRecordFactory(factory)
+
+
+@dataclass
+class FleetMember:
+    serial_number: str
+    engine: Engine
+    host: DeviceHost
+    server: TcpServer
+
+
+@dataclass
+class RunningFleet:
+    """The loggers of a fleet and their shared database; :meth:`close` stops them all."""
+
+    database: FleetDatabase
+    members: list[FleetMember] = field(default_factory=list)
+
+    async def close(self) -> None:
+        for member in self.members:
+            await member.server.close()
+            await member.host.stop()
+        self.database.close()
+
+
+def _raise_open_files(needed: int) -> None:
+    """Each logger holds a listening socket: lift the soft limit on open files if needed."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft != resource.RLIM_INFINITY and soft < needed:
+        target = needed if hard == resource.RLIM_INFINITY else min(needed, hard)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
+
+
+async def start_fleet(
+    loggers: Sequence[FleetLogger],
+    state: Path,
+    clock: Clock,
+    path: Path | None,
+    announce: Callable[[str], None] = lambda line: None,
+) -> RunningFleet:
+    """Start every logger of ``loggers`` (state under ``state``); raises SiteError/OSError."""
+    install_log_names()
+    _raise_open_files(len(loggers) + 1024)
+    root = state / "loggers"
+    root.mkdir(parents=True, exist_ok=True)
+    loop = asyncio.get_running_loop()
+
+    def schedule(callback: Callable[[], None]) -> None:
+        loop.call_soon(callback)
+
+    fleet = RunningFleet(FleetDatabase(root / DATABASE_FILE, schedule))
+    worlds: dict[Path, tuple[dict[str, object], str]] = {}
+    try:
+        for plan in loggers:
+            now = clock.now()
+            hardware: Hardware
+            if plan.world is not None:
+                if plan.world not in worlds:
+                    worlds[plan.world] = read_site_file(plan.world)  # read once per file
+                data, text = worlds[plan.world]
+                hardware = parse_logger_site(data, now, plan.world, text)  # its own world
+            else:
+                hardware = default_hardware(now)
+            version = Version(plan.protocol) if plan.protocol else None
+            try:
+                identity: Identity = load_identity(
+                    root / plan.serial_number, version, plan.serial_number
+                )
+            except IdentityConflict as exc:
+                raise SiteError(path, f"{plan.where}.protocol", str(exc)) from exc
+            store = fleet.database.store(plan.serial_number)
+            engine = Engine(identity, store, now, hardware, line_time_scale=clock.speed)
+            host = DeviceHost(NamedDevice(engine, plan.serial_number), clock)
+            server = await serve_tcp(host, *plan.listen)
+            host.start()
+            fleet.members.append(FleetMember(plan.serial_number, engine, host, server))
+            announce(f"logger {plan.serial_number} listening on {format_address(*server.address)}")
+    except BaseException:
+        await fleet.close()
+        raise
+    return fleet

@@ -1,0 +1,218 @@
+"""``[[loggers]]`` in a site file (issue 11): loggers declared one by one or as a numbered
+range, errors that name file, line and field; a served fleet with group commit."""
+
+from __future__ import annotations
+
+import select
+import signal
+import socket
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from sondalog.ala1 import Engine, Identity
+from sondalog.app.site import load_site
+from sondalog.backends.sim.logger import default_hardware
+from sondalog.backends.store.fleet import FleetDatabase
+from sondalog.sitefile import SiteError
+
+T0 = 1_000_000_000.0
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    site = tmp_path / "fleet.toml"
+    site.write_text(text)
+    return site
+
+
+def test_declared_and_numbered_loggers(tmp_path: Path) -> None:
+    (tmp_path / "world.toml").write_text("[logger]\nsupply = 12.5\n")
+    site = _write(
+        tmp_path,
+        '[[loggers]]\nserial_number = "A1-0001"\nlisten = "127.0.0.1:11001"\n'
+        'protocol = "1.16"\nsite = "world.toml"\n\n'
+        '[[loggers]]\ncount = 3\nfirst = 9\nserial_number = "F{n:04}"\n'
+        'listen = "127.0.0.1:12000"\n',
+    )
+    plan = load_site(site)
+    assert [(m.serial_number, m.listen[1]) for m in plan.fleet] == [
+        ("A1-0001", 11001),
+        ("F0009", 12000),
+        ("F0010", 12001),
+        ("F0011", 12002),
+    ]
+    assert plan.fleet[0].protocol == "1.16" and plan.fleet[0].world == tmp_path / "world.toml"
+    assert plan.logger is None and plan.fleet[1].world is None
+    assert ("loggers[1].listen", ("127.0.0.1", 12002)) in plan.listens
+
+
+@pytest.mark.parametrize(
+    ("body", "field", "line", "message"),
+    [
+        ('[[loggers]]\nserial_number = "A"\n', "loggers[0].listen", 1, "is required"),
+        (
+            '[[loggers]]\nserial_number = "A"\nlisten = "127.0.0.1:1"\ncolor = 1\n',
+            "loggers[0].color",
+            4,
+            "unknown key",
+        ),
+        (
+            '[[loggers]]\nserial_number = "A"\nlisten = "127.0.0.1:1"\n\n'
+            '[[loggers]]\ncount = 2\nserial_number = "B"\nlisten = "127.0.0.1:5"\n',
+            "loggers[1].serial_number",
+            7,
+            "needs {n}",
+        ),
+        (
+            '[[loggers]]\ncount = 0\nserial_number = "B{n}"\nlisten = "127.0.0.1:5"\n',
+            "loggers[0].count",
+            2,
+            "integer from 1",
+        ),
+        (
+            '[[loggers]]\ncount = 2\nserial_number = "B{n}"\nlisten = "127.0.0.1:65535"\n',
+            "loggers[0].listen",
+            4,
+            "beyond 65535",
+        ),
+        (
+            '[[loggers]]\nserial_number = "A/1"\nlisten = "127.0.0.1:1"\n',
+            "loggers[0].serial_number",
+            2,
+            "names a directory",
+        ),
+        (
+            '[[loggers]]\nserial_number = "B2"\nlisten = "127.0.0.1:1"\n\n'
+            '[[loggers]]\ncount = 3\nserial_number = "B{n}"\nlisten = "127.0.0.1:7"\n',
+            "loggers[1].serial_number",
+            7,
+            "B2 is also declared by loggers[0]",
+        ),
+        (
+            '[[loggers]]\nserial_number = "A"\nlisten = "127.0.0.1:8"\n\n'
+            '[[loggers]]\ncount = 3\nserial_number = "B{n}"\nlisten = "127.0.0.1:6"\n',
+            "loggers[1].listen",
+            8,
+            "port 8 is already used by loggers[0]",
+        ),
+        (
+            '[[loggers]]\nserial_number = "A{n}{x}"\ncount = 2\nlisten = "127.0.0.1:1"\n',
+            "loggers[0].serial_number",
+            2,
+            "use {n}",
+        ),
+        ('[[loggers]]\nserial_number = "A"\nlisten = "nowhere"\n', "loggers[0].listen", 3, ""),
+        ("loggers = 3\n", "loggers", 1, "array of tables"),
+    ],
+)
+def test_errors_name_file_line_and_field(
+    tmp_path: Path, body: str, field: str, line: int, message: str
+) -> None:
+    site = _write(tmp_path, body)
+    with pytest.raises(SiteError) as caught:
+        load_site(site)
+    assert caught.value.field == field
+    assert caught.value.line == line
+    assert str(caught.value).startswith(f"{site}:{line}: {field}: ")
+    assert message in str(caught.value)
+
+
+def _engine(database: FleetDatabase, serial: str) -> Engine:
+    engine = Engine(
+        Identity(serial_number=serial), database.store(serial), T0, default_hardware(T0)
+    )
+    line = engine.open_line()
+    for command in (
+        b"write channel max number 1 write channel 1 switch output 0\r",
+        b"write channel 1 sampling period 000100 write channel 1 sampling start 20000101000000\r",
+    ):
+        assert engine.receive(line, command, T0) and engine.receive(line, b"", T0) == []
+    return engine
+
+
+def test_group_commit_one_transaction_per_turn_and_writes_durable_at_once(tmp_path: Path) -> None:
+    flushes: list[object] = []
+    database = FleetDatabase(tmp_path / "fleet.sqlite", flushes.append)
+    engines = [_engine(database, f"F{n}") for n in range(5)]
+    reader = sqlite3.connect(tmp_path / "fleet.sqlite")
+
+    def rows() -> int:
+        return int(reader.execute("SELECT count(*) FROM record").fetchone()[0])
+
+    database.flush()  # rows sampled while the engines were set up
+    baseline, before, scheduled = rows(), database.transactions, len(flushes)
+    deadline = engines[0].next_deadline()
+    assert deadline is not None
+    for engine in engines:
+        engine.advance(deadline)  # each samples its channel: rows wait for the end of turn
+    assert rows() == baseline and len(flushes) == scheduled + 1
+    database.flush()  # the end of the event-loop turn
+    assert rows() == baseline + 5 and database.transactions == before + 1
+    # a command line's write is on disk when its OK leaves, with the rows that waited
+    engines[1].advance(deadline + 60)
+    line = engines[0].open_line()
+    assert engines[0].receive(line, b"write channel 1 name/abc/\r", deadline + 60)
+    stored = reader.execute("SELECT logger, value FROM param WHERE key = 'channel 1 name'")
+    assert stored.fetchall() == [("F0", "abc")]
+    assert rows() == baseline + 7  # F1's waiting row, F0's own row sampled before the line
+    database.close()
+
+
+def test_served_fleet_answers_and_keeps_its_memory(tmp_path: Path) -> None:
+    site = _write(
+        tmp_path,
+        '[[loggers]]\ncount = 3\nserial_number = "F{n:02}"\nlisten = "127.0.0.1:0"\n',
+    )
+    state = tmp_path / "state"
+
+    def serve() -> tuple[subprocess.Popen[bytes], dict[str, int]]:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+        assert proc.stdout is not None
+        ports = {}
+        while len(ports) < 3:
+            ready, _, _ = select.select([proc.stdout], [], [], 60)
+            if not ready:
+                proc.kill()
+                raise AssertionError(f"serve printed nothing: {proc.communicate()[1]!r}")
+            words = proc.stdout.readline().decode().split()
+            assert words[:1] == ["logger"], words
+            ports[words[1]] = int(words[-1].rsplit(":", 1)[1])
+        return proc, ports
+
+    def ask(port: int, line: bytes) -> bytes:
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:
+            sock.sendall(line)
+            answer = b""
+            while not answer.endswith((b"OK\r\n", b"ERROR\r\n")):
+                chunk = sock.recv(4096)
+                assert chunk, answer
+                answer += chunk
+            return answer
+
+    proc, ports = serve()
+    try:
+        assert sorted(ports) == ["F01", "F02", "F03"]
+        assert ask(ports["F02"], b"read i snumber\r") == b"F02\r\nOK\r\n"
+        assert ask(ports["F03"], b"write channel 1 name/north/\r") == b"OK\r\n"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+    assert sorted(p.name for p in (state / "loggers").iterdir() if p.is_dir()) == [
+        "F01",
+        "F02",
+        "F03",
+    ]
+    proc, ports = serve()
+    try:
+        assert ask(ports["F03"], b"read channel 1 name\r") == b"north\r\nOK\r\n"
+        assert ask(ports["F01"], b"read channel 1 name\r") != b"north\r\nOK\r\n"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=20)

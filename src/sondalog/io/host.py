@@ -59,6 +59,14 @@ def _slice_end(pending: bytearray) -> int:
     return min(ends) + 1 if ends else window
 
 
+def _one_line(data: bytes) -> bool:
+    """True when ``data`` ends with its only line end (CR or LF)."""
+    last = len(data) - 1
+    return (
+        data[last] in (13, 10) and data.find(b"\r", 0, last) < 0 and data.find(b"\n", 0, last) < 0
+    )
+
+
 class DeviceHost:
     """One device core, its clock, its timers, and the sinks of its attached lines."""
 
@@ -129,6 +137,17 @@ class DeviceHost:
         if line_id not in self._sinks:
             return
         pending = self._pending.get(line_id)
+        if (
+            pending is None
+            and line_id in self._flows
+            and 0 < len(data) <= SLICE
+            and _one_line(data)
+        ):
+            # Fast path (issue 11): a transport's one whole command line while that line
+            # has nothing queued is its slice of this turn: run it now, as the pump would.
+            self._receive(line_id, data)
+            self._check_deadline()
+            return
         if pending is None:
             self._pending[line_id] = bytearray(data)
             self._ready.append(line_id)

@@ -126,7 +126,7 @@ class Measurer:
         #: Readings of one sampling instant, by input (issue 11): channels that share an
         #: input ask the hardware once. Only between :meth:`begin_instant` and
         #: :meth:`end_instant`, where nothing switches.
-        self._memo: dict[tuple[int, int, float], float | None] | None = None
+        self._memo: dict[tuple[int, int], float | None] | None = None
 
     def begin_instant(self) -> None:
         if self.fast:
@@ -139,7 +139,7 @@ class Measurer:
         memo = self._memo
         if memo is None:
             return self.hardware.adc(device, address, t)
-        key = (device, address, t)
+        key = (device, address)  # one instant: one t
         if key in memo:
             return memo[key]
         raw = memo[key] = self.hardware.adc(device, address, t)
@@ -164,10 +164,18 @@ class Measurer:
         device_mult, device_add = first.device_mult, first.device_add
         cal2_mult, cal2_add = first.cal2_mult, first.cal2_add
         mult, add = cfg.mult, cfg.add
-        adc = self._adc
+        read = self.hardware.adc
+        key = (device, address)
+        measurer = self
 
         def analog(t: float, window: float) -> float | None:
-            raw = adc(device, address, t)
+            memo = measurer._memo
+            if memo is None:
+                raw = read(device, address, t)
+            elif key in memo:
+                raw = memo[key]
+            else:
+                raw = memo[key] = read(device, address, t)
             if raw is None:
                 return None
             r = raw * device_mult + device_add

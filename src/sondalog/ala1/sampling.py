@@ -217,7 +217,11 @@ class Sampler:
 
     def _sample(self, t: int, due: list[ChannelRun], offset: float, sink: RowSink) -> None:
         outputs = self.outputs
-        switched = any(run.cfg.switches for run in due)
+        switched = False
+        for run in due:
+            if run.cfg.switches:
+                switched = True
+                break
         if switched:
             for run in due:
                 for output, _ in run.cfg.switches:
@@ -242,9 +246,11 @@ class Sampler:
         self, t: int, host_t: float, due: list[ChannelRun], fields: dict[int, str]
     ) -> None:
         """Measure the channels due at ``t``; the values written go to ``fields``."""
+        decide, max_number = self._decide, self.max_number
         for run in due:
             cfg = run.cfg
-            window = float(t - run.last_t) if run.last_t is not None else float(cfg.period)
+            last = run.last_t
+            window = float(t - last) if last is not None else float(cfg.period)
             run.last_t = t
             run.next_t = t + cfg.period
             try:
@@ -253,7 +259,7 @@ class Sampler:
                     measure = run.measure = self.measurer.compiled(cfg)
                 value = measure(host_t, window)
                 run.sample, run.sampled = value, True
-                written = self._decide(run, value)
+                written = decide(run, value)
             except Exception as exc:
                 # Defence in depth (issue 9): one channel's failure is that channel's "no
                 # valid value" at this instant; the other channels and the timer go on.
@@ -263,7 +269,7 @@ class Sampler:
                     written = self._decide(run, None)
                 except Exception:
                     written = None
-            if written is not None and cfg.number <= self.max_number:
+            if written is not None and cfg.number <= max_number:
                 fields[cfg.number] = written
 
     @staticmethod

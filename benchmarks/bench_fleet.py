@@ -87,8 +87,17 @@ async def ask(port: int, lines: list[bytes]) -> None:
         writer.close()
 
 
+async def record_status(port: int) -> str:
+    reader, writer = await asyncio.open_connection(HOST, port)
+    writer.write(b"read record status\r")
+    answer = await reader.readuntil(b"OK\r\n")
+    writer.close()
+    return answer.decode().split()[0]
+
+
 async def configure(ports: list[int], channels: int) -> None:
-    lines = [f"write channel max number {channels}\r".encode()]
+    # output 1 powers the supply divider (§6.7.3): on for good, so no channel switches it
+    lines = [f"write channel max number {channels} write output 1 value 1\r".encode()]
     for ch in range(1, channels + 1):
         lines.append(
             f"write channel {ch} type 1 write channel {ch} switch output 0 "
@@ -150,6 +159,7 @@ def main() -> None:
             latencies = asyncio.run(poll(ports[: args.poll], args.seconds))
             cpu1, t1 = cpu_seconds(proc.pid), time.perf_counter()
             rss, peak = memory_mb(proc.pid)
+            status = asyncio.run(record_status(ports[-1]))
         finally:
             proc.terminate()
             proc.wait(timeout=60)
@@ -173,6 +183,7 @@ def main() -> None:
             f"({len(latencies)} answers) | median <= 50 ms |"
         )
         print(f"| channel samples in the window (about) | {rows:,.0f} | |")
+        print(f"| `read record status` of the last logger (bytes used, %, state) | {status} | |")
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ range, errors that name file, line and field; a served fleet with group commit."
 
 from __future__ import annotations
 
+import logging
 import select
 import signal
 import socket
@@ -216,3 +217,19 @@ def test_served_fleet_answers_and_keeps_its_memory(tmp_path: Path) -> None:
     finally:
         proc.send_signal(signal.SIGTERM)
         proc.wait(timeout=20)
+
+
+def test_log_lines_name_the_logger(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    from sondalog.app.fleet import NamedDevice, install_log_names
+    from sondalog.protocol.device import Event
+
+    install_log_names()
+    database = FleetDatabase(tmp_path / "fleet.sqlite", lambda flush: None)
+    device = NamedDevice(_engine(database, "F7"), "F7")
+    with caplog.at_level(logging.WARNING):
+        device.handle(Event(), T0)  # the engine logs an event it does not know
+        logging.getLogger("sondalog.test").warning("outside any logger")
+    messages = [record.getMessage() for record in caplog.records]
+    assert messages[0].startswith("[logger F7] event "), messages
+    assert messages[1] == "outside any logger"
+    database.close()

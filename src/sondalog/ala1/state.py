@@ -17,7 +17,7 @@ from typing import Protocol
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
 from sondalog.ala1.measure import ChannelConfig, Input, Measurer, channel_config, format_value
-from sondalog.ala1.model import CommandError, Identity, Version
+from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.moduleclock import (
     CLOCK_MAX,
     CLOCK_MIN,
@@ -72,18 +72,6 @@ class NvStore(Protocol):
         ...
 
 
-_KEYS: dict[Version, dict[str, KeyInfo]] = {}
-
-
-def _keys_of(version: Version) -> dict[str, KeyInfo]:
-    """The storage keys of a protocol version, built once and shared by every module of
-    that version (read only; ~300 KiB each: a fleet of loggers shares one, issue 11)."""
-    keys = _KEYS.get(version)
-    if keys is None:
-        keys = _KEYS[version] = storage_keys(version)
-    return keys
-
-
 class NeedWait(Exception):
     """The line must wait: a measurement needs its switch advance or a DS18B20 conversion
     first (§6.5.13: module time), or a ``pause`` header asks for it (§8.5.1: line time)."""
@@ -107,7 +95,7 @@ class ModuleState:
         self.identity = identity
         self.store = store
         self.hardware: Hardware = hardware or NoHardware()
-        self.keys: dict[str, KeyInfo] = _keys_of(identity.version)
+        self.keys: dict[str, KeyInfo] = storage_keys(identity.version)
         values, offset = store.load()
         self.values = {k: v for k, v in values.items() if k in self.keys}
         if offset is None:
@@ -353,7 +341,8 @@ class Transaction:
     def measure(self, ch: int) -> str:
         """§6.5.8: measure channel ``ch`` now; a switched or DS18B20 input may need time."""
         state = self.state
-        cfg = state.channel_config(ch) if self._pristine() else channel_config(self, ch)
+        pristine = not self.changes and not self.reset_all  # the committed view holds
+        cfg = state.channel_config(ch) if pristine else channel_config(self, ch)
         now = state.module_seconds(self.host_now)
         outputs = state.outputs
         hold = period_seconds(self.get("command channel switch hold")) or 0
@@ -385,10 +374,6 @@ class Transaction:
             state.sampler.faults.report(ch, exc, self.host_now)
             value = None
         return format_value(cfg, value)
-
-    def _pristine(self) -> bool:
-        """True while this line has staged no parameter change (the committed view holds)."""
-        return not self.changes and not self.reset_all
 
     def _detect(self, inp: Input, ch: int) -> None:
         """§6.4.3.1.1: a detection address learns the sensor's ROM code."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 from sondalog.ala1.model import (
@@ -64,8 +65,12 @@ def _expand(leaf: Leaf, limits: Limits) -> list[Indices]:
     return combos
 
 
+@functools.cache
 def storage_keys(version: Version) -> dict[str, KeyInfo]:
-    """Every stored key of a module of ``version``, with its leaf and indices."""
+    """Every stored key of a module of ``version``, with its leaf and indices.
+
+    Built once per version and shared by every module of it (read only: ~300 KiB, so a
+    fleet of loggers holds one, issue 11)."""
     from sondalog.ala1.model import LIMITS
 
     limits = LIMITS[version]

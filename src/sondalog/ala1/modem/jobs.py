@@ -50,8 +50,9 @@ def init(d: ModemDriver, device: str) -> Job:
     smsc = d.host.setting("com network smc").strip()
     if smsc:
         yield from at(f'AT+CSCA="{smsc}"')
-    d.radio = not d.radio  # force the radio command below
-    yield from radio(d, device != "WAVECOM40")
+    on = device != "WAVECOM40"
+    d.radio = not on  # force the radio command below
+    yield from radio(d, on)
     if device == "WAVECOM42":
         yield from mailjobs.gprs_up(d)
     elif d.gprs:

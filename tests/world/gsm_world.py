@@ -144,6 +144,7 @@ class Smtp:
 
     greeting = b"220 smtp.example.net ESMTP\r\n"
     mails: ClassVar[list[bytes]] = []
+    refuse: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self.buf = b""
@@ -161,6 +162,8 @@ class Smtp:
                     out.append(b"250 queued\r\n")
                 else:
                     self.data += line + b"\r\n"
+            elif line.upper().startswith(b"RCPT") and Smtp.refuse:
+                out.append(b"550 no such user\r\n")
             elif line.upper().startswith(b"DATA"):
                 self.data = b""
                 out.append(b"354 go\r\n")

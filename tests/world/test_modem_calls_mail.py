@@ -5,7 +5,7 @@ from __future__ import annotations
 from gsm_world import LOGGER, PHONE, PHONE2, Smtp, World
 
 from sondalog.ala1.outbox import Destination
-from sondalog.gsm.gateway import Listen
+from sondalog.gsm.gateway import Accepted, Close, Listen, Received, Send
 
 MAIL = ("write com network smtp address smtp.example.net",
         "write com network pop3 address logger@example.net:secret@pop3.example.net",
@@ -160,3 +160,56 @@ def test_no_modem_the_line_works_as_local_and_service_resumes() -> None:
     assert b"".join(s.data for s in engine.advance(due)) == b"AT\r"
     back = engine.receive(line, b"\r\nOK\r\n", due + 0.1)
     assert b"".join(s.data for s in back) == b"ATE0\r"
+
+
+def test_port_10001_connection_is_a_command_session_with_idle_hang_up() -> None:
+    w = World("wavecom42", "write com network apn address internet")
+    w.network.gateway.publish(LOGGER, 10001, 20001)
+    w.run(10)
+    listener = next(e for e in w.ip if isinstance(e, Listen)).listener
+    w.event(Accepted(listener, 900))
+    w.run(1)
+    assert w.driver.busy
+    w.event(Received(900, b"read com speed\r"))
+    w.run(1)
+    sent = b"".join(e.data for e in w.ip if isinstance(e, Send) and e.conn == 900)
+    assert sent == b"9600\r\nOK\r\n"
+    w.run(110)
+    assert not any(isinstance(e, Close) and e.conn == 900 for e in w.ip)
+    w.run(20)
+    assert any(isinstance(e, Close) and e.conn == 900 for e in w.ip)
+    assert not w.driver.busy
+    assert w.network.gateway.listening(LOGGER) == [10001]  # still listening for the next
+
+
+def test_smtp_refusing_fails_the_sending() -> None:
+    w = mail_world()
+    Smtp.refuse = True
+    try:
+        ident = w.send("data", Destination("email", "user@example.net"))
+        w.run(60)
+    finally:
+        Smtp.refuse = False
+    assert w.done == [(ident, False)]
+    assert Smtp.mails == []
+
+
+def test_credit_and_signal_channels_show_the_readings() -> None:
+    w = World(
+        "wavecom41",
+        "write com status sim credit code /*101#/",
+        "write channel max number 2",
+        "write channel 1 type 11",
+        "write channel 2 type 12",
+    )
+    w.network.set_credit(LOGGER, 123.5)
+    w.run(5)
+    before = w.engine.receive(w.cable, b"read channel 2 value\r", w.now)
+    assert b"".join(s.data for s in before).endswith(b"OK\r\n")
+    w.send("x", Destination("sms", PHONE))
+    w.run(5)
+    credit = w.ask("read channel 1 value")
+    signal = w.ask("read channel 2 value")
+    assert credit.startswith(b"123.5"), credit
+    assert signal.startswith(b"18"), signal
+    assert before != signal

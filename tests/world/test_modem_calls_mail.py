@@ -213,3 +213,17 @@ def test_credit_and_signal_channels_show_the_readings() -> None:
     assert credit.startswith(b"123.5"), credit
     assert signal.startswith(b"18"), signal
     assert before != signal
+
+
+def test_wavecom42_attaches_again_after_coverage_returns() -> None:
+    w = World("wavecom42", "write com network apn address internet")
+    w.network.gateway.publish(LOGGER, 10001, 20001)
+    w.run(10)
+    assert w.network.gateway.listening(LOGGER) == [10001]
+    w.collect(w.site.network_call(lambda n: n.set_coverage(LOGGER, False, w.now), w.now))
+    w.run(5)
+    assert w.network.gateway.listening(LOGGER) == []
+    assert not w.driver.gprs
+    w.collect(w.site.network_call(lambda n: n.set_coverage(LOGGER, True, w.now), w.now))
+    w.run(70)
+    assert w.network.gateway.listening(LOGGER) == [10001]

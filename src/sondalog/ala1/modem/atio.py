@@ -152,4 +152,5 @@ def is_final(line: str) -> bool:
 
 
 def is_urc(line: str) -> bool:
-    return line.startswith(URCS)
+    """A URC; ``+CREG: <stat>`` (no comma) is the registration URC of ``AT+CREG=1``."""
+    return line.startswith(URCS) or (line.startswith("+CREG:") and "," not in line)

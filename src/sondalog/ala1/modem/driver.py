@@ -48,6 +48,8 @@ PROBE_INTERVAL = 30.0
 #: The line must have been quiet this long before a probe (a person may be typing).
 PROBE_QUIET = 5.0
 LOCAL = "LOCAL"
+#: wavecom42: how often a lost GPRS attachment (and the port 10001 server) is tried again.
+GPRS_RETRY = 60.0
 _BUSY_URCS = ("+CMTI:", "RING", "+CRING:", "+WIPACCEPT:")
 
 
@@ -104,6 +106,7 @@ class ModemDriver:
         self._lines: list[str] = []
         self._deadline: float | None = None
         self._next_probe = now
+        self._gprs_retry = now
 
     # -- the line ------------------------------------------------------------------------
     @property
@@ -153,6 +156,8 @@ class ModemDriver:
         outbox = self.host.outbox
         if outbox.peek("sms") is not None or outbox.peek("email") is not None:
             return self.now  # a sending was put in the outbox: start it
+        if self._wants_attach():
+            return max(self.now, self._gprs_retry)
         return None
 
     def take_output(self) -> bytes:
@@ -311,11 +316,19 @@ class ModemDriver:
         item = self._outgoing()
         if item is not None:
             return "send", jobs.deliver(self, item)
+        if self._wants_attach() and self.now >= self._gprs_retry:
+            self._gprs_retry = self.now + GPRS_RETRY
+            return "idle", jobs.attach(self)
         if device != "WAVECOM42" and self.gprs:
             return "idle", jobs.gprs_down(self)
         if device == "WAVECOM40" and self.radio:
             return "idle", jobs.radio(self, False)
         return None
+
+    def _wants_attach(self) -> bool:
+        """wavecom42 registered but not listening on port 10001 (the bearer was lost)."""
+        lost = not self.listening and self.registered_since is not None
+        return self.device == "WAVECOM42" and self.applied == "WAVECOM42" and lost
 
     def _outgoing(self) -> Outgoing | None:
         outbox = self.host.outbox
@@ -327,7 +340,14 @@ class ModemDriver:
         return None
 
     def _dispatch(self, line: str) -> tuple[str, Job] | None:
-        if line.startswith("+CMTI:"):
+        if line.startswith("+CREG:"):
+            if line.split(":", 1)[1].strip() in ("1", "5"):
+                if self.registered_since is None:
+                    self.registered_since = self.now
+            else:  # no network: the modem dropped its bearer and sockets
+                self.registered_since = None
+                self.gprs = self.listening = False
+        elif line.startswith("+CMTI:"):
             index = line.rsplit(",", 1)[-1].strip()
             if index.isdigit():
                 return "sms", jobs.read_sms(self, int(index))

@@ -23,7 +23,8 @@ if TYPE_CHECKING:
 #: How long the driver waits for registration before a sending fails (no coverage).
 REGISTRATION_TIMEOUT = 60.0
 REGISTRATION_POLL = 2.0
-SETUP = ("ATE0", "AT+CMEE=1", "AT+CMGF=1", "AT+CLIP=1", "AT+CRC=1", "AT+CNMI=2,1,0,0,0")
+SETUP = ("ATE0", "AT+CMEE=1", "AT+CMGF=1", "AT+CLIP=1", "AT+CRC=1", "AT+CNMI=2,1,0,0,0",
+         "AT+CREG=1")  # fmt: skip
 
 
 def _reply(value: object) -> Reply:
@@ -67,6 +68,11 @@ def radio(d: ModemDriver, on: bool) -> Job:
         if not on:
             d.registered_since = None
             d.gprs = d.listening = False
+
+
+def attach(d: ModemDriver) -> Job:
+    """wavecom42 in idle: attached to GPRS, listening on port 10001 (§6.11.5.2.4)."""
+    yield from mailjobs.gprs_up(d)
 
 
 def gprs_down(d: ModemDriver) -> Job:

@@ -73,6 +73,7 @@ def tcp(
         client.connection_failed("no GPRS connection")
         return
     if not _ok((yield At(f'AT+WIPCREATE=2,{SOCKET},"{host}",{port}'))):
+        d.gprs = d.listening = False  # the bearer went down under us: attach again next time
         client.connection_failed("socket refused")
         return
     ready = yield Urc((f"+WIPREADY: 2,{SOCKET}", f"+WIPERROR: 2,{SOCKET}"), MAIL_TIMEOUT)

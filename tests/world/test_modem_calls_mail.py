@@ -227,3 +227,20 @@ def test_wavecom42_attaches_again_after_coverage_returns() -> None:
     w.collect(w.site.network_call(lambda n: n.set_coverage(LOGGER, True, w.now), w.now))
     w.run(70)
     assert w.network.gateway.listening(LOGGER) == [10001]
+
+
+def test_com_device_local_keeps_the_line_a_cable_line() -> None:
+    w = World("local")
+    w.run(5)
+    assert w.modem_saw() == b""  # no AT: nothing is driven
+    out = w.engine.receive(w.site.modem_line, b"read com speed\r", w.now)
+    assert b"".join(s.data for s in out) == b"9600\r\nOK\r\n"
+
+
+def test_mail_without_a_bounded_command_is_deleted_and_ignored() -> None:
+    w = mail_world()
+    w.mailbox.append(b"From: user@example.net\r\nSubject: hi\r\n\r\nno command here\r\n")
+    w.send("data", Destination("email", "user@example.net"))
+    w.run(60)
+    assert w.mailbox == []
+    assert len(Smtp.mails) == 1

@@ -12,16 +12,21 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from sondalog.ala1 import special
 from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.headers import MAX_LINE
 from sondalog.ala1.interpreter import Answer, Interpreter
 from sondalog.ala1.model import CommandError, Identity
+from sondalog.ala1.outbox import Outbox
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 from sondalog.protocol.device import Event, LineSend
 from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
+
+if TYPE_CHECKING:
+    from sondalog.ala1.modem.link import ModemLink
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +90,7 @@ class Engine:
         self.interpreter = Interpreter(self.state)
         self._lines: dict[int, _Line] = {}
         self._next_id = 1
+        self.modem: ModemLink | None = None  # the com line drives a modem (ala1/modem/)
 
     # -- lines -----------------------------------------------------------------------------
     def open_line(self, *, paced: bool = False) -> int:
@@ -96,6 +102,28 @@ class Engine:
         self._next_id += 1
         self._lines[line_id] = _Line(Pacer(paced))
         return line_id
+
+    def attach_modem(self, now: float, outbox: Outbox | None = None) -> int:
+        """The com line is the modem's line (``com device wavecom4x``, §6.11.5.2): its bytes
+        go through the modem driver (:mod:`sondalog.ala1.modem`); returns the line id."""
+        from sondalog.ala1.modem.link import ModemLink
+
+        line_id = self.open_line()
+        self.modem = ModemLink(self, line_id, now, outbox)
+        return line_id
+
+    def execute(self, text: str, now: float, paused: bool = False) -> bytes | float:
+        """Run ``text`` as a line would; its answer, or seconds to wait (modem/link.py)."""
+        from sondalog.ala1.modem.link import execute
+
+        return execute(self, text, now, paused)
+
+    def write_line(self, line_id: int, data: bytes, now: float) -> None:
+        self._send(self._lines[line_id], data, now)
+
+    def take_line_output(self, line_id: int, now: float) -> bytes:
+        line = self._lines.get(line_id)
+        return b"" if line is None else b"".join(d for d, _ in line.pacer.take(now / self.scale))
 
     def close_line(self, line_id: int) -> None:
         """The line is gone (disconnected): it no longer blocks messages (§6.14.9.2)."""
@@ -128,6 +156,15 @@ class Engine:
     # -- input -----------------------------------------------------------------------------
     def receive(self, line_id: int, data: bytes, now: float) -> list[LineSend]:
         """Bytes received on a line at time ``now``; returns what to send now."""
+        if self.modem is not None and line_id == self.modem.line:
+            self.state.run_sampling(now)
+            if self.modem.receive(data, now):
+                return self._drain(now)
+        self.accept(line_id, data, now)
+        return self._drain(now)
+
+    def accept(self, line_id: int, data: bytes, now: float) -> None:
+        """Bytes received on a line, through the line discipline (nothing drained)."""
         line = self._lines[line_id]
         self.state.run_sampling(now)
         self._expire(line_id, line, now)
@@ -140,19 +177,22 @@ class Engine:
             line.backlog.extend(data)
         else:
             self._feed(line_id, line, data, now)
-        return self._drain(now)
 
     def advance(self, now: float) -> list[LineSend]:
         """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
         self.state.run_sampling(now)
         for line_id, line in list(self._lines.items()):
             self._expire(line_id, line, now)
+        if self.modem is not None:
+            self.modem.advance(now)
         return self._drain(now)
 
     def next_deadline(self) -> float | None:
         """Clock time at which :meth:`advance` must be called next (None: only on input)."""
         sampling = self.state.next_event_host()
         deadlines = [] if sampling is None else [sampling]
+        if self.modem is not None and (modem := self.modem.next_deadline()) is not None:
+            deadlines.append(modem)
         for line in self._lines.values():
             if line.pending is not None:
                 deadlines.append(line.run_at)
@@ -171,6 +211,8 @@ class Engine:
 
     # -- internals ---------------------------------------------------------------------------
     def _drain(self, now: float) -> list[LineSend]:
+        if self.modem is not None:
+            self.modem.pump(now)
         out = []
         for line_id, line in self._lines.items():
             for data, baud in line.pacer.take(now / self.scale):

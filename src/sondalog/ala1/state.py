@@ -305,21 +305,23 @@ class Transaction:
         outputs = state.outputs
         hold = period_seconds(self.get("command channel switch hold")) or 0
         ready_at = now
+        switched: list[int] = []
         for inp in cfg.used_inputs:
             output = inp.switch_output
             if output and outputs.manual.get(output, "NO") == "NO":
                 on_since = outputs.on_since.get(output) if outputs.is_on(output) else None
                 powered_at = (on_since if on_since is not None else now) + inp.switch_advance
                 ready_at = max(ready_at, powered_at)
-                outputs.held_until[output] = max(
-                    outputs.held_until.get(output, 0.0), powered_at + hold
-                )
+                switched.append(output)
             if inp.device_type == "DS18B20" and cfg.type in (3, 9):
                 conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
                 ready_at = max(ready_at, conversion)
+        for output in switched:  # §6.9: the hold runs from each measurement, renewed by each
+            outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), ready_at + hold)
         outputs.update(now, state.clock_offset)
         if ready_at > now:
             self.waits.append(ready_at - now)
+            state.hardware.prepare(ready_at - state.clock_offset)  # acquire by then
             return ""
         state.conversions.pop(ch, None)
         run = state.sampler.runs.get(ch)

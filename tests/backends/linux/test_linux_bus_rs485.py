@@ -145,3 +145,36 @@ def test_a_port_that_cannot_do_the_mode_is_a_site_error(
     text = err.decode()
     assert "bus.serve.rs485" in text and "kernel RS-485 mode not supported" in text
     assert "use mode = 'rts' or 'auto'" in text
+
+
+def test_bus_serve_on_an_rs485_adapter(tmp_path: Path, pty_pair: tuple[Path, Path]) -> None:
+    adapter_a, adapter_b = pty_pair
+    command = [sys.executable, "-m", "sondalog", "bus", "serve", "--listen", "127.0.0.1:0"]
+    state = ["--state", str(tmp_path / "state")]
+    refused = subprocess.run([*command, *state, "--rs485", "auto"], capture_output=True, timeout=20)
+    assert refused.returncode == 2 and b"--rs485 needs the adapter" in refused.stderr
+    refused = subprocess.run(
+        [*command, *state, "--serial", str(adapter_a), "--rs485", "rts"],
+        capture_output=True,
+        timeout=20,
+    )
+    assert refused.returncode == 2 and b"no RTS line" in refused.stderr
+    proc = subprocess.Popen(
+        [*command, *state, "--serial", str(adapter_a), "--rs485", "auto"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        assert _line(proc, bytearray()).startswith("listening on 127.0.0.1:")
+
+        async def hello() -> str:
+            master = await BusMaster.open(f"serial://{adapter_b}?rs485=auto")
+            try:
+                return await master.hello("H1")
+            finally:
+                await master.close()
+
+        assert asyncio.run(hello()).startswith("HCTMPS1")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(10) == 0

@@ -140,7 +140,7 @@ class AsyncPort:
         with contextlib.suppress(ValueError, OSError):
             self._loop.remove_reader(self._fd)
         self._incoming.put_nowait(b"")
-        self._writer.shutdown(wait=True)
+        self._writer.shutdown(wait=False, cancel_futures=True)  # a stuck write never hangs us
         with contextlib.suppress(OSError):
             self.port.close()
 

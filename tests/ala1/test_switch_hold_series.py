@@ -83,3 +83,12 @@ def test_a_ds18b20_read_prepares_the_conversion() -> None:
     assert m.ask("read channel 1 value") == b""
     assert hw.prepared == [m.now + 0.75]  # the 750 ms conversion
     assert m.advance(0.75) == b"21.5\r\nOK\r\n"
+
+
+def test_a_zero_hold_measures_then_switches_off() -> None:
+    hw = SimHardware(analog=[Analog(16, constant(1.0), power=2)])
+    m = switched_module(hw)
+    m.ok("write command channel switch hold 000000")
+    assert m.settle("read channel 1 value", limit=10) == b"1.0\r\nOK\r\n"  # it used to wait on
+    m.advance(0.01)
+    assert hw.outputs.get(2) is False  # off right after the measurement

@@ -34,6 +34,9 @@ from sondalog.protocol.tables import TableSet
 log = logging.getLogger("sondalog.ala1.state")
 
 #: Keys whose change reconfigures sampling, outputs or the record.
+#: Seconds a switched sensor stays on at least after its on-demand measurement instant, so a
+#: ``command channel switch hold`` of 000000 still measures before switching off (§6.9).
+MEASURE_TIME = 0.001
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
 
 
@@ -317,7 +320,8 @@ class Transaction:
                 conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
                 ready_at = max(ready_at, conversion)
         for output in switched:  # §6.9: the hold runs from each measurement, renewed by each
-            outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), ready_at + hold)
+            until = ready_at + max(hold, MEASURE_TIME)
+            outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), until)
         outputs.update(now, state.clock_offset)
         if ready_at > now:
             self.waits.append(ready_at - now)

@@ -34,6 +34,9 @@ from sondalog.protocol.tables import TableSet
 log = logging.getLogger("sondalog.ala1.state")
 
 #: Keys whose change reconfigures sampling, outputs or the record.
+#: Seconds a switched sensor stays on at least after its on-demand measurement instant, so a
+#: ``command channel switch hold`` of 000000 still measures before switching off (§6.9).
+MEASURE_TIME = 0.001
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
 
 
@@ -305,21 +308,24 @@ class Transaction:
         outputs = state.outputs
         hold = period_seconds(self.get("command channel switch hold")) or 0
         ready_at = now
+        switched: list[int] = []
         for inp in cfg.used_inputs:
             output = inp.switch_output
             if output and outputs.manual.get(output, "NO") == "NO":
                 on_since = outputs.on_since.get(output) if outputs.is_on(output) else None
                 powered_at = (on_since if on_since is not None else now) + inp.switch_advance
                 ready_at = max(ready_at, powered_at)
-                outputs.held_until[output] = max(
-                    outputs.held_until.get(output, 0.0), powered_at + hold
-                )
+                switched.append(output)
             if inp.device_type == "DS18B20" and cfg.type in (3, 9):
                 conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
                 ready_at = max(ready_at, conversion)
+        for output in switched:  # §6.9: the hold runs from each measurement, renewed by each
+            until = ready_at + max(hold, MEASURE_TIME)
+            outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), until)
         outputs.update(now, state.clock_offset)
         if ready_at > now:
             self.waits.append(ready_at - now)
+            state.hardware.prepare(ready_at - state.clock_offset)  # acquire by then
             return ""
         state.conversions.pop(ch, None)
         run = state.sampler.runs.get(ch)

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,11 +20,14 @@ from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
+from sondalog.backends.linux.rs485 import Rs485Error
 from sondalog.backends.registry import Acquiring, BackendContext, create
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.sitefile import SiteError, locate
 
+#: The environment variable naming the root of sysfs and /dev (default "/").
+ROOT_VARIABLE = "SONDALOG_ROOT"
 #: Called with a line to show the user once each part is ready.
 Announce = Callable[[str], None]
 
@@ -54,12 +58,16 @@ class RunningSite:
 async def start_site(
     plan: SitePlan, state: Path, clock: Clock, announce: Announce = lambda line: None
 ) -> RunningSite:
-    """Start every part of ``plan``; raises :class:`SiteError` or OSError."""
+    """Start every part of ``plan``; raises :class:`SiteError` or OSError.
+
+    The environment variable ``SONDALOG_ROOT`` prefixes every sysfs and ``/dev`` path the
+    real sensors are read from (a fake kernel tree in tests, a chroot)."""
+    root = Path(os.environ.get(ROOT_VARIABLE) or "/")
     running = RunningSite()
     try:
         if plan.logger is not None:
             logger = plan.logger
-            context = BackendContext(plan.data, plan.path, plan.text, clock.now())
+            context = BackendContext(plan.data, plan.path, plan.text, clock.now(), root)
             try:
                 hardware = create(logger.backend, context)
             except LookupError as exc:
@@ -88,11 +96,23 @@ async def start_site(
                 announce(f"logger pty {pty.link} -> {pty.device}")
         if plan.bus is not None:
             bus = plan.bus
-            running.bus = await start_bus_server(
-                clock, bus.listen, site=plan.path, state_dir=state / "bus", pty=bus.pty,
-                serial=bus.serial,
-            )  # fmt: skip
+            try:
+                running.bus = await start_bus_server(
+                    clock, bus.listen, site=plan.path, state_dir=state / "bus", pty=bus.pty,
+                    serial=bus.serial, rs485=bus.rs485, root=root, baud=bus.baud,
+                )  # fmt: skip
+            except Rs485Error as exc:
+                table = plan.data.get("bus")
+                serve = table.get("serve") if isinstance(table, Mapping) else None
+                where = (
+                    "bus.serve.rs485"
+                    if isinstance(serve, Mapping) and "rs485" in serve
+                    else "board.rs485"
+                )
+                raise SiteError(plan.path, where, str(exc), locate(plan.text, where)) from exc
             announce(f"bus listening on {format_address(*running.bus.address)}")
+            if running.bus.serial is not None and bus.rs485 is not None:
+                announce(f"bus RS-485 ({bus.rs485.mode}) on {bus.serial}")
         if plan.mail is not None:
             try:
                 config = config_from_mapping(plan.mail, state / "mail")

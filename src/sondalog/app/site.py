@@ -16,6 +16,12 @@ served is said in a ``serve`` table beside it; everything has a default::
     listen = "127.0.0.1:10485"
     pty = "/tmp/rs485"
     serial = "/dev/ttyUSB1"
+    rs485 = "auto"                  # the serial port is an RS-485 adapter: kernel | rts | auto
+    delay_before_tx = 0.0           # driver delays (rs485 only), seconds
+    delay_before_rx = 0.0
+
+Without ``serial`` in ``[bus.serve]``, a board file's ``[board.rs485]`` (port, baud, mode,
+delays) serves the bus on that adapter.
 
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
 hub when it has ``[mail]``. Errors name the file, line and field (:class:`SiteError`).
@@ -24,9 +30,11 @@ hub when it has ``[mail]``. Errors name the file, line and field (:class:`SiteEr
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from sondalog.backends.linux.board import board_of_site
+from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
 from sondalog.io.address import parse_listen
@@ -37,7 +45,7 @@ _Fail = Callable[[str, str], SiteError]
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
 _LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate"}
-_BUS_SERVE = {"listen", "pty", "serial"}
+_BUS_SERVE = {"listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx"}
 
 
 @dataclass(frozen=True)
@@ -56,6 +64,8 @@ class BusPlan:
     listen: tuple[str, int] = DEFAULT_BUS_LISTEN
     pty: Path | None = None
     serial: str | None = None
+    rs485: Rs485Settings | None = None  # the serial port is an RS-485 adapter
+    baud: int | None = None  # from [board.rs485] when [bus] has none
 
 
 @dataclass(frozen=True)
@@ -99,6 +109,8 @@ def load_site(path: Path) -> SitePlan:
         mail = table
     if bus is not None:
         parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
+        if bus.serial is None and "board" in data:
+            bus = _board_rs485(bus, data, path, text)
     if logger is not None and logger.backend == "sim":
         parse_logger_site(data, 0.0, path, text)
     if logger is None and bus is None and mail is None:
@@ -165,9 +177,47 @@ def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
     )
 
 
+def _board_rs485(bus: BusPlan, data: Mapping[str, object], path: Path, text: str) -> BusPlan:
+    """The bus on the board file's RS-485 adapter (``[board.rs485]``)."""
+    board = board_of_site(data, path, text)
+    if board is None or board.rs485 is None:
+        return bus
+    wired = board.rs485
+    how = Rs485Settings(wired.mode, wired.delay_before_tx, wired.delay_before_rx)
+    bus_table = data.get("bus")
+    has_baud = isinstance(bus_table, Mapping) and "baud" in bus_table
+    return replace(bus, serial=wired.port, rs485=how, baud=None if has_baud else wired.baud)
+
+
+def _rs485(table: Mapping[str, object], serve: Mapping[str, object], fail: _Fail) -> Rs485Settings:
+    mode = serve["rs485"]
+    if mode not in MODES:
+        raise fail("bus.serve.rs485", f"must be one of {', '.join(MODES)}, not {mode!r}")
+    if "serial" not in serve:
+        raise fail("bus.serve.rs485", "an RS-485 mode needs the adapter: serial = PORT")
+    delays = []
+    for key in ("delay_before_tx", "delay_before_rx"):
+        value = serve.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise fail(f"bus.serve.{key}", f"must be seconds, not {value!r}")
+        delays.append(float(value))
+    baud = table.get("baud")
+    try:
+        check_delays(baud if isinstance(baud, int) and baud > 0 else 9600, *delays)
+    except Rs485Error as exc:
+        key = "delay_before_tx" if "delay_before_tx" in str(exc) else "delay_before_rx"
+        raise fail(f"bus.serve.{key}", str(exc)) from None
+    return Rs485Settings(mode, delays[0], delays[1])
+
+
 def _bus_plan(table: Mapping[str, object], fail: _Fail) -> BusPlan:
     serve = _serve_table(table, "bus", _BUS_SERVE, fail)
+    rs485 = _rs485(table, serve, fail) if "rs485" in serve else None
+    for key in ("delay_before_tx", "delay_before_rx"):
+        if key in serve and rs485 is None:
+            raise fail(f"bus.serve.{key}", 'driver delays need an RS-485 mode (rs485 = "...")')
     return BusPlan(
+        rs485=rs485,
         listen=_listen(serve["listen"], "bus.serve.listen", fail)
         if "listen" in serve
         else DEFAULT_BUS_LISTEN,

@@ -54,6 +54,9 @@ class Outbox:
         self._queue: deque[Outgoing] = deque()
         self._next = 1
         self._listeners: list[Done] = []
+        #: Set by the modem driver while the modem is in use (a data call, a TCP client,
+        #: SMS being read and answered): messages wait until it is cleared (§6.14.9.1).
+        self.modem_busy = False
 
     def new_ident(self) -> int:
         ident, self._next = self._next, self._next + 1

@@ -119,7 +119,7 @@ class ModuleState:
         self.sampler = Sampler(self.measurer, self.outputs)
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
-        self.generation = 0  # counts committed changes of parameters or the clock
+        self.generation = 0  # counts committed changes of message parameters or the clock
         self.message_runs: list[int] = []  # `write message N run 1` (§6.14.8), in order
         self._prepared: float | None = None
         self._repair(host_now)
@@ -393,7 +393,7 @@ class Transaction:
                 state.values[key] = value
         if changes:
             state._names = None  # command names may have changed
-        if changes or offset is not None:
+        if offset is not None or any(key.startswith("message ") for key in changes):
             state.generation += 1
         state.message_runs.extend(self.runs)
         if offset is not None:

@@ -64,6 +64,12 @@ def load(settings: Settings, number: int) -> MessageConfig:
     )
 
 
+def off(number: int) -> MessageConfig:
+    """A message that nothing triggers (for a configuration that cannot be used)."""
+    zero = Decimal(0)
+    return MessageConfig(number, (), 1, "000000", 0.0, False, "NO", 1, zero, zero)
+
+
 def destinations(settings: Settings, config: MessageConfig) -> tuple[Destination, ...]:
     """Where a sending of the message goes now (empty: nowhere)."""
     if settings.get("com device") == "LOCAL":

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 from sondalog.ala1.interpreter import Answer, Interpreter
 from sondalog.ala1.measure import format_value
-from sondalog.ala1.messages.config import MessageConfig, destinations, load
+from sondalog.ala1.messages.config import MessageConfig, destinations, load, off
 from sondalog.ala1.messages.crossing import Crossing
 from sondalog.ala1.messages.schedule import next_due
 from sondalog.ala1.outbox import Outbox, Outgoing
@@ -88,7 +88,11 @@ class Messages:
         self._generation, self._offset = state.generation, state.clock_offset
         after = math.floor(state.module_seconds(host_now))
         for number in range(1, state.identity.limits.messages + 1):
-            config = load(state, number)
+            try:
+                config = load(state, number)
+            except Exception as exc:  # DESIGN.md point 6: never stop the module
+                log.error("message %d cannot be used (%s): it is off", number, exc)
+                config = off(number)
             message = self._messages.get(number)
             if message is None:
                 message = self._messages[number] = _Message(config)

@@ -139,3 +139,12 @@ def test_ten_addresses_in_2_10(module: Module) -> None:
     (outgoing,) = queued(module)
     assert outgoing.message == 40
     assert len(outgoing.destinations) == 9  # address 3 is ringvoice
+
+
+def test_a_body_waiting_for_its_pause_waits_for_the_line_too(module: Module) -> None:
+    module.ok("write command 1 value|pause 5 read i version|")
+    assert module.ask("write message 1 run 1 write com close") == b"OK\r\n"
+    module.ok("read nothing")  # blocked again before the pause is over
+    module.advance(10)
+    assert module.engine.next_deadline() is None  # no busy waiting while blocked
+    assert module.ask("write com close") == b"OK\r\n2.10\r\nOK\r\n"

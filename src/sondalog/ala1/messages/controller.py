@@ -211,17 +211,13 @@ class Messages:
         """Host time of the next periodic trigger, or of a waiting message that may go."""
         offset = self.state.clock_offset
         deadlines = [m.due - offset for m in self._messages.values() if m.due is not None]
-        blocked: bool | None = None
-        for message in self._messages.values():
-            if message.pending is None or message.flight is not None:
-                continue
-            if message.body_at is not None:
-                deadlines.append(message.body_at)
-                continue
-            if blocked is None:
-                blocked = self.blocked(local_ready)
-            if not blocked:
-                deadlines.append(message.pending)
+        waiting = [
+            m.body_at if m.body_at is not None else m.pending
+            for m in self._messages.values()
+            if m.pending is not None and m.flight is None
+        ]
+        if waiting and not self.blocked(local_ready):  # blocked: woken by what unblocks
+            deadlines.append(min(waiting))
         if self.state.message_runs:
             deadlines.append(self._now)
         return min(deadlines, default=None)

@@ -91,11 +91,12 @@ def test_of_record_ignores_instants_without_rows() -> None:
     assert run_for(m, 3601) == []
 
 
-def crossing_module(function: str, steps: list[float]) -> Module:
+def crossing_module(function: str, steps: list[float], hysteresis: str = "0.10") -> Module:
     m, _ = module_with(series(*[(600 * i, v) for i, v in enumerate(steps)]))
     m.ok("write channel 1 sampling period 001000 sampling start 20070301090000")
     m.ok("write command 1 value/read channel 1 sample/")
-    m.ok("write message 1 of channel number 1 of channel value 1.10 of channel hysteresis 0.10")
+    m.ok("write message 1 of channel number 1 of channel value 1.10")
+    m.ok(f"write message 1 of channel hysteresis {hysteresis}")
     released(m, f"write message 1 of channel function {function}")
     return m
 
@@ -145,3 +146,9 @@ def test_message_2_in_1_16_and_its_single_address(module116: Module) -> None:
     module116.error("write message 3 run 1")
     module116.error("write message 2 address 1,2")
     assert module116.ask("write message 2 run 1 write com close") == b"OK\r\n1.16\r\nOK\r\n"
+
+
+def test_without_hysteresis_the_value_itself_is_the_threshold() -> None:
+    steps = [1.00, 1.10, 1.11, 1.10, 1.09, 1.11]
+    seen = bodies(run_for(crossing_module("up", steps, "0"), 600 * len(steps)))
+    assert seen == [b"1.11\r\nOK\r\n", b"1.11\r\nOK\r\n"]

@@ -148,3 +148,13 @@ def test_a_body_waiting_for_its_pause_waits_for_the_line_too(module: Module) -> 
     module.advance(10)
     assert module.engine.next_deadline() is None  # no busy waiting while blocked
     assert module.ask("write com close") == b"OK\r\n2.10\r\nOK\r\n"
+
+
+def test_a_change_committed_outside_a_step_is_scheduled(module: Module) -> None:
+    # as a command received by SMS would commit it, through the interpreter alone
+    periodic(module)
+    released(module, "write message 1 period 000000")
+    assert module.engine.next_deadline() is None
+    answer = module.engine.interpreter.run_line("write message 1 period 000100", module.now)
+    assert answer is not None and answer.data == b"OK\r\n"
+    assert module.engine.next_deadline() == module.now + 1  # 09:00:00

@@ -209,6 +209,7 @@ class Messages:
     # -- time ----------------------------------------------------------------------------------
     def next_deadline(self, *, local_ready: bool) -> float | None:
         """Host time of the next periodic trigger, or of a waiting message that may go."""
+        self._refresh(self._now)  # a change committed outside a step (an SMS command)
         offset = self.state.clock_offset
         deadlines = [m.due - offset for m in self._messages.values() if m.due is not None]
         waiting = [

@@ -158,3 +158,12 @@ def test_a_change_committed_outside_a_step_is_scheduled(module: Module) -> None:
     answer = module.engine.interpreter.run_line("write message 1 period 000100", module.now)
     assert answer is not None and answer.data == b"OK\r\n"
     assert module.engine.next_deadline() == module.now + 1  # 09:00:00
+
+
+def test_back_to_local_a_sending_no_modem_took_is_given_up(module: Module) -> None:
+    wavecom(module)
+    module.ok("write message 1 address 1 write message 1 run 1")
+    assert len(module.engine.outbox) == 1  # no modem driver takes it
+    module.ok("write com device local")
+    assert len(module.engine.outbox) == 0
+    assert module.ask("write message 1 run 1 write com close") == b"OK\r\n2.10\r\nOK\r\n"

@@ -79,6 +79,14 @@ class Outbox:
             self._queue.remove(outgoing)
         return outgoing
 
+    def withdraw(self, ident: int) -> Outgoing | None:
+        """Remove sending ``ident`` if no carrier has taken it yet."""
+        for outgoing in self._queue:
+            if outgoing.ident == ident:
+                self._queue.remove(outgoing)
+                return outgoing
+        return None
+
     def __len__(self) -> int:
         return len(self._queue)
 

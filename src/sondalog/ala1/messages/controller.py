@@ -146,6 +146,8 @@ class Messages:
                 self.trigger(number, message.due - state.clock_offset)
                 config = message.config
                 message.due = next_due(config.period, config.start, math.floor(module_now) + 1)
+        if state.get("com device") == "LOCAL":
+            self._withdraw_modem_sendings()
         runs, state.message_runs = state.message_runs, []
         for number in runs:
             self.trigger(number, host_now)
@@ -187,6 +189,13 @@ class Messages:
         self._flights[ident] = _Flight(config.number, moves)
         message.flight = ident
         self.outbox.put(Outgoing(ident, config.number, where, body))
+
+    def _withdraw_modem_sendings(self) -> None:
+        """Back to ``com device local``: sendings no modem took are failed deliveries, so
+        their messages go on the line at their next trigger."""
+        for ident in list(self._flights):  # (local sendings never stay queued)
+            if self.outbox.withdraw(ident) is not None:
+                self._done(ident, False)
 
     def _done(self, ident: int, ok: bool) -> None:
         """A carrier finished: only a complete delivery moves the last-read points."""

@@ -167,3 +167,9 @@ def test_back_to_local_a_sending_no_modem_took_is_given_up(module: Module) -> No
     module.ok("write com device local")
     assert len(module.engine.outbox) == 0
     assert module.ask("write message 1 run 1 write com close") == b"OK\r\n2.10\r\nOK\r\n"
+
+
+def test_an_empty_or_silent_command_sends_nothing(module: Module) -> None:
+    assert module.ask("write message 1 run 1 write com close") == b"OK\r\n"  # empty value
+    module.ok("write command 1 value|quiet read nothing|")
+    assert module.ask("write message 1 run 1 write com close") == b"OK\r\n"

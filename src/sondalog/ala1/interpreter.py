@@ -45,7 +45,6 @@ class Interpreter:
         *,
         overflow: bool = False,
         paused: bool = False,
-        deferred: dict[str, str] | None = None,
     ) -> Answer | None:
         """Execute one command line; None means the module stays silent.
 
@@ -73,7 +72,7 @@ class Interpreter:
             return None
         if failed:
             return self._error(line, headers)
-        return self._run(line, cur, headers, named, host_now, paused, deferred)
+        return self._run(line, cur, headers, named, host_now, paused, None)
 
     def run_stored(
         self,
@@ -89,6 +88,8 @@ class Interpreter:
         committed with the line."""
         value = self.state.get(f"command {number} value")
         line = value[:-1] if value.endswith("&") else value
+        if not line.strip(" "):
+            return None  # like an empty line: no answer
         cur = Cursor(line)
         headers = Headers()
         try:

@@ -18,6 +18,7 @@ from sondalog.ala1 import special
 from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.headers import MAX_LINE
 from sondalog.ala1.interpreter import Answer, Interpreter
+from sondalog.ala1.messages import Messages
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.outbox import Outbox
 from sondalog.ala1.pacing import Pacer
@@ -88,6 +89,12 @@ class Engine:
         self.identity = identity
         self.state = ModuleState(identity, store, now, hardware)
         self.interpreter = Interpreter(self.state)
+        #: What the module sends by itself (§6.14); the modem driver takes its sms/email
+        #: sendings from here, the cable line its local ones (:meth:`_messages`).
+        self.outbox = Outbox()
+        self.messages = Messages(
+            self.state, self.interpreter, self.outbox, now, line_time_scale=line_time_scale
+        )
         self._lines: dict[int, _Line] = {}
         self._next_id = 1
         self.modem: ModemLink | None = None  # the com line drives a modem (ala1/modem/)
@@ -109,7 +116,8 @@ class Engine:
         from sondalog.ala1.modem.link import ModemLink
 
         line_id = self.open_line()
-        self.modem = ModemLink(self, line_id, now, outbox)
+        self.modem = ModemLink(self, line_id, now, outbox or self.outbox)
+        self.modem.on_ring = self.messages.trigger  # §6.10.2.3-4: ringvoice/ringdata M
         return line_id
 
     def execute(self, text: str, now: float, paused: bool = False) -> bytes | float:
@@ -134,6 +142,35 @@ class Engine:
         """§6.14.9.2: a line that sent a command holds messages back until it disconnects
         or sends ``write com close``."""
         return any(line.blocks_messages for line in self._lines.values())
+
+    @property
+    def modem_busy(self) -> bool:
+        """§6.14.9.1: set by the modem driver while the modem is in use; messages wait."""
+        return self.outbox.modem_busy
+
+    @modem_busy.setter
+    def modem_busy(self, busy: bool) -> None:
+        self.outbox.modem_busy = busy
+
+    def _local_ready(self) -> bool:
+        """A cable line is attached and none blocks messages (§6.14.9.2)."""
+        return bool(self._lines) and not self.messages_blocked
+
+    def _messages(self, now: float) -> None:
+        """§6.14: messages that may go now; with ``com device local`` this is their carrier:
+        the body goes on every line as plain text, and that counts as delivered."""
+        if self.modem is not None:
+            # §6.14.9.1: messages wait while the modem is in use; with no modem answering the
+            # com line works as local (gsm notes §3)
+            self.outbox.modem_busy = self.modem.busy
+            self.state.modem_absent = self.modem.driver.present is False
+        ready = self._local_ready()
+        self.messages.step(now, local_ready=ready)
+        while ready and (outgoing := self.outbox.take("local")) is not None:
+            data = outgoing.body.encode("latin-1", "replace")
+            for line in self._lines.values():
+                self._send(line, data, now)
+            self.outbox.done(outgoing.ident, True)
 
     def output_pending(self, line_id: int) -> bool:
         """True while a line still has bytes waiting to be sent (paced or stopped by XOFF)."""
@@ -177,6 +214,7 @@ class Engine:
             line.backlog.extend(data)
         else:
             self._feed(line_id, line, data, now)
+        self._messages(now)
 
     def advance(self, now: float) -> list[LineSend]:
         """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
@@ -185,6 +223,7 @@ class Engine:
             self._expire(line_id, line, now)
         if self.modem is not None:
             self.modem.advance(now)
+        self._messages(now)
         return self._drain(now)
 
     def next_deadline(self) -> float | None:
@@ -193,6 +232,9 @@ class Engine:
         deadlines = [] if sampling is None else [sampling]
         if self.modem is not None and (modem := self.modem.next_deadline()) is not None:
             deadlines.append(modem)
+        message = self.messages.next_deadline(local_ready=self._local_ready())
+        if message is not None:
+            deadlines.append(message)
         for line in self._lines.values():
             if line.pending is not None:
                 deadlines.append(line.run_at)

@@ -39,7 +39,12 @@ class Interpreter:
 
     # -- entry points ------------------------------------------------------------------------
     def run_line(
-        self, line: str, host_now: float, *, overflow: bool = False, paused: bool = False
+        self,
+        line: str,
+        host_now: float,
+        *,
+        overflow: bool = False,
+        paused: bool = False,
     ) -> Answer | None:
         """Execute one command line; None means the module stays silent.
 
@@ -67,9 +72,49 @@ class Interpreter:
             return None
         if failed:
             return self._error(line, headers)
+        return self._run(line, cur, headers, named, host_now, paused, None)
+
+    def run_stored(
+        self,
+        number: int,
+        host_now: float,
+        *,
+        paused: bool = False,
+        deferred: dict[str, str] | None = None,
+    ) -> Answer | None:
+        """§6.8.4, §6.14.3: command ``number`` run for a message, as if invoked by name
+        (§6.8.5: no ``iaddress`` needed; a final ``&`` appends nothing). ``deferred``
+        collects the last-read points a ``shift`` would move (§6.8.4.1): they are not
+        committed with the line."""
+        value = self.state.get(f"command {number} value")
+        line = value[:-1] if value.endswith("&") else value
+        if not line.strip(" "):
+            return None  # like an empty line: no answer
+        cur = Cursor(line)
+        headers = Headers()
+        try:
+            if self._headers(cur, headers) is not None:
+                raise ParseError("a named command cannot run another one")
+        except ParseError:
+            return self._error(line, headers)
+        if not headers.check_ok():
+            return None
+        return self._run(line, cur, headers, None, host_now, paused, deferred)
+
+    def _run(
+        self,
+        line: str,
+        cur: Cursor,
+        headers: Headers,
+        named: str | None,
+        host_now: float,
+        paused: bool,
+        deferred: dict[str, str] | None,
+    ) -> Answer | None:
         if headers.pause and not paused:
             raise NeedWait(headers.pause, line_time=True)
         txn = self.state.begin(host_now)
+        txn.deferred = deferred
         try:
             if named is not None:
                 cur = self._expand(named, cur, headers, txn)

@@ -122,7 +122,11 @@ class ModuleState:
         self.sampler = Sampler(self.measurer, self.outputs)
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
+        self.generation = 0  # counts committed changes of message parameters or the clock
+        self.message_runs: list[int] = []  # `write message N run 1` (§6.14.8), in order
         self._prepared: float | None = None
+        #: The com device is a modem, but none answers: the line works as ``local``.
+        self.modem_absent = False
         self._repair(host_now)
         self.configure(host_now)
 
@@ -254,6 +258,9 @@ class Transaction:
         self.waits: list[float] = []
         self.released = False  # `write com close` ran (§6.11.8)
         self.transfer: tuple[str, bool] | None = None  # (area, reading) of a special command
+        self.runs: list[int] = []  # messages started by this line (§6.14.8)
+        #: last-read points a `shift` moves only after a delivery (§6.8.4.1); None: at once
+        self.deferred: dict[str, str] | None = None
         self._mark = state.record.mark()
 
     def default(self, key: str) -> str:
@@ -273,6 +280,16 @@ class Transaction:
         if key not in self.state.keys:
             raise KeyError(key)
         self.changes[key] = value
+        if self.deferred:
+            self.deferred.pop(key, None)  # an explicit write is not deferred
+
+    def move_point(self, key: str, value: str) -> None:
+        self.set(key, value)
+        if self.deferred is not None:
+            self.deferred[key] = value
+
+    def run_message(self, number: int) -> None:
+        self.runs.append(number)
 
     def reset(self, keep: tuple[str, ...]) -> None:
         self.reset_all = True
@@ -365,6 +382,8 @@ class Transaction:
         """Make the line's effects durable, then visible."""
         state = self.state
         changes = dict(self.changes)
+        for key in self.deferred or ():
+            del changes[key]  # committed after the delivery (§6.8.4.1)
         if self.reset_all:
             for key in state.values:
                 if key not in RESET_KEEPS and key not in changes:
@@ -382,6 +401,9 @@ class Transaction:
                 state.values[key] = value
         if changes:
             state._names = None  # command names may have changed
+        if offset is not None or any(key.startswith("message ") for key in changes):
+            state.generation += 1
+        state.message_runs.extend(self.runs)
         if offset is not None:
             state.clock_offset = offset
         if any(key.startswith(_LIVE_PREFIXES) for key in changes) or self.reset_all:

@@ -1,9 +1,9 @@
 """``sondalog serve SITE.toml``: everything a site file describes, in one process.
 
 The wiring of :mod:`sondalog.app.site`'s plan: the logger (its hardware from the backend the
-site names, its state in ``STATE/logger``), the RS-485 bus (``STATE/bus``) and the mail hub
-(``STATE/mail``), each served by the one runtime on one clock. Later issues add fleets of
-loggers and the GSM network here, not in the CLI.
+site names, its state in ``STATE/logger``), the RS-485 bus (``STATE/bus``), the mail hub
+(``STATE/mail``) and the GSM network (``STATE/gsm``, :mod:`sondalog.app.gsm`), each served by
+the one runtime on one clock. Later issues add fleets of loggers here, not in the CLI.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from pathlib import Path
 
 from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
+from sondalog.app.gsm import GsmRuntime
+from sondalog.app.gsm_api import ApiServer
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
@@ -36,8 +38,14 @@ class RunningSite:
     bus: BusServer | None = None
     mail: MailHub | None = None
     acquisition: asyncio.Task[None] | None = None
+    gsm: GsmRuntime | None = None
+    gsm_api: ApiServer | None = None
 
     async def close(self) -> None:
+        if self.gsm_api is not None:
+            await self.gsm_api.stop()
+        if self.gsm is not None:
+            await self.gsm.close()
         if self.acquisition is not None:
             self.acquisition.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -104,6 +112,16 @@ async def start_site(
                 f"mail SMTP on {config.smtp_host}:{running.mail.smtp_port}, "
                 f"POP3 on {config.pop3_host}:{running.mail.pop3_port}"
             )
+        if plan.gsm is not None:
+            running.gsm = GsmRuntime(plan.gsm, state / "gsm", clock)
+            await running.gsm.start()
+            running.gsm_api = ApiServer(running.gsm, *plan.gsm.api)
+            await running.gsm_api.start()
+            announce(f"gsm API on http://{format_address(*running.gsm_api.address)}")
+            for number, server in running.gsm.servers.items():
+                announce(f"gsm modem {number} listening on {format_address(*server.address)}")
+            for pty in running.gsm.ptys:
+                announce(f"gsm modem pty {pty.link} -> {pty.device}")
     except BaseException:
         await running.close()
         raise

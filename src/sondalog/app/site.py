@@ -18,7 +18,8 @@ served is said in a ``serve`` table beside it; everything has a default::
     serial = "/dev/ttyUSB1"
 
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
-hub when it has ``[mail]``. Errors name the file, line and field (:class:`SiteError`).
+hub when it has ``[mail]``; a GSM network when it has ``[gsm]`` (:mod:`sondalog.app.gsm_site`).
+Errors name the file, line and field (:class:`SiteError`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
 from sondalog.io.address import parse_listen
@@ -69,6 +71,7 @@ class SitePlan:
     bus: BusPlan | None = None
     mail: Mapping[str, object] | None = None
     listens: list[tuple[str, tuple[str, int]]] = field(default_factory=list)
+    gsm: GsmPlan | None = None
 
 
 def load_site(path: Path) -> SitePlan:
@@ -101,9 +104,15 @@ def load_site(path: Path) -> SitePlan:
         parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
     if logger is not None and logger.backend == "sim":
         parse_logger_site(data, 0.0, path, text)
-    if logger is None and bus is None and mail is None:
-        raise fail("site", "nothing to serve: the file has no [logger], [bus] or [mail] table")
-    return SitePlan(path, data, text, logger, bus, mail, listens)
+    gsm = parse_gsm_site(data, path, text) if "gsm" in data else None
+    if gsm is not None:
+        listens.append(("gsm.serve.api", gsm.api))
+        listens += [
+            (f"gsm.modem.{m.number}.serve.listen", m.listen) for m in gsm.modems if m.listen
+        ]
+    if logger is None and bus is None and mail is None and gsm is None:
+        raise fail("site", "nothing to serve: the file has no [logger], [bus], [mail] or [gsm]")
+    return SitePlan(path, data, text, logger, bus, mail, listens, gsm)
 
 
 def _serve_table(

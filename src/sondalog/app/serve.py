@@ -18,12 +18,13 @@ from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
+from sondalog.app.gsm_site import parse_gsm_site
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
 from sondalog.backends.registry import Acquiring, BackendContext, create
 from sondalog.io.address import format_address
-from sondalog.io.clock import Clock
+from sondalog.io.clock import Clock, RealClock
 from sondalog.sitefile import SiteError, locate
 
 #: Called with a line to show the user once each part is ready.
@@ -113,7 +114,10 @@ async def start_site(
                 f"POP3 on {config.pop3_host}:{running.mail.pop3_port}"
             )
         if plan.gsm is not None:
-            running.gsm = GsmRuntime(plan.gsm, state / "gsm", clock)
+            # the network and its modems are lines: they keep real time under --speed
+            gsm_clock = clock if clock.speed == 1 else RealClock()
+            gsm = parse_gsm_site(plan.data, plan.path, plan.text, gsm_clock.now())
+            running.gsm = GsmRuntime(gsm, state / "gsm", gsm_clock)
             await running.gsm.start()
             running.gsm_api = ApiServer(running.gsm, *plan.gsm.api)
             await running.gsm_api.start()

@@ -116,3 +116,33 @@ def test_site_table_errors_name_the_field(change: tuple[str, str], field: str) -
     with pytest.raises(SiteError) as error:
         _plan(text)
     assert field in str(error.value)
+
+
+def test_runtime_dte_link_in_process(tmp_path: Path) -> None:
+    """The wiring's hook for the logger's com line: an in-process DTE line of a modem."""
+    import asyncio
+
+    from sondalog.app.gsm import GsmRuntime
+    from sondalog.io.clock import RealClock
+
+    text = SITE.replace('pty = "/tmp/x-modem"\n', "").replace('listen = "127.0.0.1:0"\n', "")
+    plan = parse_gsm_site(tomllib.loads(text), tmp_path / "site.toml", text, T0)
+
+    async def run() -> bytes:
+        runtime = GsmRuntime(plan, tmp_path / "gsm", RealClock())
+        await runtime.start()
+        got = bytearray()
+        try:
+            link = runtime.dte(NUMBER, got.extend)
+            link.write(b"ATE0\rAT+CSQ\r")
+            for _ in range(100):
+                if got.endswith(b"OK\r\n") and b"+CSQ" in got:
+                    break
+                await asyncio.sleep(0.01)
+        finally:
+            await runtime.close()
+        return bytes(got)
+
+    assert asyncio.run(run()) == b"ATE0\r\r\nOK\r\n\r\n+CSQ: 7,0\r\n\r\nOK\r\n"
+    assert "logger>modem  ATE0\\r" in (tmp_path / "gsm" / "t.trace").read_text()
+    assert (tmp_path / "gsm" / "network.json").exists()

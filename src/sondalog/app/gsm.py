@@ -29,7 +29,7 @@ from sondalog.gsm.config import build
 from sondalog.gsm.network import Network
 from sondalog.gsm.trace import trace_line
 from sondalog.io.clock import Clock
-from sondalog.io.host import DeviceHost
+from sondalog.io.host import DeviceHost, LocalLink
 from sondalog.io.pty import PtyLine
 from sondalog.io.sockets import SocketPool
 from sondalog.io.tcp import TcpServer, serve_tcp
@@ -152,6 +152,11 @@ class GsmRuntime:
             task.cancel()
         for trace in self._traces:
             trace.close()
+
+    def dte(self, number: str, on_data: Callable[[bytes], None]) -> LocalLink:
+        """An in-process DTE line of modem ``number`` (the logger's com line, joined by the
+        wiring): ``link.write(bytes)`` goes to the modem, its output goes to ``on_data``."""
+        return self.modem_hosts[number].link(on_data)
 
     def _tracer(self, number: str) -> Callable[[str, bytes, float], None] | None:
         target = next((m.trace for m in self.plan.modems if m.number == number), None)

@@ -83,10 +83,10 @@ class Served:
         assert self.proc.wait(15) == 0
 
 
-def serve(site: Path, state: Path) -> Served:
+def serve(site: Path, state: Path, *extra: str) -> Served:
     """Start ``sondalog serve`` and wait until the GSM API and modem lines are announced."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state)],
+        [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state), *extra],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )

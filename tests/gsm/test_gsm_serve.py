@@ -94,7 +94,7 @@ def test_out_of_coverage_queues_sms_across_a_restart(tmp_path: Path) -> None:
         assert [m["text"] for m in queued] == ["one"]
     finally:
         served.stop()
-    served = serve(site, tmp_path / "state")
+    served = serve(site, tmp_path / "state", "--trace", str(tmp_path / "cli.trace"))
     try:
         subscribers = {s["number"]: s for s in served.request("GET", "/subscribers")[1]}
         assert subscribers[MODEM]["registered"] is False and subscribers[MODEM]["queued"] == 1
@@ -111,6 +111,8 @@ def test_out_of_coverage_queues_sms_across_a_restart(tmp_path: Path) -> None:
         assert served.request("GET", f"/sms?to={MODEM}&queued=1")[1] == []
     finally:
         served.stop()
+    trace = (tmp_path / "cli.trace").read_text()  # --trace FILE: the logger's modem's line
+    assert "logger>modem  AT+CREG?\\r" in trace and "modem>logger  \\r\\n+CMTI:" in trace
 
 
 def test_gprs_reaches_the_mail_hub_and_the_published_port(world: tuple[Served, int]) -> None:

@@ -24,7 +24,7 @@ way (errors name file, line and field)::
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -167,3 +167,16 @@ def _listen(value: object, where: str, fail: Callable[[str, str], SiteError]) ->
         return parse_listen(value)
     except ValueError as exc:
         raise fail(where, str(exc)) from None
+
+
+def traced(plan: GsmPlan, trace: Path) -> GsmPlan:
+    """``plan`` with the line of the logger's modem (else the first modem) traced to
+    ``trace`` (``sondalog serve --trace FILE``)."""
+    numbers = [m.number for m in plan.config.modems]
+    if not numbers:
+        return plan
+    number = plan.logger_modem or numbers[0]
+    modems = [m for m in plan.modems if m.number != number]
+    serve = next((m for m in plan.modems if m.number == number), ModemServe(number))
+    modems.append(replace(serve, trace=trace.absolute()))
+    return replace(plan, modems=tuple(modems))

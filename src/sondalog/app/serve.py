@@ -18,7 +18,7 @@ from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
-from sondalog.app.gsm_site import parse_gsm_site
+from sondalog.app.gsm_site import parse_gsm_site, traced
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
@@ -61,9 +61,16 @@ class RunningSite:
 
 
 async def start_site(
-    plan: SitePlan, state: Path, clock: Clock, announce: Announce = lambda line: None
+    plan: SitePlan,
+    state: Path,
+    clock: Clock,
+    announce: Announce = lambda line: None,
+    trace: Path | None = None,
 ) -> RunningSite:
-    """Start every part of ``plan``; raises :class:`SiteError` or OSError."""
+    """Start every part of ``plan``; raises :class:`SiteError` or OSError.
+
+    ``trace`` (``--trace FILE``): record the line of the logger's modem (``[gsm]
+    logger_modem``, else the first modem) in FILE."""
     running = RunningSite()
     try:
         if plan.logger is not None:
@@ -117,6 +124,8 @@ async def start_site(
             # the network and its modems are lines: they keep real time under --speed
             gsm_clock = clock if clock.speed == 1 else RealClock()
             gsm = parse_gsm_site(plan.data, plan.path, plan.text, gsm_clock.now())
+            if trace is not None:
+                gsm = traced(gsm, trace)
             running.gsm = GsmRuntime(gsm, state / "gsm", gsm_clock)
             await running.gsm.start()
             running.gsm_api = ApiServer(running.gsm, *plan.gsm.api)

@@ -146,3 +146,15 @@ def test_runtime_dte_link_in_process(tmp_path: Path) -> None:
     assert asyncio.run(run()) == b"ATE0\r\r\nOK\r\n\r\n+CSQ: 7,0\r\n\r\nOK\r\n"
     assert "logger>modem  ATE0\\r" in (tmp_path / "gsm" / "t.trace").read_text()
     assert (tmp_path / "gsm" / "network.json").exists()
+
+
+def test_network_device_wakes_for_a_scheduled_outage() -> None:
+    network = Network()
+    network.add_modem(NUMBER, T0)
+    network.schedule_outage(T0 + 10, T0 + 20, NUMBER)
+    device = NetworkDevice(network, T0)
+    assert device.next_deadline() == T0 + 10
+    assert ToModem(NUMBER, ev.Registration(False)) in device.advance(T0 + 10)
+    assert device.next_deadline() == T0 + 20
+    assert ToModem(NUMBER, ev.Registration(True)) in device.advance(T0 + 20)
+    assert device.next_deadline() is None

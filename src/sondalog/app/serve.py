@@ -1,9 +1,9 @@
 """``sondalog serve SITE.toml``: everything a site file describes, in one process.
 
 The wiring of :mod:`sondalog.app.site`'s plan: the logger (its hardware from the backend the
-site names, its state in ``STATE/logger``), the RS-485 bus (``STATE/bus``) and the mail hub
-(``STATE/mail``), each served by the one runtime on one clock. Later issues add fleets of
-loggers and the GSM network here, not in the CLI.
+site names, its state in ``STATE/logger``), the RS-485 bus (``STATE/bus``), the mail hub
+(``STATE/mail``) and the GSM network (``STATE/gsm``, :mod:`sondalog.app.gsm`), each served by
+the one runtime on one clock. Later issues add fleets of loggers here, not in the CLI.
 """
 
 from __future__ import annotations
@@ -17,13 +17,16 @@ from pathlib import Path
 
 from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
+from sondalog.app.gsm import GsmRuntime
+from sondalog.app.gsm_api import ApiServer
+from sondalog.app.gsm_site import parse_gsm_site, traced
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
 from sondalog.backends.linux.rs485 import Rs485Error
 from sondalog.backends.registry import Acquiring, BackendContext, create
 from sondalog.io.address import format_address
-from sondalog.io.clock import Clock
+from sondalog.io.clock import Clock, RealClock
 from sondalog.sitefile import SiteError, locate
 
 #: The environment variable naming the root of sysfs and /dev (default "/").
@@ -40,8 +43,14 @@ class RunningSite:
     bus: BusServer | None = None
     mail: MailHub | None = None
     acquisition: asyncio.Task[None] | None = None
+    gsm: GsmRuntime | None = None
+    gsm_api: ApiServer | None = None
 
     async def close(self) -> None:
+        if self.gsm_api is not None:
+            await self.gsm_api.stop()
+        if self.gsm is not None:
+            await self.gsm.close()
         if self.acquisition is not None:
             self.acquisition.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -56,12 +65,18 @@ class RunningSite:
 
 
 async def start_site(
-    plan: SitePlan, state: Path, clock: Clock, announce: Announce = lambda line: None
+    plan: SitePlan,
+    state: Path,
+    clock: Clock,
+    announce: Announce = lambda line: None,
+    trace: Path | None = None,
 ) -> RunningSite:
     """Start every part of ``plan``; raises :class:`SiteError` or OSError.
 
     The environment variable ``SONDALOG_ROOT`` prefixes every sysfs and ``/dev`` path the
-    real sensors are read from (a fake kernel tree in tests, a chroot)."""
+    real sensors are read from (a fake kernel tree in tests, a chroot). ``trace``
+    (``--trace FILE``): record the line of the logger's modem (``[gsm] logger_modem``, else the
+    first modem) in FILE."""
     root = Path(os.environ.get(ROOT_VARIABLE) or "/")
     running = RunningSite()
     try:
@@ -124,6 +139,21 @@ async def start_site(
                 f"mail SMTP on {config.smtp_host}:{running.mail.smtp_port}, "
                 f"POP3 on {config.pop3_host}:{running.mail.pop3_port}"
             )
+        if plan.gsm is not None:
+            # the network and its modems are lines: they keep real time under --speed
+            gsm_clock = clock if clock.speed == 1 else RealClock()
+            gsm = parse_gsm_site(plan.data, plan.path, plan.text, gsm_clock.now())
+            if trace is not None:
+                gsm = traced(gsm, trace)
+            running.gsm = GsmRuntime(gsm, state / "gsm", gsm_clock)
+            await running.gsm.start()
+            running.gsm_api = ApiServer(running.gsm, *plan.gsm.api)
+            await running.gsm_api.start()
+            announce(f"gsm API on http://{format_address(*running.gsm_api.address)}")
+            for number, server in running.gsm.servers.items():
+                announce(f"gsm modem {number} listening on {format_address(*server.address)}")
+            for pty in running.gsm.ptys:
+                announce(f"gsm modem pty {pty.link} -> {pty.device}")
     except BaseException:
         await running.close()
         raise

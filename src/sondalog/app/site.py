@@ -24,7 +24,8 @@ Without ``serial`` in ``[bus.serve]``, a board file's ``[board.rs485]`` (port, b
 delays) serves the bus on that adapter.
 
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
-hub when it has ``[mail]``. Errors name the file, line and field (:class:`SiteError`).
+hub when it has ``[mail]``; a GSM network when it has ``[gsm]`` (:mod:`sondalog.app.gsm_site`).
+Errors name the file, line and field (:class:`SiteError`).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
 from sondalog.backends.linux.board import board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
@@ -79,6 +81,7 @@ class SitePlan:
     bus: BusPlan | None = None
     mail: Mapping[str, object] | None = None
     listens: list[tuple[str, tuple[str, int]]] = field(default_factory=list)
+    gsm: GsmPlan | None = None
 
 
 def load_site(path: Path) -> SitePlan:
@@ -113,9 +116,15 @@ def load_site(path: Path) -> SitePlan:
             bus = _board_rs485(bus, data, path, text)
     if logger is not None and logger.backend == "sim":
         parse_logger_site(data, 0.0, path, text)
-    if logger is None and bus is None and mail is None:
-        raise fail("site", "nothing to serve: the file has no [logger], [bus] or [mail] table")
-    return SitePlan(path, data, text, logger, bus, mail, listens)
+    gsm = parse_gsm_site(data, path, text) if "gsm" in data else None
+    if gsm is not None:
+        listens.append(("gsm.serve.api", gsm.api))
+        listens += [
+            (f"gsm.modem.{m.number}.serve.listen", m.listen) for m in gsm.modems if m.listen
+        ]
+    if logger is None and bus is None and mail is None and gsm is None:
+        raise fail("site", "nothing to serve: the file has no [logger], [bus], [mail] or [gsm]")
+    return SitePlan(path, data, text, logger, bus, mail, listens, gsm)
 
 
 def _serve_table(

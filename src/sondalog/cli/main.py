@@ -20,6 +20,7 @@ COMMANDS: tuple[tuple[str, str], ...] = (
     ("sondalog.cli.bus_cmd", "bus"),
     ("sondalog.cli.serve_cmd", "serve"),
     ("sondalog.cli.collect_cmd", "collect"),
+    ("sondalog.cli.phone_cmd", "phone"),
 )
 #: (module, attribute, parent group) of commands that belong to a group.
 SUBCOMMANDS: tuple[tuple[str, str, str], ...] = (

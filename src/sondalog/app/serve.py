@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from sondalog.ala1.engine import Engine
 from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.gsm import GsmRuntime
@@ -154,7 +155,22 @@ async def start_site(
                 announce(f"gsm modem {number} listening on {format_address(*server.address)}")
             for pty in running.gsm.ptys:
                 announce(f"gsm modem pty {pty.link} -> {pty.device}")
+            modem_number = plan.gsm.logger_modem
+            if running.logger is not None and modem_number:
+                join_modem(running.logger, running.gsm, modem_number, clock.now())
+                announce(f"logger com line joined to its modem {modem_number}")
     except BaseException:
         await running.close()
         raise
     return running
+
+
+def join_modem(logger: Logger, gsm: GsmRuntime, number: str, now: float) -> None:
+    """The logger drives its modem through AT bytes on its com line (gsm notes §1): the
+    engine's modem line is joined to the DTE side of modem ``number``."""
+    host = logger.host
+    engine = host.device
+    assert isinstance(engine, Engine)
+    line = engine.attach_modem(now)
+    modem = gsm.dte(number, lambda data: host.feed(line, data))
+    host.adopt(line, lambda output: modem.write(output.data))

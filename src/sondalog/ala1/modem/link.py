@@ -43,17 +43,22 @@ def execute(engine: Engine, text: str, now: float, paused: bool = False) -> byte
 
 
 class ModemLink:
-    """The engine's modem line and its driver."""
+    """The engine's modem line and its driver.
+
+    The driver works in line time (docs/decisions.md "Time base"): its timeouts (the 1 s AT
+    probe, the 2-minute idle hang-up, mail timeouts) are real seconds even at ``--speed``.
+    The link converts: clock time / ``engine.scale`` going in, times ``scale`` coming out."""
 
     def __init__(self, engine: Engine, line: int, now: float, outbox: Outbox | None = None) -> None:
         self.engine = engine
+        self.scale = engine.scale
         self.line = line
         self.outbox = outbox if outbox is not None else Outbox()
         #: Called with (message, now) by a ``ringvoice``/``ringdata`` call (§6.10.2.3-4).
         self.on_ring: Callable[[int, float], None] | None = None
         self.sessions: set[int] = set()
-        self._quiet_since = now
-        self.driver = ModemDriver(self, now)
+        self._quiet_since = now / self.scale
+        self.driver = ModemDriver(self, now / self.scale)
         state = engine.state
         hardware = ModemHardware(state.hardware, self.driver.readings)
         state.hardware = hardware
@@ -62,14 +67,15 @@ class ModemLink:
     # -- from the engine -----------------------------------------------------------------
     def receive(self, data: bytes, now: float) -> bool:
         """Bytes on the modem line; False: the line works as ``local``."""
-        self._quiet_since = now
-        return self.driver.receive(data, now)
+        self._quiet_since = now / self.scale
+        return self.driver.receive(data, now / self.scale)
 
     def advance(self, now: float) -> None:
-        self.driver.advance(now)
+        self.driver.advance(now / self.scale)
 
     def next_deadline(self) -> float | None:
-        return self.driver.next_deadline()
+        due = self.driver.next_deadline()
+        return None if due is None else due * self.scale
 
     def pump(self, now: float) -> None:
         """Carry the sessions' answers to the driver and the driver's bytes to the line."""
@@ -90,7 +96,9 @@ class ModemLink:
         return self.engine.state.get(name)
 
     def execute(self, text: str, now: float, paused: bool) -> bytes | float:
-        return execute(self.engine, text, now, paused)
+        """(Called by the driver in line time: a wait comes back in line seconds too.)"""
+        answer = execute(self.engine, text, now * self.scale, paused)
+        return answer / self.scale if isinstance(answer, float) else answer
 
     def open_session(self, now: float) -> int:
         session = self.engine.open_line()
@@ -98,7 +106,7 @@ class ModemLink:
         return session
 
     def session_input(self, session: int, data: bytes, now: float) -> None:
-        self.engine.accept(session, data, now)
+        self.engine.accept(session, data, now * self.scale)
 
     def close_session(self, session: int) -> None:
         self.sessions.discard(session)
@@ -118,7 +126,7 @@ class ModemLink:
 
     def run_message(self, message: int, now: float) -> None:
         if self.on_ring is not None:
-            self.on_ring(message, now)
+            self.on_ring(message, now * self.scale)
         else:
             log.info("message %d triggered by a call: no message logic attached", message)
 

@@ -155,7 +155,7 @@ async def start_site(
                 announce(f"gsm modem {number} listening on {format_address(*server.address)}")
             for pty in running.gsm.ptys:
                 announce(f"gsm modem pty {pty.link} -> {pty.device}")
-            modem_number = plan.gsm.logger_modem
+            modem_number = plan.logger.modem if plan.logger is not None else None
             if running.logger is not None and modem_number:
                 join_modem(running.logger, running.gsm, modem_number, clock.now())
                 announce(f"logger com line joined to its modem {modem_number}")

@@ -9,6 +9,7 @@ served is said in a ``serve`` table beside it; everything has a default::
     protocol = "2.10"               # or "1.16"; fixed once the state directory exists
     serial_number = "A1-0001"
     ptys = ["/tmp/ala1"]            # pty lines (stable symlinks), paced at com speed
+    modem = "+420600000001"         # the com line drives this modem of [gsm] (AT bytes)
     serials = ["/dev/ttyUSB0"]      # real serial ports
     line_rate = false               # pace TCP answers too
 
@@ -46,7 +47,7 @@ _Fail = Callable[[str, str], SiteError]
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
-_LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate"}
+_LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate", "modem"}
 _BUS_SERVE = {"listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx"}
 
 
@@ -59,6 +60,7 @@ class LoggerPlan:
     ptys: tuple[Path, ...] = ()
     serials: tuple[str, ...] = ()
     line_rate: bool = False
+    modem: str | None = None  # the com line drives this modem of [gsm] (its number)
 
 
 @dataclass(frozen=True)
@@ -122,6 +124,10 @@ def load_site(path: Path) -> SitePlan:
         listens += [
             (f"gsm.modem.{m.number}.serve.listen", m.listen) for m in gsm.modems if m.listen
         ]
+    if logger is not None and logger.modem is not None:
+        numbers = [m.number for m in gsm.modems] if gsm is not None else []
+        if logger.modem not in numbers:
+            raise fail("logger.serve.modem", f"no [[gsm.modem]] with number {logger.modem}")
     if logger is None and bus is None and mail is None and gsm is None:
         raise fail("site", "nothing to serve: the file has no [logger], [bus], [mail] or [gsm]")
     return SitePlan(path, data, text, logger, bus, mail, listens, gsm)
@@ -168,6 +174,9 @@ def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
     protocol = serve.get("protocol")
     if protocol is not None and protocol not in ("1.16", "2.10"):
         raise fail("logger.serve.protocol", 'must be "1.16" or "2.10"')
+    modem = serve.get("modem")
+    if modem is not None and (not isinstance(modem, str) or not modem):
+        raise fail("logger.serve.modem", "must be the number of a [[gsm.modem]]")
     line_rate = serve.get("line_rate", False)
     if not isinstance(line_rate, bool):
         raise fail("logger.serve.line_rate", "must be true or false")
@@ -183,6 +192,7 @@ def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
         ptys=tuple(Path(p) for p in _texts(serve.get("ptys", []), "logger.serve.ptys", fail)),
         serials=_texts(serve.get("serials", []), "logger.serve.serials", fail),
         line_rate=line_rate,
+        modem=modem,
     )
 
 

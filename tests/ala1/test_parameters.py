@@ -299,16 +299,6 @@ def test_record_status_clear(module: Module) -> None:
     assert module.read("read record last 2 read") == ""
 
 
-@pytest.mark.parametrize(
-    "command",
-    [
-        "write message 1 run 1",
-    ],
-)
-def test_behaviour_of_later_issues_answers_error(module: Module, command: str) -> None:
-    module.error(command)
-
-
 def test_a_failing_line_changes_nothing(module: Module) -> None:
     module.error("write i name/changed/ write channel 1 type 4")
     assert module.read("read i name") == ""

@@ -12,17 +12,24 @@ from __future__ import annotations
 
 import logging
 import re
-from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from sondalog.ala1 import special
 from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.headers import MAX_LINE
 from sondalog.ala1.interpreter import Answer, Interpreter
+from sondalog.ala1.lines import Line as _Line
+from sondalog.ala1.lines import Transfer as _Transfer
+from sondalog.ala1.messages import Messages
 from sondalog.ala1.model import CommandError, Identity
+from sondalog.ala1.outbox import Outbox
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 from sondalog.protocol.device import Event, LineSend
 from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
+
+if TYPE_CHECKING:
+    from sondalog.ala1.modem.link import ModemLink
 
 log = logging.getLogger(__name__)
 
@@ -36,35 +43,6 @@ _PLUS = ord("+")
 _EDITING = re.compile(rb"[\r\n\x08\x7f\x1b]")
 #: After a completed upload, repeated EOTs (the host lost our last ACK) are still answered.
 TRANSFER_GRACE = 2.0
-
-
-@dataclass
-class _Transfer:
-    """An XMODEM transfer running on a line (§6.16)."""
-
-    command: str  # the command line, for its error response
-    area: str
-    peer: XmodemSender | XmodemReceiver
-    speed: int | None
-    grace_until: float | None = None  # set once the transfer is over
-
-
-@dataclass
-class _Line:
-    """Line state of one connection (§3.4)."""
-
-    pacer: Pacer
-    buffer: list[str] = field(default_factory=list)
-    echo: bool = False
-    started: float | None = None  # time of the first character of the command
-    overflow: bool = False
-    pending: str | None = None  # a complete command waiting for its pause or sensors
-    run_at: float = 0.0
-    speed: int | None = None  # the rate the waiting command's answer goes at
-    backlog: bytearray = field(default_factory=bytearray)  # received while a command waits
-    blocks_messages: bool = False  # §6.14.9.2
-    transfer: _Transfer | None = None
-    ident: int = 0  # the line id
 
 
 class Engine:
@@ -88,11 +66,18 @@ class Engine:
         self.identity = identity
         self.state = ModuleState(identity, store, now, hardware)
         self.interpreter = Interpreter(self.state)
+        #: What the module sends by itself (§6.14); the modem driver takes its sms/email
+        #: sendings from here, the cable line its local ones (:meth:`_messages`).
+        self.outbox = Outbox()
+        self.messages = Messages(
+            self.state, self.interpreter, self.outbox, now, line_time_scale=line_time_scale
+        )
         self._lines: dict[int, _Line] = {}
         #: Lines that may have output, a timer or a transfer (issue 11: idle lines cost no
         #: work per command); a line joins on input or output, leaves once idle.
         self._busy: dict[int, _Line] = {}
         self._next_id = 1
+        self.modem: ModemLink | None = None  # the com line drives a modem (ala1/modem/)
 
     # -- lines -----------------------------------------------------------------------------
     def open_line(self, *, paced: bool = False) -> int:
@@ -105,6 +90,29 @@ class Engine:
         self._lines[line_id] = _Line(Pacer(paced), ident=line_id)
         return line_id
 
+    def attach_modem(self, now: float, outbox: Outbox | None = None) -> int:
+        """The com line is the modem's line (``com device wavecom4x``, §6.11.5.2): its bytes
+        go through the modem driver (:mod:`sondalog.ala1.modem`); returns the line id."""
+        from sondalog.ala1.modem.link import ModemLink
+
+        line_id = self.open_line()
+        self.modem = ModemLink(self, line_id, now, outbox or self.outbox)
+        self.modem.on_ring = self.messages.trigger  # §6.10.2.3-4: ringvoice/ringdata M
+        return line_id
+
+    def execute(self, text: str, now: float, paused: bool = False) -> bytes | float:
+        """Run ``text`` as a line would; its answer, or seconds to wait (modem/link.py)."""
+        from sondalog.ala1.modem.link import execute
+
+        return execute(self, text, now, paused)
+
+    def write_line(self, line_id: int, data: bytes, now: float) -> None:
+        self._send(self._lines[line_id], data, now)
+
+    def take_line_output(self, line_id: int, now: float) -> bytes:
+        line = self._lines.get(line_id)
+        return b"" if line is None else b"".join(d for d, _ in line.pacer.take(now / self.scale))
+
     def close_line(self, line_id: int) -> None:
         """The line is gone (disconnected): it no longer blocks messages (§6.14.9.2)."""
         self._lines.pop(line_id, None)
@@ -115,6 +123,35 @@ class Engine:
         """§6.14.9.2: a line that sent a command holds messages back until it disconnects
         or sends ``write com close``."""
         return any(line.blocks_messages for line in self._lines.values())
+
+    @property
+    def modem_busy(self) -> bool:
+        """§6.14.9.1: set by the modem driver while the modem is in use; messages wait."""
+        return self.outbox.modem_busy
+
+    @modem_busy.setter
+    def modem_busy(self, busy: bool) -> None:
+        self.outbox.modem_busy = busy
+
+    def _local_ready(self) -> bool:
+        """A cable line is attached and none blocks messages (§6.14.9.2)."""
+        return bool(self._lines) and not self.messages_blocked
+
+    def _messages(self, now: float) -> None:
+        """§6.14: messages that may go now; with ``com device local`` this is their carrier:
+        the body goes on every line as plain text, and that counts as delivered."""
+        if self.modem is not None:
+            # §6.14.9.1: messages wait while the modem is in use; with no modem answering the
+            # com line works as local (gsm notes §3)
+            self.outbox.modem_busy = self.modem.busy
+            self.state.modem_absent = self.modem.driver.present is False
+        ready = self._local_ready()
+        self.messages.step(now, local_ready=ready)
+        while ready and (outgoing := self.outbox.take("local")) is not None:
+            data = outgoing.body.encode("latin-1", "replace")
+            for line in self._lines.values():
+                self._send(line, data, now)
+            self.outbox.done(outgoing.ident, True)
 
     def output_pending(self, line_id: int) -> bool:
         """True while a line still has bytes waiting to be sent (paced or stopped by XOFF)."""
@@ -137,6 +174,15 @@ class Engine:
     # -- input -----------------------------------------------------------------------------
     def receive(self, line_id: int, data: bytes, now: float) -> list[LineSend]:
         """Bytes received on a line at time ``now``; returns what to send now."""
+        if self.modem is not None and line_id == self.modem.line:
+            self.state.run_sampling(now)
+            if self.modem.receive(data, now):
+                return self._drain(now)
+        self.accept(line_id, data, now)
+        return self._drain(now)
+
+    def accept(self, line_id: int, data: bytes, now: float) -> None:
+        """Bytes received on a line, through the line discipline (nothing drained)."""
         line = self._lines[line_id]
         self._busy[line_id] = line
         self.state.run_sampling(now)
@@ -150,19 +196,27 @@ class Engine:
             line.backlog.extend(data)
         else:
             self._feed(line_id, line, data, now)
-        return self._drain(now)
+        self._messages(now)
 
     def advance(self, now: float) -> list[LineSend]:
         """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
         self.state.run_sampling(now)
         for line_id, line in list(self._busy.items()):
             self._expire(line_id, line, now)
+        if self.modem is not None:
+            self.modem.advance(now)
+        self._messages(now)
         return self._drain(now)
 
     def next_deadline(self) -> float | None:
         """Clock time at which :meth:`advance` must be called next (None: only on input)."""
         sampling = self.state.next_event_host()
         deadlines = [] if sampling is None else [sampling]
+        if self.modem is not None and (modem := self.modem.next_deadline()) is not None:
+            deadlines.append(modem)
+        message = self.messages.next_deadline(local_ready=self._local_ready())
+        if message is not None:
+            deadlines.append(message)
         idle: list[int] = []
         for line in self._busy.values():
             if (
@@ -192,6 +246,8 @@ class Engine:
 
     # -- internals ---------------------------------------------------------------------------
     def _drain(self, now: float) -> list[LineSend]:
+        if self.modem is not None:
+            self.modem.pump(now)
         out = []
         for line_id, line in self._busy.items():
             if line.pacer.idle():

@@ -11,12 +11,12 @@ from dataclasses import dataclass
 
 from sondalog.ala1.headers import HEADER_WORDS, MAX_LINE, Headers
 from sondalog.ala1.model import CommandError, Unavailable, View
-from sondalog.ala1.params import ROOT, IndexSpec, Node
+from sondalog.ala1.params import ROOT
 from sondalog.ala1.parser import Command, parse_command, parse_switch
 from sondalog.ala1.special import TransferRequest, request
 from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
-from sondalog.ala1.values import ChannelAddress, Indices, ParseCtx
+from sondalog.ala1.values import Indices
 from sondalog.protocol.cksum import cksum
 
 #: Keyword sets matched on every line (one-word keywords: :meth:`Cursor.choose_word`).
@@ -43,7 +43,12 @@ class Interpreter:
 
     # -- entry points ------------------------------------------------------------------------
     def run_line(
-        self, line: str, host_now: float, *, overflow: bool = False, paused: bool = False
+        self,
+        line: str,
+        host_now: float,
+        *,
+        overflow: bool = False,
+        paused: bool = False,
     ) -> Answer | None:
         """Execute one command line; None means the module stays silent.
 
@@ -71,9 +76,49 @@ class Interpreter:
             return None
         if failed:
             return self._error(line, headers)
+        return self._run(line, cur, headers, named, host_now, paused, None)
+
+    def run_stored(
+        self,
+        number: int,
+        host_now: float,
+        *,
+        paused: bool = False,
+        deferred: dict[str, str] | None = None,
+    ) -> Answer | None:
+        """§6.8.4, §6.14.3: command ``number`` run for a message, as if invoked by name
+        (§6.8.5: no ``iaddress`` needed; a final ``&`` appends nothing). ``deferred``
+        collects the last-read points a ``shift`` would move (§6.8.4.1): they are not
+        committed with the line."""
+        value = self.state.get(f"command {number} value")
+        line = value[:-1] if value.endswith("&") else value
+        if not line.strip(" "):
+            return None  # like an empty line: no answer
+        cur = Cursor(line)
+        headers = Headers()
+        try:
+            if self._headers(cur, headers) is not None:
+                raise ParseError("a named command cannot run another one")
+        except ParseError:
+            return self._error(line, headers)
+        if not headers.check_ok():
+            return None
+        return self._run(line, cur, headers, None, host_now, paused, deferred)
+
+    def _run(
+        self,
+        line: str,
+        cur: Cursor,
+        headers: Headers,
+        named: str | None,
+        host_now: float,
+        paused: bool,
+        deferred: dict[str, str] | None,
+    ) -> Answer | None:
         if headers.pause and not paused:
             raise NeedWait(headers.pause, line_time=True)
         txn = self.state.begin(host_now)
+        txn.deferred = deferred
         try:
             if named is not None:
                 cur = self._expand(named, cur, headers, txn)
@@ -165,108 +210,6 @@ class Interpreter:
             else:
                 assert first is not None
                 node = ROOT.words[first]  # §7.2: the switch and first keyword carry over
-
-    @staticmethod
-    def _switch(cur: Cursor) -> str | None:
-        word = cur.choose_word(_SWITCH_WORDS)
-        return None if word is None else ("R" if word == "read" else "W")
-
-    def _command(
-        self, cur: Cursor, switch: str, node: Node, view: View
-    ) -> tuple[Command, str | None]:
-        first_word: str | None = None
-        indices: Indices = {}
-        channels: list[int] | None = None
-        while True:
-            word = cur.choose_word(node.words)
-            if word is not None:
-                if node is ROOT:
-                    first_word = word
-                node = node.words[word]
-                continue
-            if node.index is not None:
-                spec, child = node.index
-                if spec.is_list:
-                    channels = self._channels(cur, spec, view)
-                else:
-                    indices[spec.name] = self._index(cur, spec, view)
-                node = child
-                continue
-            break
-        leaf = node.leaves.get(switch)
-        if leaf is None:
-            raise ParseError("no such parameter for this switch")
-        if "{ch}" in leaf.pattern:
-            if channels is None:
-                channels = list(range(1, int(view.get("channel max number")) + 1))
-            targets = [{**indices, "ch": c} for c in channels]
-        else:
-            targets = [indices]
-        command = Command(switch, leaf, targets)
-        self._modifiers(cur, command)
-        if switch == "R":
-            if leaf.read_arg is not None:
-                command.arg = leaf.read_arg.parse(cur, ParseCtx(view, indices))
-        else:
-            self._values(cur, command, view)
-        if leaf.unavailable:
-            raise Unavailable(leaf.unavailable)
-        return command, first_word
-
-    @staticmethod
-    def _index(cur: Cursor, spec: IndexSpec, view: View) -> int:
-        if cur.peek_digit():
-            value = cur.integer()
-        elif spec.optional:
-            return spec.default
-        else:
-            raise ParseError(f"{spec.doc} expected")
-        if not spec.lo <= value <= spec.hi(view.identity.limits):
-            raise ParseError(f"{spec.doc}: {value} out of range")
-        return value
-
-    @staticmethod
-    def _channels(cur: Cursor, spec: IndexSpec, view: View) -> list[int] | None:
-        channels = cur.channel_list()
-        if channels is not None:
-            high = spec.hi(view.identity.limits)
-            if any(not 1 <= c <= high for c in channels):
-                raise ParseError("channel number out of range")
-        return channels
-
-    @staticmethod
-    def _modifiers(cur: Cursor, command: Command) -> None:
-        leaf = command.leaf
-        while True:
-            if leaf.dual and not command.all_inputs and cur.try_keyword(("all",)):
-                command.all_inputs = True
-            elif leaf.hexable and not command.hexadecimal and cur.try_keyword(("x",)):
-                command.hexadecimal = True
-            else:
-                return
-
-    @staticmethod
-    def _values(cur: Cursor, command: Command, view: View) -> None:
-        multi = len(command.targets) > 1
-        vtype = command.leaf.vtype
-        if command.leaf.group_writer is not None:
-            value = vtype.parse(cur, ParseCtx(view, command.targets[0], multi))
-            command.values.append([value] if value else [])
-            return
-        for indices in command.targets:
-            ctx = ParseCtx(view, indices, multi)
-            slots = 2 if command.all_inputs else 1
-            values: list[str] = []
-            for slot in range(slots):
-                if slot:
-                    cur.skip_spaces()
-                    if cur.pos < len(cur.text) and cur.text[cur.pos] == ",":
-                        cur.pos += 1
-                if command.hexadecimal and isinstance(vtype, ChannelAddress):
-                    values.append(vtype.parse_hex(cur, ctx))
-                else:
-                    values.append(vtype.parse(cur, ctx))
-            command.values.append(values)
 
     # -- execution ---------------------------------------------------------------------------
     def _execute(self, command: Command, view: View) -> list[str]:

@@ -105,6 +105,15 @@ class View(Protocol):
         """After this command the line carries an XMODEM transfer of ``area`` (§6.16)."""
         ...
 
+    def move_point(self, key: str, value: str) -> None:
+        """Move a last-read point (a ``shift`` read, §6.6.1.4); a message defers it until its
+        delivery succeeded (§6.8.4.1)."""
+        ...
+
+    def run_message(self, number: int) -> None:
+        """Start message ``number`` once the line succeeded (§6.14.8)."""
+        ...
+
     def release_line(self) -> None:
         """The line that runs this command stops blocking messages (§6.11.8)."""
         ...

@@ -54,6 +54,9 @@ class Outbox:
         self._queue: deque[Outgoing] = deque()
         self._next = 1
         self._listeners: list[Done] = []
+        #: Set by the modem driver while the modem is in use (a data call, a TCP client,
+        #: SMS being read and answered): messages wait until it is cleared (§6.14.9.1).
+        self.modem_busy = False
 
     def new_ident(self) -> int:
         ident, self._next = self._next, self._next + 1
@@ -75,6 +78,14 @@ class Outbox:
         if outgoing is not None:
             self._queue.remove(outgoing)
         return outgoing
+
+    def withdraw(self, ident: int) -> Outgoing | None:
+        """Remove sending ``ident`` if no carrier has taken it yet."""
+        for outgoing in self._queue:
+            if outgoing.ident == ident:
+                self._queue.remove(outgoing)
+                return outgoing
+        return None
 
     def __len__(self) -> int:
         return len(self._queue)

@@ -92,6 +92,8 @@ class Outputs:
 
 
 RowSink = Callable[[int, list[str]], None]
+#: Told of every sampling instant: its module second, the channels sampled, rows written?
+SampleObserver = Callable[[int, list["ChannelRun"], bool], None]
 
 log = logging.getLogger("sondalog.ala1.sampling")
 
@@ -127,6 +129,7 @@ class Sampler:
         self.faults = FaultLog()
         self.runs: dict[int, ChannelRun] = {}
         self.max_number = 1
+        self.observer: SampleObserver | None = None  # messages (§6.14.6, §6.14.7)
 
     def configure(self, configs: list[ChannelConfig], max_number: int, now: int) -> None:
         """New channel parameters; channels whose sampling changed restart their schedule."""
@@ -241,6 +244,8 @@ class Sampler:
             outputs.update(float(t), offset)
         if fields:
             sink(t, [fields.get(n, "") for n in range(1, self.max_number + 1)])
+        if self.observer is not None:
+            self.observer(t, due, bool(fields))
 
     def _measure_due(
         self, t: int, host_t: float, due: list[ChannelRun], fields: dict[int, str]

@@ -34,6 +34,9 @@ from sondalog.protocol.tables import TableSet
 log = logging.getLogger("sondalog.ala1.state")
 
 #: Keys whose change reconfigures sampling, outputs or the record.
+#: Seconds a switched sensor stays on at least after its on-demand measurement instant, so a
+#: ``command channel switch hold`` of 000000 still measures before switching off (§6.9).
+MEASURE_TIME = 0.001
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
 
 
@@ -125,7 +128,11 @@ class ModuleState:
         self._settings: dict[str, str] = {}  # committed values read per command, likewise
         #: The sampler's next event (module time) while nothing changed it; None: unknown.
         self._event: tuple[float | None] | None = None
+        self.generation = 0  # counts committed changes of message parameters or the clock
+        self.message_runs: list[int] = []  # `write message N run 1` (§6.14.8), in order
         self._prepared: float | None = None
+        #: The com device is a modem, but none answers: the line works as ``local``.
+        self.modem_absent = False
         self._repair(host_now)
         self.configure(host_now)
 
@@ -292,6 +299,9 @@ class Transaction:
         self.waits: list[float] = []
         self.released = False  # `write com close` ran (§6.11.8)
         self.transfer: tuple[str, bool] | None = None  # (area, reading) of a special command
+        self.runs: list[int] = []  # messages started by this line (§6.14.8)
+        #: last-read points a `shift` moves only after a delivery (§6.8.4.1); None: at once
+        self.deferred: dict[str, str] | None = None
         self._mark = state.record.mark()
 
     def default(self, key: str) -> str:
@@ -311,6 +321,16 @@ class Transaction:
         if key not in self.state.keys:
             raise KeyError(key)
         self.changes[key] = value
+        if self.deferred:
+            self.deferred.pop(key, None)  # an explicit write is not deferred
+
+    def move_point(self, key: str, value: str) -> None:
+        self.set(key, value)
+        if self.deferred is not None:
+            self.deferred[key] = value
+
+    def run_message(self, number: int) -> None:
+        self.runs.append(number)
 
     def reset(self, keep: tuple[str, ...]) -> None:
         self.reset_all = True
@@ -347,22 +367,25 @@ class Transaction:
         outputs = state.outputs
         hold = period_seconds(self.get("command channel switch hold")) or 0
         ready_at = now
+        switched: list[int] = []
         for inp in cfg.used_inputs:
             output = inp.switch_output
             if output and outputs.manual.get(output, "NO") == "NO":
                 on_since = outputs.on_since.get(output) if outputs.is_on(output) else None
                 powered_at = (on_since if on_since is not None else now) + inp.switch_advance
                 ready_at = max(ready_at, powered_at)
-                outputs.held_until[output] = max(
-                    outputs.held_until.get(output, 0.0), powered_at + hold
-                )
+                switched.append(output)
             if inp.device_type == "DS18B20" and cfg.type in (3, 9):
                 conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
                 ready_at = max(ready_at, conversion)
+        for output in switched:  # §6.9: the hold runs from each measurement, renewed by each
+            until = ready_at + max(hold, MEASURE_TIME)
+            outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), until)
         outputs.update(now, state.clock_offset)
         state.forget_schedule()  # a hold may have started
         if ready_at > now:
             self.waits.append(ready_at - now)
+            state.hardware.prepare(ready_at - state.clock_offset)  # acquire by then
             return ""
         state.conversions.pop(ch, None)
         run = state.sampler.runs.get(ch)
@@ -402,6 +425,8 @@ class Transaction:
         """Make the line's effects durable, then visible."""
         state = self.state
         changes = dict(self.changes)
+        for key in self.deferred or ():
+            del changes[key]  # committed after the delivery (§6.8.4.1)
         if self.reset_all:
             for key in state.values:
                 if key not in RESET_KEEPS and key not in changes:
@@ -421,6 +446,9 @@ class Transaction:
             state._names = None  # command names may have changed
             state._configs.clear()  # and so may channel configurations
             state._settings.clear()
+        if offset is not None or any(key.startswith("message ") for key in changes):
+            state.generation += 1
+        state.message_runs.extend(self.runs)
         if offset is not None:
             state.clock_offset = offset
         if any(key.startswith(_LIVE_PREFIXES) for key in changes) or self.reset_all:

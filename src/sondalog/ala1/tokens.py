@@ -273,7 +273,7 @@ class Cursor:
         if len(digits) not in ((14,) if full else (2, 4, 6, 8, 10, 14)):
             self.pos = start
             raise ParseError(f"a date has 2 to 14 digits in whole fields, not {len(digits)}")
-        filled = now.strftime("%Y%m%d%H%M%S")[: 14 - len(digits)] + digits
+        filled = format_stamp(now)[: 14 - len(digits)] + digits
         try:
             return parse_stamp(filled)
         except ParseError:
@@ -349,7 +349,8 @@ def parse_stamp(digits: str) -> datetime:
 
 
 def format_stamp(moment: datetime) -> str:
-    return moment.strftime("%Y%m%d%H%M%S")
+    # %Y does not pad years below 1000 on every platform (glibc prints year 1 as "1")
+    return f"{moment.year:04d}{moment:%m%d%H%M%S}"
 
 
 MONTH_PERIOD = "999901"

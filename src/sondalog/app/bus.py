@@ -10,17 +10,21 @@ on request.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 from sondalog.app.bus_build import build_bus
+from sondalog.backends.linux.rs485 import Rs485Settings, open_rs485
+from sondalog.backends.linux.sources import SensorBank
 from sondalog.backends.sim.site_bus import default_bus_site, load_bus_site
 from sondalog.backends.store.eeprom import EepromDatabase
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.pty import PtyLine
+from sondalog.io.rs485 import Rs485Line
 from sondalog.io.serial_line import SerialLine
 from sondalog.io.tcp import TcpServer, serve_tcp
 from sondalog.world.bus import BusCore
@@ -40,13 +44,18 @@ class BusServer:
     server: TcpServer
     database: EepromDatabase | None
     pty: PtyLine | None = None
-    serial: SerialLine | None = None
+    serial: SerialLine | Rs485Line | None = None
+    acquisition: asyncio.Task[None] | None = None  # the real sensors' (SensorBank.run)
 
     @property
     def address(self) -> tuple[str, int]:
         return self.server.address
 
     async def close(self) -> None:
+        if self.acquisition is not None:
+            self.acquisition.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await self.acquisition
         with contextlib.suppress(Exception):
             await self.server.close()
         if self.pty is not None:
@@ -69,19 +78,46 @@ async def start_bus_server(
     serial: str | None = None,
     noise: float | None = None,
     seed: int | None = None,
+    rs485: Rs485Settings | None = None,
+    root: Path = Path("/"),
 ) -> BusServer:
-    """Start a bus; raises :class:`~sondalog.sitefile.SiteError` for a bad site file."""
+    """Start a bus; raises :class:`~sondalog.sitefile.SiteError` for a bad site file.
+
+    ``serial`` with ``rs485`` opens the port as an RS-485 adapter (:func:`open_rs485`);
+    modules with a real ``source`` read sysfs under ``root``."""
     now = clock.now()
     bus_site = load_bus_site(site, now) if site is not None else default_bus_site(now)
-    core, database = build_bus(bus_site, now, baud, state_dir, noise, seed)
+    sensors = SensorBank(root)
+    for entry in bus_site.modules:  # read once before the modules' power-up measurement
+        if entry.source is not None:
+            sensors.sensor(entry.source)
+    if sensors.sensors:
+        await sensors.acquire()
+    core, database = build_bus(bus_site, now, baud, state_dir, noise, seed, sensors)
     host = DeviceHost(core, clock)
     host.start()
     running: BusServer | None = None
     try:
         running = BusServer(core, host, await serve_tcp(host, *listen), database)
+        if sensors.sensors:
+            running.acquisition = asyncio.create_task(sensors.run(), name="bus sensors")
         if pty is not None:
             running.pty = PtyLine(host, pty, keep_slave=True)
-        if serial is not None:
+        if serial is not None and rs485 is not None:
+            how, port = rs485, serial
+
+            def opener() -> object:
+                return open_rs485(
+                    port,
+                    core.baud,
+                    mode=how.mode,
+                    delay_before_tx=how.delay_before_tx,
+                    delay_before_rx=how.delay_before_rx,
+                )
+
+            running.serial = Rs485Line(host, opener, serial)
+            await running.serial.open()
+        elif serial is not None:
             running.serial = SerialLine(host, serial)
             await running.serial.open()
     except BaseException:

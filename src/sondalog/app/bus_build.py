@@ -5,11 +5,12 @@ from __future__ import annotations
 import random
 from pathlib import Path
 
+from sondalog.backends.linux.sources import SensorBank
 from sondalog.backends.sim.site_bus import BusSite
 from sondalog.backends.store.eeprom import EepromDatabase
 from sondalog.hctmps1.eeprom import EepromStore, MemoryEeprom
 from sondalog.hctmps1.module import Hctmps1Module, ModuleConfig
-from sondalog.hctmps1.variants import variant_for
+from sondalog.hctmps1.variants import SensorSource, variant_for
 from sondalog.protocol.hctmps1_frames import slot_time
 from sondalog.world.bus import BusCore
 
@@ -23,10 +24,12 @@ def build_bus(
     state_dir: Path | None = None,
     bit_error_rate: float | None = None,
     seed: int | None = None,
+    sensors: SensorBank | None = None,
 ) -> tuple[BusCore, EepromDatabase | None]:
     """A bus holding the site's modules, their EEPROM in ``state_dir`` (memory without one).
 
-    ``baud``, ``bit_error_rate`` and ``seed`` override the site file's values.
+    ``baud``, ``bit_error_rate`` and ``seed`` override the site file's values. Modules with a
+    real ``source`` read it through ``sensors`` (whose acquisition task the caller runs).
     """
     baud = baud or site.baud or DEFAULT_BAUD
     seed = seed if seed is not None else site.seed
@@ -42,5 +45,12 @@ def build_bus(
             entry.module_id, variant_for(entry.kind), entry.cycle, slot_time(baud)
         )
         rng = random.Random(master.getrandbits(64))
-        core.add_module(Hctmps1Module(config, entry.signal, eeprom, rng, now))
+        if entry.source is not None:
+            if sensors is None:
+                raise ValueError(f"module {entry.module_id} reads a real sensor: no SensorBank")
+            sensor: SensorSource = sensors.sensor(entry.source)
+        else:
+            assert entry.signal is not None
+            sensor = entry.signal
+        core.add_module(Hctmps1Module(config, sensor, eeprom, rng, now))
     return core, database

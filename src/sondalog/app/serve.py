@@ -1,30 +1,38 @@
 """``sondalog serve SITE.toml``: everything a site file describes, in one process.
 
 The wiring of :mod:`sondalog.app.site`'s plan: the logger (its hardware from the backend the
-site names, its state in ``STATE/logger``), the RS-485 bus (``STATE/bus``) and the mail hub
-(``STATE/mail``), each served by the one runtime on one clock. Later issues add fleets of
-loggers and the GSM network here, not in the CLI.
+site names, its state in ``STATE/logger``), the RS-485 bus (``STATE/bus``), the mail hub
+(``STATE/mail``) and the GSM network (``STATE/gsm``, :mod:`sondalog.app.gsm`), each served by
+the one runtime on one clock. Later issues add fleets of loggers here, not in the CLI.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from sondalog.ala1.engine import Engine
 from sondalog.ala1.model import Version
 from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.fleet import RunningFleet, start_fleet
+from sondalog.app.gsm import GsmRuntime
+from sondalog.app.gsm_api import ApiServer
+from sondalog.app.gsm_site import parse_gsm_site, traced
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
+from sondalog.backends.linux.rs485 import Rs485Error
 from sondalog.backends.registry import Acquiring, BackendContext, create
 from sondalog.io.address import format_address
-from sondalog.io.clock import Clock
+from sondalog.io.clock import Clock, RealClock
 from sondalog.sitefile import SiteError, locate
 
+#: The environment variable naming the root of sysfs and /dev (default "/").
+ROOT_VARIABLE = "SONDALOG_ROOT"
 #: Called with a line to show the user once each part is ready.
 Announce = Callable[[str], None]
 
@@ -37,11 +45,17 @@ class RunningSite:
     bus: BusServer | None = None
     mail: MailHub | None = None
     acquisition: asyncio.Task[None] | None = None
+    gsm: GsmRuntime | None = None
+    gsm_api: ApiServer | None = None
     fleet: RunningFleet | None = None
 
     async def close(self) -> None:
         if self.fleet is not None:
             await self.fleet.close()
+        if self.gsm_api is not None:
+            await self.gsm_api.stop()
+        if self.gsm is not None:
+            await self.gsm.close()
         if self.acquisition is not None:
             self.acquisition.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -56,14 +70,24 @@ class RunningSite:
 
 
 async def start_site(
-    plan: SitePlan, state: Path, clock: Clock, announce: Announce = lambda line: None
+    plan: SitePlan,
+    state: Path,
+    clock: Clock,
+    announce: Announce = lambda line: None,
+    trace: Path | None = None,
 ) -> RunningSite:
-    """Start every part of ``plan``; raises :class:`SiteError` or OSError."""
+    """Start every part of ``plan``; raises :class:`SiteError` or OSError.
+
+    The environment variable ``SONDALOG_ROOT`` prefixes every sysfs and ``/dev`` path the
+    real sensors are read from (a fake kernel tree in tests, a chroot). ``trace``
+    (``--trace FILE``): record the line of the logger's modem (``[gsm] logger_modem``, else the
+    first modem) in FILE."""
+    root = Path(os.environ.get(ROOT_VARIABLE) or "/")
     running = RunningSite()
     try:
         if plan.logger is not None:
             logger = plan.logger
-            context = BackendContext(plan.data, plan.path, plan.text, clock.now())
+            context = BackendContext(plan.data, plan.path, plan.text, clock.now(), root)
             try:
                 hardware = create(logger.backend, context)
             except LookupError as exc:
@@ -94,11 +118,23 @@ async def start_site(
             running.fleet = await start_fleet(plan.fleet, state, clock, plan.path, announce)
         if plan.bus is not None:
             bus = plan.bus
-            running.bus = await start_bus_server(
-                clock, bus.listen, site=plan.path, state_dir=state / "bus", pty=bus.pty,
-                serial=bus.serial,
-            )  # fmt: skip
+            try:
+                running.bus = await start_bus_server(
+                    clock, bus.listen, site=plan.path, state_dir=state / "bus", pty=bus.pty,
+                    serial=bus.serial, rs485=bus.rs485, root=root, baud=bus.baud,
+                )  # fmt: skip
+            except Rs485Error as exc:
+                table = plan.data.get("bus")
+                serve = table.get("serve") if isinstance(table, Mapping) else None
+                where = (
+                    "bus.serve.rs485"
+                    if isinstance(serve, Mapping) and "rs485" in serve
+                    else "board.rs485"
+                )
+                raise SiteError(plan.path, where, str(exc), locate(plan.text, where)) from exc
             announce(f"bus listening on {format_address(*running.bus.address)}")
+            if running.bus.serial is not None and bus.rs485 is not None:
+                announce(f"bus RS-485 ({bus.rs485.mode}) on {bus.serial}")
         if plan.mail is not None:
             try:
                 config = config_from_mapping(plan.mail, state / "mail")
@@ -110,7 +146,37 @@ async def start_site(
                 f"mail SMTP on {config.smtp_host}:{running.mail.smtp_port}, "
                 f"POP3 on {config.pop3_host}:{running.mail.pop3_port}"
             )
+        if plan.gsm is not None:
+            # the network and its modems are lines: they keep real time under --speed
+            gsm_clock = clock if clock.speed == 1 else RealClock()
+            gsm = parse_gsm_site(plan.data, plan.path, plan.text, gsm_clock.now())
+            if trace is not None:
+                gsm = traced(gsm, trace)
+            running.gsm = GsmRuntime(gsm, state / "gsm", gsm_clock)
+            await running.gsm.start()
+            running.gsm_api = ApiServer(running.gsm, *plan.gsm.api)
+            await running.gsm_api.start()
+            announce(f"gsm API on http://{format_address(*running.gsm_api.address)}")
+            for number, server in running.gsm.servers.items():
+                announce(f"gsm modem {number} listening on {format_address(*server.address)}")
+            for pty in running.gsm.ptys:
+                announce(f"gsm modem pty {pty.link} -> {pty.device}")
+            modem_number = plan.logger.modem if plan.logger is not None else None
+            if running.logger is not None and modem_number:
+                join_modem(running.logger, running.gsm, modem_number, clock.now())
+                announce(f"logger com line joined to its modem {modem_number}")
     except BaseException:
         await running.close()
         raise
     return running
+
+
+def join_modem(logger: Logger, gsm: GsmRuntime, number: str, now: float) -> None:
+    """The logger drives its modem through AT bytes on its com line (gsm notes §1): the
+    engine's modem line is joined to the DTE side of modem ``number``."""
+    host = logger.host
+    engine = host.device
+    assert isinstance(engine, Engine)
+    line = engine.attach_modem(now)
+    modem = gsm.dte(number, lambda data: host.feed(line, data))
+    host.adopt(line, lambda output: modem.write(output.data))

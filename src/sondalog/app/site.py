@@ -9,6 +9,7 @@ served is said in a ``serve`` table beside it; everything has a default::
     protocol = "2.10"               # or "1.16"; fixed once the state directory exists
     serial_number = "A1-0001"
     ptys = ["/tmp/ala1"]            # pty lines (stable symlinks), paced at com speed
+    modem = "+420600000001"         # the com line drives this modem of [gsm] (AT bytes)
     serials = ["/dev/ttyUSB0"]      # real serial ports
     line_rate = false               # pace TCP answers too
 
@@ -16,19 +17,29 @@ served is said in a ``serve`` table beside it; everything has a default::
     listen = "127.0.0.1:10485"
     pty = "/tmp/rs485"
     serial = "/dev/ttyUSB1"
+    rs485 = "auto"                  # the serial port is an RS-485 adapter: kernel | rts | auto
+    delay_before_tx = 0.0           # driver delays (rs485 only), seconds
+    delay_before_rx = 0.0
+
+Without ``serial`` in ``[bus.serve]``, a board file's ``[board.rs485]`` (port, baud, mode,
+delays) serves the bus on that adapter.
 
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
-hub when it has ``[mail]``; a fleet of loggers for its ``[[loggers]]``
-(:mod:`sondalog.app.fleet_site`). Errors name the file, line and field (:class:`SiteError`).
+hub when it has ``[mail]``; a GSM network when it has ``[gsm]`` (:mod:`sondalog.app.gsm_site`);
+a fleet of loggers for its ``[[loggers]]`` (:mod:`sondalog.app.fleet_site`).
+Errors name the file, line and field (:class:`SiteError`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from sondalog.app.fleet_site import FleetLogger, parse_fleet
+from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
+from sondalog.backends.linux.board import board_of_site
+from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
 from sondalog.io.address import parse_listen
@@ -38,8 +49,8 @@ _Fail = Callable[[str, str], SiteError]
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
-_LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate"}
-_BUS_SERVE = {"listen", "pty", "serial"}
+_LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate", "modem"}
+_BUS_SERVE = {"listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx"}
 
 
 @dataclass(frozen=True)
@@ -51,6 +62,7 @@ class LoggerPlan:
     ptys: tuple[Path, ...] = ()
     serials: tuple[str, ...] = ()
     line_rate: bool = False
+    modem: str | None = None  # the com line drives this modem of [gsm] (its number)
 
 
 @dataclass(frozen=True)
@@ -58,6 +70,8 @@ class BusPlan:
     listen: tuple[str, int] = DEFAULT_BUS_LISTEN
     pty: Path | None = None
     serial: str | None = None
+    rs485: Rs485Settings | None = None  # the serial port is an RS-485 adapter
+    baud: int | None = None  # from [board.rs485] when [bus] has none
 
 
 @dataclass(frozen=True)
@@ -71,6 +85,7 @@ class SitePlan:
     bus: BusPlan | None = None
     mail: Mapping[str, object] | None = None
     listens: list[tuple[str, tuple[str, int]]] = field(default_factory=list)
+    gsm: GsmPlan | None = None
     fleet: list[FleetLogger] = field(default_factory=list)
 
 
@@ -102,15 +117,28 @@ def load_site(path: Path) -> SitePlan:
         mail = table
     if bus is not None:
         parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
+        if bus.serial is None and "board" in data:
+            bus = _board_rs485(bus, data, path, text)
     if logger is not None and logger.backend == "sim":
         parse_logger_site(data, 0.0, path, text)
+    gsm = parse_gsm_site(data, path, text) if "gsm" in data else None
+    if gsm is not None:
+        listens.append(("gsm.serve.api", gsm.api))
+        listens += [
+            (f"gsm.modem.{m.number}.serve.listen", m.listen) for m in gsm.modems if m.listen
+        ]
+    if logger is not None and logger.modem is not None:
+        numbers = [m.number for m in gsm.modems] if gsm is not None else []
+        if logger.modem not in numbers:
+            raise fail("logger.serve.modem", f"no [[gsm.modem]] with number {logger.modem}")
     fleet = parse_fleet(data, path, text)
     listens.extend((f"{member.where}.listen", member.listen) for member in fleet)
-    if logger is None and bus is None and mail is None and not fleet:
+    if logger is None and bus is None and mail is None and gsm is None and not fleet:
         raise fail(
-            "site", "nothing to serve: the file has no [logger], [[loggers]], [bus] or [mail]"
+            "site",
+            "nothing to serve: the file has no [logger], [[loggers]], [bus], [mail] or [gsm]",
         )
-    return SitePlan(path, data, text, logger, bus, mail, listens, fleet)
+    return SitePlan(path, data, text, logger, bus, mail, listens, gsm, fleet)
 
 
 def _serve_table(
@@ -154,6 +182,9 @@ def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
     protocol = serve.get("protocol")
     if protocol is not None and protocol not in ("1.16", "2.10"):
         raise fail("logger.serve.protocol", 'must be "1.16" or "2.10"')
+    modem = serve.get("modem")
+    if modem is not None and (not isinstance(modem, str) or not modem):
+        raise fail("logger.serve.modem", "must be the number of a [[gsm.modem]]")
     line_rate = serve.get("line_rate", False)
     if not isinstance(line_rate, bool):
         raise fail("logger.serve.line_rate", "must be true or false")
@@ -169,12 +200,51 @@ def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
         ptys=tuple(Path(p) for p in _texts(serve.get("ptys", []), "logger.serve.ptys", fail)),
         serials=_texts(serve.get("serials", []), "logger.serve.serials", fail),
         line_rate=line_rate,
+        modem=modem,
     )
+
+
+def _board_rs485(bus: BusPlan, data: Mapping[str, object], path: Path, text: str) -> BusPlan:
+    """The bus on the board file's RS-485 adapter (``[board.rs485]``)."""
+    board = board_of_site(data, path, text)
+    if board is None or board.rs485 is None:
+        return bus
+    wired = board.rs485
+    how = Rs485Settings(wired.mode, wired.delay_before_tx, wired.delay_before_rx)
+    bus_table = data.get("bus")
+    has_baud = isinstance(bus_table, Mapping) and "baud" in bus_table
+    return replace(bus, serial=wired.port, rs485=how, baud=None if has_baud else wired.baud)
+
+
+def _rs485(table: Mapping[str, object], serve: Mapping[str, object], fail: _Fail) -> Rs485Settings:
+    mode = serve["rs485"]
+    if mode not in MODES:
+        raise fail("bus.serve.rs485", f"must be one of {', '.join(MODES)}, not {mode!r}")
+    if "serial" not in serve:
+        raise fail("bus.serve.rs485", "an RS-485 mode needs the adapter: serial = PORT")
+    delays = []
+    for key in ("delay_before_tx", "delay_before_rx"):
+        value = serve.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise fail(f"bus.serve.{key}", f"must be seconds, not {value!r}")
+        delays.append(float(value))
+    baud = table.get("baud")
+    try:
+        check_delays(baud if isinstance(baud, int) and baud > 0 else 9600, *delays)
+    except Rs485Error as exc:
+        key = "delay_before_tx" if "delay_before_tx" in str(exc) else "delay_before_rx"
+        raise fail(f"bus.serve.{key}", str(exc)) from None
+    return Rs485Settings(mode, delays[0], delays[1])
 
 
 def _bus_plan(table: Mapping[str, object], fail: _Fail) -> BusPlan:
     serve = _serve_table(table, "bus", _BUS_SERVE, fail)
+    rs485 = _rs485(table, serve, fail) if "rs485" in serve else None
+    for key in ("delay_before_tx", "delay_before_rx"):
+        if key in serve and rs485 is None:
+            raise fail(f"bus.serve.{key}", 'driver delays need an RS-485 mode (rs485 = "...")')
     return BusPlan(
+        rs485=rs485,
         listen=_listen(serve["listen"], "bus.serve.listen", fail)
         if "listen" in serve
         else DEFAULT_BUS_LISTEN,

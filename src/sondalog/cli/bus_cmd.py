@@ -15,11 +15,12 @@ import signal
 import sys
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import TypeVar, cast
 
 import click
 
 from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
+from sondalog.backends.linux.rs485 import Mode, Rs485Error, Rs485Settings
 from sondalog.cli.common import allow_remote_option, format_address, listen_option
 from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster
 from sondalog.client.bus_actions import (
@@ -87,6 +88,11 @@ def bus() -> None:
 @click.option("--pty", "pty_link", type=click.Path(path_type=Path), help="Symlink to a pty.")
 @click.option("--serial", "serial_device", metavar="DEVICE", help="Attach a real serial port.")
 @click.option(
+    "--rs485",
+    type=click.Choice(["kernel", "rts", "auto"]),
+    help="The serial port is an RS-485 adapter: how its driver is switched (docs/linux-board.md).",
+)
+@click.option(
     "--state",
     "state_dir",
     type=click.Path(file_okay=False, path_type=Path),
@@ -117,6 +123,7 @@ def serve(
     listen: tuple[str, int],
     pty_link: Path | None,
     serial_device: str | None,
+    rs485: str | None,
     state_dir: Path,
     site: Path | None,
     baud: int | None,
@@ -128,6 +135,8 @@ def serve(
 
     Prints "listening on HOST:PORT" once ready. SIGINT or SIGTERM stop it cleanly.
     """
+    if rs485 is not None and serial_device is None:
+        raise click.UsageError("--rs485 needs the adapter: --serial DEVICE")
     start = functools.partial(
         start_bus_server,
         make_clock(speed),
@@ -139,10 +148,11 @@ def serve(
         serial=serial_device,
         noise=noise,
         seed=seed,
+        rs485=Rs485Settings(cast(Mode, rs485)) if rs485 is not None else None,
     )
     try:
         serve_loop.run(_serve(start))
-    except (SiteError, FileExistsError) as exc:
+    except (SiteError, FileExistsError, Rs485Error) as exc:
         raise _Refused(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve the bus: {exc}") from exc

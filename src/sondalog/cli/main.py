@@ -51,6 +51,11 @@ COMMANDS: dict[str, LazyCommand] = {
         "collect",
         "Collect readings from loggers and buses into SQLite (and PostgreSQL, MQTT).",
     ),
+    "phone": LazyCommand(
+        "sondalog.cli.phone_cmd",
+        "phone",
+        "Send and read SMS and place calls as a phone of a served GSM network.",
+    ),
 }
 SUBCOMMANDS: dict[str, LazyCommand] = {
     "tables": LazyCommand(

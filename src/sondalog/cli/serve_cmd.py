@@ -29,9 +29,17 @@ from sondalog.io import loop as serve_loop
     show_default=True,
     help="Run the devices' clock this many times faster than real time.",
 )
+@click.option(
+    "--trace",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Record the line of the logger's GSM modem in this file (docs/gsm.md).",
+)
 @allow_remote_option
 @click.pass_context
-def serve(ctx: click.Context, site: Path, state_dir: Path | None, speed: float) -> None:
+def serve(
+    ctx: click.Context, site: Path, state_dir: Path | None, speed: float, trace: Path | None
+) -> None:
     """Serve the loggers, buses and mail hub that the site file SITE describes.
 
     Prints one line per part once it accepts connections (for example
@@ -54,14 +62,14 @@ def serve(ctx: click.Context, site: Path, state_dir: Path | None, speed: float) 
                 )
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
-        serve_loop.run(_serve(plan, state, speed))
+        serve_loop.run(_serve(plan, state, speed, trace))
     except SiteError as exc:
         raise Refused(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve {site}: {exc}") from exc
 
 
-async def _serve(plan: object, state: Path, speed: float) -> None:
+async def _serve(plan: object, state: Path, speed: float, trace: Path | None = None) -> None:
     from sondalog.app.serve import start_site
     from sondalog.app.site import SitePlan
     from sondalog.io.clock import make_clock
@@ -76,7 +84,7 @@ async def _serve(plan: object, state: Path, speed: float) -> None:
         sys.stdout.write(line + "\n")
         sys.stdout.flush()
 
-    running = await start_site(plan, state, make_clock(speed), announce)
+    running = await start_site(plan, state, make_clock(speed), announce, trace)
     try:
         await stop.wait()
     finally:

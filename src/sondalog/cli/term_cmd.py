@@ -127,6 +127,8 @@ def term(url: str, timeout: float) -> None:
     """Talk to an ALA1 logger at URL (tcp://HOST:PORT, serial:///DEVICE?baud=9600).
 
     A serial URL also opens the pty of "logger serve --pty PATH": serial://PATH?baud=9600.
+    gsm://API-HOST:PORT/NUMBER?from=PHONE places a data call to a modem of a served GSM
+    network and talks through it once the modem answered (docs/gsm.md).
     Lines starting with ":" are local commands (:help, :log FILE, :explain, :quit).
 
     Reading commands from stdin, exit status 1 means a command got no answer or an

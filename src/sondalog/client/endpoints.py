@@ -11,6 +11,8 @@ care which it talks through.
   ``com speed`` (§6.11.2). The pty symlink of ``sondalog logger serve --pty PATH`` is opened
   the same way: ``serial:///tmp/ala1?baud=9600``. ``pty://`` is accepted as a synonym, and a
   relative path may be written ``serial:ala1``.
+- ``gsm://API-HOST:PORT/NUMBER?from=PHONE``: a data call from PHONE to the modem NUMBER of a
+  served GSM network, placed through its HTTP API (:mod:`sondalog.client.phone`, docs/gsm.md).
 """
 
 from __future__ import annotations
@@ -21,12 +23,13 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 from urllib.parse import parse_qs, unquote, urlsplit
 
+from sondalog.client.phone import parse_gsm_url
 from sondalog.io.serial_ports import serial_8n1
 
 _P = TypeVar("_P", bound=asyncio.Protocol)
 
 #: URL schemes that :func:`parse_url` understands.
-SCHEMES = ("tcp", "serial", "pty")
+SCHEMES = ("tcp", "serial", "pty", "gsm")
 #: §6.11.2: the factory ``com speed``.
 DEFAULT_BAUD = 9600
 
@@ -111,6 +114,8 @@ def parse_url(url: str) -> Endpoint:
         if parts.netloc:
             raise ValueError(f"expected serial:///DEVICE (three slashes), got {url!r}")
         return _serial_endpoint(url, parts.path, parts.query)
+    if scheme == "gsm":
+        return parse_gsm_url(url)
     try:
         host, port = parts.hostname, parts.port
     except ValueError as exc:

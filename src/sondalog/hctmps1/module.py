@@ -8,7 +8,7 @@ broadcast reply falling due). The module never reads a clock, never sleeps and n
 a socket. The only side effect is :meth:`EepromStore.save` on ``SAVEEE``, which returns once
 the image is durable, before the reply is produced (DESIGN.md point 5).
 
-Section numbers refer to ``shared/spec/hctmps1.md``.
+Section numbers refer to the HCTMPS1 notes (docs/hctmps1-notes.md).
 """
 
 from __future__ import annotations

@@ -120,6 +120,10 @@ class DeviceHost:
             self._flows[line_id] = flow
         return line_id
 
+    def adopt(self, line_id: int, sink: OutputSink) -> None:
+        """Route a line the device opened itself (the ALA1's modem line) to ``sink``."""
+        self._sinks[line_id] = sink
+
     def detach(self, line_id: int) -> None:
         """The connection is gone: its partial command and pending output are dropped."""
         self._sinks.pop(line_id, None)

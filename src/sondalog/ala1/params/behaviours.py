@@ -191,7 +191,7 @@ def read_record_from_last(shift: bool) -> Reader:
         key = f"record last {indices['pt']} read"
         rows = view.record.rows(start_of(view, view.get(key)), indices["n"])
         if shift and rows:
-            view.set(key, row_key(rows[-1]))
+            view.move_point(key, row_key(rows[-1]))
         return rows
 
     return read
@@ -270,3 +270,8 @@ def read_text(view: View, indices: Indices, arg: str | None) -> list[str]:
 def write_com_close(view: View, indices: Indices, values: list[str]) -> None:
     """§6.11.8: release the line so that messages may be sent (§6.14.9.2)."""
     view.release_line()
+
+
+def write_message_run(view: View, indices: Indices, values: list[str]) -> None:
+    """§6.14.8: ``run 1`` sends the message even though no condition was met."""
+    view.run_message(indices["msg"])

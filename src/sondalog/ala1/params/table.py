@@ -41,6 +41,7 @@ from sondalog.ala1.params.behaviours import (
     write_device_type,
     write_global_reset,
     write_list_size,
+    write_message_run,
     write_nothing,
     write_record_clear,
     write_record_size,
@@ -75,8 +76,6 @@ _messages: Callable[[Limits], int] = lambda lim: lim.messages  # noqa: E731
 _commands: Callable[[Limits], int] = lambda lim: lim.commands  # noqa: E731
 _addresses: Callable[[Limits], int] = lambda lim: lim.addresses  # noqa: E731
 _U16 = 65535
-
-LATER_MESSAGES = "messages (a later issue)"
 
 
 def _leaves() -> list[Leaf]:
@@ -272,7 +271,7 @@ def _leaves() -> list[Leaf]:
                  fmt_doc="watched channel's format"),
           "RW", "0", S + "6.14.7.4", "hysteresis"),
         L("message {msg} run", Integer(1, 1), "W", "", S + "6.14.8", "send now",
-          unavailable=LATER_MESSAGES, stored=False),
+          writer=write_message_run, stored=False),
         # §6.15 file
         L("file record size", MemorySize(minimum=256), "RW", str(TOTAL_MEMORY),
           S + "6.15.1", "record area (write first)", writer=write_record_size),

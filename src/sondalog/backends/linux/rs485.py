@@ -1,5 +1,6 @@
 """A real RS-485 adapter for the HCTMPS1 bus (hctmps1.md §1, §2; docs/hctmps1.md timing).
 
+The port itself is opened by :mod:`sondalog.io.rs485` (the bus master uses it too).
 RS-485 is half duplex: the side that talks enables its line driver (DE, usually wired to
 the UART's RTS) for exactly as long as its frame lasts. Three ways to get that on Linux:
 
@@ -7,7 +8,8 @@ the UART's RTS) for exactly as long as its frame lasts. Three ways to get that o
   8250 UARTs, many USB adapters' drivers). The best choice where the driver supports it.
 - ``rts``: pyserial's :class:`serial.rs485.RS485` raises RTS, writes, waits until the last
   stop bit has left (``tcdrain``) and drops RTS. Works on any UART with an RTS line, but the
-  write blocks for the frame's duration and the release is only as precise as the scheduler.
+  write blocks for the frame's duration (so it runs in a worker thread,
+  :class:`sondalog.io.rs485.AsyncPort`) and the release is only as precise as the scheduler.
 - ``auto``: the adapter switches direction by itself (most USB RS-485 sticks); the port is a
   plain 8N1 port.
 
@@ -20,20 +22,15 @@ an 80-byte frame each.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 from sondalog.hctmps1.module import BROADCAST_SLOTS
+from sondalog.io.rs485 import MODES, Mode, Rs485Error, open_port
 from sondalog.protocol.hctmps1_frames import slot_time
 from sondalog.world.bus import DEFAULT_TURNAROUND
 
-Mode = Literal["kernel", "rts", "auto"]
-MODES: tuple[Mode, ...] = ("kernel", "rts", "auto")
 #: Bits per byte on the line: start, 8 data, stop (8N1).
 BITS_PER_BYTE = 10
-
-
-class Rs485Error(ValueError):
-    """The port cannot be driven as asked (settings out of range, mode not supported)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,6 +65,15 @@ class BusTiming:
         return self.turnaround + BROADCAST_SLOTS * slot_time(self.baud)
 
 
+@dataclass(frozen=True, slots=True)
+class Rs485Settings:
+    """How a served bus drives its adapter (``[bus.serve]`` or ``[board.rs485]``)."""
+
+    mode: Mode = "auto"
+    delay_before_tx: float = 0.0
+    delay_before_rx: float = 0.0
+
+
 def check_delays(baud: int, delay_before_tx: float, delay_before_rx: float) -> None:
     """Driver delays must fit the bus timing: releasing the driver later than the module
     turnaround would collide with the answer."""
@@ -91,41 +97,33 @@ def open_rs485(
     rts_level_for_tx: bool = True,
     timeout: float | None = 0.0,
 ) -> Any:
-    """Open ``port`` 8N1 at ``baud`` as an RS-485 line in ``mode``; a pyserial ``Serial``.
+    """Open ``port`` 8N1 at ``baud`` as an RS-485 line in ``mode``; a pyserial ``Serial``
+    (:func:`sondalog.io.rs485.open_port`, its driver delays checked against the bus timing).
 
     Raises :class:`Rs485Error` when the port cannot do the mode (a pty, or a UART whose driver
     lacks ``TIOCSRS485``, in ``kernel`` mode; a port without modem lines in ``rts`` mode) and
     ``serial.SerialException`` when it cannot be opened at all.
     """
-    import serial
-    import serial.rs485
-
-    from sondalog.io.serial_ports import serial_8n1
-
     if mode not in MODES:
         raise Rs485Error(f"mode must be one of {', '.join(MODES)}, not {mode!r}")
     check_delays(baud, delay_before_tx, delay_before_rx)
-    settings = serial.rs485.RS485Settings(
-        rts_level_for_tx=rts_level_for_tx,
-        rts_level_for_rx=not rts_level_for_tx,
+    return open_port(
+        port,
+        baud,
+        mode=mode,
         delay_before_tx=delay_before_tx,
         delay_before_rx=delay_before_rx,
+        rts_level_for_tx=rts_level_for_tx,
+        timeout=timeout,
     )
-    cls = serial.rs485.RS485 if mode == "rts" else serial.Serial
-    line = cls(port, baud, timeout=timeout, **serial_8n1())
-    try:
-        if mode == "kernel":
-            line.rs485_mode = settings  # TIOCSRS485 on Linux
-        elif mode == "rts":
-            line.rts = not rts_level_for_tx  # receiving until the first write
-            line.rs485_mode = settings  # pyserial toggles RTS around each write
-    except (ValueError, OSError) as exc:
-        line.close()
-        hint = (
-            "the port's driver has no kernel RS-485 mode (a pty or a plain USB serial "
-            "adapter): use mode = 'rts' or 'auto'"
-            if mode == "kernel"
-            else "the port has no RTS line (a pty?): use mode = 'auto'"
-        )
-        raise Rs485Error(f"{port}: {mode} RS-485 mode not supported: {exc}; {hint}") from None
-    return line
+
+
+__all__ = [
+    "MODES",
+    "BusTiming",
+    "Mode",
+    "Rs485Error",
+    "Rs485Settings",
+    "check_delays",
+    "open_rs485",
+]

@@ -14,16 +14,22 @@ A site file is TOML. The bus reads its ``[bus]`` table and ignores other top-lev
     cycle = 10.0       # optional measurement cycle, seconds
     signal = { model = "sine", mean = 21.0, amplitude = 2.0, period = 86400 }
 
+    [[bus.modules]]    # a real sensor instead of a signal (backends/linux/sources.py)
+    id = "T2"
+    kind = "temp"
+    source = "w1:28-000008d5e4fd"   # or "iio:DEVICE:CHANNEL" with scale and offset
+
 The signal tables are those of :mod:`sondalog.backends.sim.signals`. A wrong file is rejected with a
 :class:`SiteError` naming the file, the field and, where it can be found, the line.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from sondalog.backends.linux.sources import SourceError, SourceSpec, parse_source
 from sondalog.backends.sim.signals import Signal, SignalError, build_signal
 from sondalog.hctmps1.module import DEFAULT_CYCLE
 from sondalog.hctmps1.variants import Kind, variant_for
@@ -31,17 +37,18 @@ from sondalog.protocol.hctmps1_frames import is_valid_id
 from sondalog.sitefile import SiteError, locate, read_site_file
 
 _BUS_KEYS = {"baud", "noise", "seed", "modules", "serve"}  # serve: app/site.py
-_MODULE_KEYS = {"id", "kind", "cycle", "signal"}
+_MODULE_KEYS = {"id", "kind", "cycle", "signal", "source", "scale", "offset"}
 
 
 @dataclass(frozen=True, slots=True)
 class ModuleSite:
-    """One module on the bus."""
+    """One module on the bus: a simulated ``signal``, or a real sensor (``source``)."""
 
     module_id: str
     kind: Kind
-    signal: Signal
+    signal: Signal | None
     cycle: float = DEFAULT_CYCLE
+    source: SourceSpec | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,12 +144,43 @@ def parse_bus_site(
             raise fail(
                 f"{where}.cycle", f"must be seconds, longer than the conversion, not {cycle!r}"
             )
+        if "source" in raw:
+            source = _source(raw, kind, where, fail)
+            modules.append(ModuleSite(module_id, kind, None, float(cycle), source))
+            continue
+        for key in ("scale", "offset"):
+            if key in raw:
+                raise fail(f"{where}.{key}", "only a module with a source has a scale and offset")
         signal_table = raw.get("signal")
         if not isinstance(signal_table, Mapping):
-            raise fail(f"{where}.signal", "a signal table is required")
+            raise fail(f"{where}.signal", "a signal table (or a source) is required")
         try:
             signal = build_signal(signal_table, start, base_dir)
         except SignalError as exc:
             raise fail(f"{where}.signal.{exc.field}", exc.message) from None
         modules.append(ModuleSite(module_id, kind, signal, float(cycle)))
     return BusSite(tuple(modules), baud, float(noise), seed, path)
+
+
+def _source(
+    raw: Mapping[str, object], kind: Kind, where: str, fail: Callable[[str, str], SiteError]
+) -> SourceSpec:
+    """A module's real sensor: ``source`` with its ``scale`` and ``offset``."""
+    if "signal" in raw:
+        raise fail(f"{where}.signal", "a module has a signal or a source, not both")
+    numbers = []
+    for key, default in (("scale", 1.0), ("offset", 0.0)):
+        value = raw.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise fail(f"{where}.{key}", f"must be a number, not {value!r}")
+        numbers.append(float(value))
+    text = raw["source"]
+    if not isinstance(text, str):
+        raise fail(f"{where}.source", "must be a string (w1:28-... or iio:DEVICE:CHANNEL)")
+    try:
+        spec = parse_source(text, numbers[0], numbers[1])
+    except SourceError as exc:
+        raise fail(f"{where}.source", str(exc)) from None
+    if spec.bus == "w1" and kind is not Kind.TEMP:
+        raise fail(f"{where}.source", "a DS18B20 measures temperature: kind must be 'temp'")
+    return spec

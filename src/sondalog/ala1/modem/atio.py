@@ -1,0 +1,156 @@
+"""The AT conversation as the driver's jobs see it (gsm.md §2).
+
+A job is a generator: it yields a request (send a command and wait for its final result, wait
+for an unsolicited result code, sleep, pass raw bytes in data mode) and is resumed with the
+answer. :class:`ModemReader` cuts the modem's output into lines (``CR LF`` framed), sees the
+``> `` prompt of ``AT+CMGS`` and, after a ``CONNECT``, passes the bytes raw (data mode).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator
+from dataclasses import dataclass, field
+
+#: Final result codes of a command line (V.250, 27.007, 27.005).
+FINALS = ("OK", "ERROR", "+CME ERROR", "+CMS ERROR", "NO CARRIER", "BUSY", "NO ANSWER",
+          "NO DIALTONE", "CONNECT")  # fmt: skip
+#: Unsolicited result codes the driver acts on.
+URCS = ("+CMTI:", "RING", "+CRING:", "+CLIP:", "+CUSD:", "+WIPREADY:", "+WIPERROR:",
+        "+WIPACCEPT:", "+WIPPEERCLOSE:", "+WIPDATA:")  # fmt: skip
+CTRL_Z = b"\x1a"
+
+
+@dataclass(frozen=True)
+class Reply:
+    """A command's final result (``""``: no answer in time) and its information lines."""
+
+    final: str
+    lines: tuple[str, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return self.final == "OK"
+
+    def info(self, prefix: str) -> str | None:
+        return next((ln for ln in self.lines if ln.startswith(prefix)), None)
+
+
+@dataclass(frozen=True)
+class MailReply:
+    """A command's answer going back by e-mail (SMS return address, e-mail command)."""
+
+    address: str
+    body: str
+
+
+@dataclass(frozen=True)
+class At:
+    """Send ``AT...`` + CR; the answer is a :class:`Reply` (``prompt``: ``> `` ends it)."""
+
+    line: str
+    timeout: float = 10.0
+    prompt: bool = False
+
+
+@dataclass(frozen=True)
+class Send:
+    """Send raw bytes (SMS text and Ctrl-Z), then wait for the final result."""
+
+    data: bytes
+    timeout: float = 60.0
+
+
+@dataclass(frozen=True)
+class Await:
+    """Wait for a final result without sending (after ``+++``)."""
+
+    timeout: float = 3.0
+
+
+@dataclass(frozen=True)
+class Urc:
+    """Wait for an unsolicited line starting with one of ``prefixes``; the line or None."""
+
+    prefixes: tuple[str, ...]
+    timeout: float = 30.0
+
+
+@dataclass(frozen=True)
+class Sleep:
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Write:
+    """Bytes to the modem now (data mode, ``+++``); resumes at once."""
+
+    data: bytes
+
+
+@dataclass(frozen=True)
+class Recv:
+    """Data-mode bytes: resumes with what arrived (``b""`` once ``until`` passed)."""
+
+    until: float | None
+
+
+@dataclass(frozen=True)
+class CommandMode:
+    """Data mode is over (``+++`` sent): read lines again."""
+
+
+Request = At | Send | Await | Urc | Sleep | Write | Recv | CommandMode
+Job = Generator[Request, object, None]
+
+
+@dataclass
+class ModemReader:
+    """The modem's output cut into lines, the prompt, and raw data in data mode."""
+
+    buffer: bytearray = field(default_factory=bytearray)
+    raw: bool = False
+    data: bytearray = field(default_factory=bytearray)
+
+    def feed(self, chunk: bytes) -> list[str]:
+        """Lines completed by ``chunk`` (a prompt is the line ``"> "``)."""
+        if self.raw:
+            self.data += chunk
+            return []
+        self.buffer += chunk
+        lines: list[str] = []
+        while True:
+            if self.buffer.startswith(b"> "):
+                del self.buffer[:2]
+                lines.append("> ")
+                continue
+            end = self.buffer.find(b"\n")
+            if end < 0:
+                return lines
+            line = bytes(self.buffer[:end]).strip(b"\r").decode("latin-1")
+            del self.buffer[: end + 1]
+            if line:
+                lines.append(line)
+                if line.startswith("CONNECT"):  # data mode from the next byte on
+                    self.raw = True
+                    self.data += self.buffer
+                    self.buffer.clear()
+                    return lines
+
+    def take_data(self) -> bytes:
+        out = bytes(self.data)
+        self.data.clear()
+        return out
+
+    def command_mode(self) -> None:
+        self.raw = False
+        self.buffer += self.data
+        self.data.clear()
+
+
+def is_final(line: str) -> bool:
+    return line.startswith(FINALS)
+
+
+def is_urc(line: str) -> bool:
+    """A URC; ``+CREG: <stat>`` (no comma) is the registration URC of ``AT+CREG=1``."""
+    return line.startswith(URCS) or (line.startswith("+CREG:") and "," not in line)

@@ -1,0 +1,222 @@
+"""What the driver does, one job at a time, as AT conversations (gsm.md §2-§6).
+
+Each job is a generator of :mod:`~sondalog.ala1.modem.atio` requests. ``d`` is the
+:class:`~sondalog.ala1.modem.driver.ModemDriver`; ``d.now`` is the time of the resumption.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator
+from typing import TYPE_CHECKING
+
+from sondalog.ala1.modem import mailjobs
+from sondalog.ala1.modem.atio import CTRL_Z, At, Job, MailReply, Reply, Request, Send, Sleep, Urc
+from sondalog.ala1.modem.credit import credit_from_answer, parse_credit_code, rssi_from_csq
+from sondalog.ala1.modem.session import data_session
+from sondalog.ala1.modem.text import gsm7_text, split_sms
+from sondalog.ala1.outbox import Outgoing
+from sondalog.protocol.mail_command import BoundedCommand, extract_command
+
+if TYPE_CHECKING:
+    from sondalog.ala1.modem.driver import ModemDriver
+
+#: How long the driver waits for registration before a sending fails (no coverage).
+REGISTRATION_TIMEOUT = 60.0
+REGISTRATION_POLL = 2.0
+SETUP = ("ATE0", "AT+CMEE=1", "AT+CMGF=1", "AT+CLIP=1", "AT+CRC=1", "AT+CNMI=2,1,0,0,0",
+         "AT+CREG=1")  # fmt: skip
+
+
+def _reply(value: object) -> Reply:
+    return value if isinstance(value, Reply) else Reply("")
+
+
+def at(line: str, timeout: float = 10.0) -> Generator[At, object, Reply]:
+    return _reply((yield At(line, timeout)))
+
+
+def probe(d: ModemDriver) -> Job:
+    """§6.11.5.2.1: is a modem there? ``AT`` answered within 1 s."""
+    from sondalog.ala1.modem.driver import PROBE_TIMEOUT
+
+    reply = _reply((yield At("AT", PROBE_TIMEOUT)))
+    d.found(reply.final != "")
+
+
+def init(d: ModemDriver, device: str) -> Job:
+    """Set the modem up (echo off, errors, text-mode SMS, caller id...), then its idle mode."""
+    for line in SETUP:
+        if (yield from at(line)).final == "":
+            return
+    smsc = d.host.setting("com network smc").strip()
+    if smsc:
+        yield from at(f'AT+CSCA="{smsc}"')
+    on = device != "WAVECOM40"
+    d.radio = not on  # force the radio command below
+    yield from radio(d, on)
+    if device == "WAVECOM42":
+        yield from mailjobs.gprs_up(d)
+    elif d.gprs:
+        yield from gprs_down(d)
+    d.applied = device
+
+
+def radio(d: ModemDriver, on: bool) -> Job:
+    if d.radio != on:
+        yield from at(f"AT+CFUN={1 if on else 0}")
+        d.radio = on
+        if not on:
+            d.registered_since = None
+            d.gprs = d.listening = False
+
+
+def attach(d: ModemDriver) -> Job:
+    """wavecom42 in idle: attached to GPRS, listening on port 10001 (§6.11.5.2.4)."""
+    yield from mailjobs.gprs_up(d)
+
+
+def gprs_down(d: ModemDriver) -> Job:
+    yield from mailjobs.gprs_down(d)
+
+
+def registered(d: ModemDriver) -> Generator[Request, object, bool]:
+    """Radio on, registered, and ``com network delay`` passed since registration (§6.11.6.5)."""
+    yield from radio(d, True)
+    end = d.now + REGISTRATION_TIMEOUT
+    while True:
+        reply = yield from at("AT+CREG?")
+        line = reply.info("+CREG:") or ""
+        stat = line.split(",")[1].strip() if line.count(",") >= 1 else ""
+        if stat in ("1", "5"):
+            if d.registered_since is None:
+                d.registered_since = d.now
+            delay = float(d.host.setting("com network delay") or 0)
+            wait = d.registered_since + delay - d.now
+            if wait > 0:
+                yield Sleep(wait)
+            return True
+        d.registered_since = None
+        if reply.final == "" or d.now >= end:
+            return False
+        yield Sleep(REGISTRATION_POLL)
+
+
+def readings(d: ModemDriver) -> Generator[Request, object, None]:
+    """gsm.md §6: signal by ``AT+CSQ``, credit by USSD when ``com status sim credit code``."""
+    reply = yield from at("AT+CSQ")
+    line = reply.info("+CSQ:")
+    if reply.ok and line is not None:
+        d.readings.signal = rssi_from_csq(line)
+    code = parse_credit_code(d.host.setting("com status sim credit code"))
+    if code is None or '"' in code.code:
+        return
+    if not (yield from at(f'AT+CUSD=1,"{code.code}",15')).ok:
+        return
+    answer = yield Urc(("+CUSD:",), 30.0)
+    if isinstance(answer, str) and answer.count('"') >= 2:
+        credit = credit_from_answer(answer.split('"')[1], code)
+        if credit is not None:
+            d.readings.credit = credit
+
+
+def send_sms(d: ModemDriver, number: str, text: str) -> Generator[Request, object, bool]:
+    """gsm.md §4: several SMS of at most 160 GSM-7 characters, in order; others become ``?``."""
+    if not number or any(c in number for c in '"\r\n'):
+        return False
+    for part in split_sms(gsm7_text(text)):
+        prompt = _reply((yield At(f'AT+CMGS="{number}"', 10.0, prompt=True)))
+        if prompt.final != ">":
+            return False
+        data = part.encode("latin-1", "replace") + CTRL_Z
+        if not _reply((yield Send(data, 60.0))).ok:
+            return False
+    return True
+
+
+def deliver(d: ModemDriver, item: Outgoing) -> Job:
+    """One Outbox sending: every ``sms`` and ``email`` destination; then ``done``."""
+    ok = yield from registered(d)
+    if ok:
+        yield from readings(d)
+    subject = item.subject if item.subject is not None else d.host.setting("email send subject")
+    for dest in item.destinations:
+        if not ok:
+            break
+        if dest.kind == "sms":
+            ok = yield from send_sms(d, dest.address, item.body)
+        elif dest.kind == "email":
+            ok = yield from mailjobs.send_mail(d, dest.address, dest.server, subject, item.body)
+    d.host.outbox.done(item.ident, ok)
+
+
+def execute(d: ModemDriver, text: str) -> Generator[Request, object, str]:
+    """The command's answer exactly as a line carries it; ``pause``/sensor waits are slept."""
+    paused = False
+    for _ in range(1000):
+        answer = d.host.execute(text, d.now, paused)
+        if isinstance(answer, bytes):
+            return answer.decode("latin-1")
+        yield Sleep(answer)
+        paused = True
+    return ""
+
+
+def read_sms(d: ModemDriver, index: int) -> Job:
+    """§3.4.6.1: read, delete, run the bounded command, answer by SMS or e-mail."""
+    reply = yield from at(f"AT+CMGR={index}")
+    yield from at(f"AT+CMGD={index}")
+    header = reply.info("+CMGR:")
+    if not reply.ok or header is None:
+        return
+    fields = header.split('"')
+    sender = fields[3] if len(fields) > 3 else ""
+    text = "\n".join(reply.lines[reply.lines.index(header) + 1 :])
+    setting = d.host.setting
+    found = extract_command(
+        text,
+        setting("sms command boundary"),
+        setting("sms email address start"),
+        setting("sms email address end"),
+    )
+    if not isinstance(found, BoundedCommand):
+        return  # §6.12.1: an SMS without a bounded command is ignored
+    answer = yield from execute(d, found.command)
+    if not answer:
+        return
+    if found.return_address is not None:
+        d.replies.append(MailReply(found.return_address, answer))
+        return
+    if (yield from registered(d)):
+        yield from readings(d)
+        yield from send_sms(d, sender, answer)
+
+
+def mail_reply(d: ModemDriver, reply: MailReply) -> Job:
+    ok = yield from registered(d)
+    if ok:
+        yield from readings(d)
+        subject = d.host.setting("email send subject")
+        yield from mailjobs.send_mail(d, reply.address, None, subject, reply.body)
+
+
+def call(d: ModemDriver, kind: str, number: str) -> Job:
+    """§6.10.2.3-4, §3.4.6.3: ring triggers, or a command session over a data call."""
+    message = d.host.ring_message(kind, number) if number else None
+    if kind == "voice" or message is not None:
+        yield from at("ATH")
+        if message is not None:
+            d.host.run_message(message, d.now)
+        return
+    reply = yield from at("ATA", 30.0)
+    if reply.final.startswith("CONNECT"):
+        yield from data_session(d, socket=None)
+    yield from readings(d)
+
+
+def socket_session(d: ModemDriver, index: int) -> Job:
+    """§3.4.6.4: a connection to port 10001 (``wavecom42``) is a command session."""
+    reply = yield from at(f"AT+WIPDATA=2,{index},1")
+    if reply.final.startswith("CONNECT"):
+        yield from data_session(d, socket=index)
+    else:
+        yield from at(f"AT+WIPCLOSE=2,{index}")

@@ -38,9 +38,7 @@ CR, LF, BS, DEL, ESC, XON, XOFF = 0x0D, 0x0A, 0x08, 0x7F, 0x1B, 0x11, 0x13
 ENTRY_TIMEOUT = 60.0
 BREAK = b"BREAK\r\n"
 EOT = 0x04
-_PLUS = ord("+")
-#: Bytes the byte-by-byte loop of ``Engine._feed`` treats specially inside a line.
-_EDITING = re.compile(rb"[\r\n\x08\x7f\x1b]")
+_PLUS, _EDITING = ord("+"), re.compile(rb"[\r\n\x08\x7f\x1b]")  # what _feed edits
 #: After a completed upload, repeated EOTs (the host lost our last ACK) are still answered.
 TRANSFER_GRACE = 2.0
 
@@ -73,9 +71,8 @@ class Engine:
             self.state, self.interpreter, self.outbox, now, line_time_scale=line_time_scale
         )
         self._lines: dict[int, _Line] = {}
-        #: Lines that may have output, a timer or a transfer (issue 11: idle lines cost no
-        #: work per command); a line joins on input or output, leaves once idle.
-        self._busy: dict[int, _Line] = {}
+        self._busy: dict[int, _Line] = {}  # lines with output, a timer or a transfer (#11)
+        self._blocking: set[int] = set()  # lines whose blocks_messages is set
         self._next_id = 1
         self.modem: ModemLink | None = None  # the com line drives a modem (ala1/modem/)
 
@@ -117,12 +114,13 @@ class Engine:
         """The line is gone (disconnected): it no longer blocks messages (§6.14.9.2)."""
         self._lines.pop(line_id, None)
         self._busy.pop(line_id, None)
+        self._blocking.discard(line_id)
 
     @property
     def messages_blocked(self) -> bool:
         """§6.14.9.2: a line that sent a command holds messages back until it disconnects
         or sends ``write com close``."""
-        return any(line.blocks_messages for line in self._lines.values())
+        return bool(self._blocking)
 
     @property
     def modem_busy(self) -> bool:
@@ -313,8 +311,7 @@ class Engine:
             and len(data) <= MAX_LINE + 1
             and not _EDITING.search(data, 0, len(data) - 1)
         ):
-            # Fast path (issue 11): one whole command line without echo or editing keys,
-            # as a host sends it; the same as the loop below, byte for byte.
+            # one whole line without echo or editing keys: as the loop below (issue 11)
             self._complete(line_id, line, data[:-1].decode("latin-1"), False, now)
             return
         echo = bytearray()
@@ -367,6 +364,7 @@ class Engine:
         if not text.strip(" "):
             return  # an empty line gets no answer
         line.blocks_messages = True  # §6.14.9.2: the first command blocks messages
+        self._blocking.add(line_id)
         speed = self.com_speed  # `write com speed` takes effect after its own OK (§6.11.2)
         self._run(line_id, line, text, now, speed, overflow=overflow)
 
@@ -395,6 +393,7 @@ class Engine:
             return
         if answer.release:
             line.blocks_messages = False  # `write com close` (§6.11.8)
+            self._blocking.discard(line_id)
         if answer.data:
             self._send(line, answer.data, now, answer.baud or speed)
         if answer.transfer is not None:

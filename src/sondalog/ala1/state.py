@@ -167,9 +167,14 @@ class ModuleState:
 
     # -- parameters --------------------------------------------------------------------------
     def get(self, key: str) -> str:
-        """A committed value (outside any line)."""
-        value = self.values.get(key)
-        return value if value is not None else Transaction(self, 0.0).default(key)
+        """A committed value (outside any line); cached until a commit changes values."""
+        value = self._settings.get(key)
+        if value is None:
+            value = self.values.get(key)
+            if value is None:
+                value = Transaction(self, 0.0).default(key)
+            self._settings[key] = value
+        return value
 
     def command_names(self) -> dict[str, int]:
         """Named commands (§6.8.2): name -> number, the non-empty names only (cached)."""
@@ -182,12 +187,7 @@ class ModuleState:
             self._names = names
         return self._names
 
-    def setting(self, key: str) -> str:
-        """A committed value read on every command (``com speed``), cached until a commit."""
-        value = self._settings.get(key)
-        if value is None:
-            value = self._settings[key] = self.get(key)
-        return value
+    setting = get  # a committed value read on every command (``com speed``)
 
     def channel_config(self, ch: int) -> ChannelConfig:
         """Channel ``ch``'s typed configuration from the committed parameters (cached)."""

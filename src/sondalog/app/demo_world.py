@@ -93,7 +93,7 @@ signal = { model = "sine", mean = 12.0, amplitude = 7.0, period = 86400, phase =
 
 [[logger.pulses]]               # a tipping-bucket rain gauge on the timer input P1.0
 timer = true
-poisson = { rate = 0.0003, burst = 15, seed = 2 }
+poisson = { rate = 0.00004, burst = 6, seed = 2 }
 
 [logger.gsm]                    # what channel types 12 (signal) and 11 (credit) read
 credit = { model = "ramp", start = 300.0, rate = -0.00005, min = 0 }

@@ -1,123 +1,286 @@
-"""``make demo``: serve a virtual ALA1 logger and show how to talk to it.
+"""``make demo``: the whole system in one process, on this computer's loopback.
 
-Starts a logger over the state directory ``./state/demo`` on ``127.0.0.1:10001`` (the port of
-the ALA GPRS modem, §6.11.5.2.4; a free port when that one is taken, and it says which),
-prints how to connect, runs a few sample commands through :mod:`sondalog.client`, then serves
-until Ctrl-C. ``--listen HOST:PORT`` picks the address (``make demo ARGS="--listen
-127.0.0.1:20001"``); a port given there is used or the demo stops with a message.
+Writes a demo world into ``./state/demo`` (a new one at every start: the demo's state is
+thrown away), gives its loggers :data:`~sondalog.app.demo_world.HISTORY_DAYS` days of history
+(their module time stepped fast, :mod:`sondalog.app.demo_world`), then serves, in this one
+event loop:
+
+- the virtual loggers of :data:`~sondalog.app.demo_world.LOGGERS` (module time
+  :data:`SPEED` times faster than real time, ``--speed``): ``CABLE-01`` on 10001 (the ALA GPRS
+  modem's port, §6.11.5.2.4; ``--listen HOST:PORT`` chooses another), ``RAIN-02`` on 10002;
+- an RS-485 bus with two HCTMPS1 modules on 10485, the mail hub (SMTP 2525, POP3 1110);
+- the collector (``state/demo/collector.toml``) into SQLite, with its dashboard on 8080.
+
+A default port that is taken is replaced by a free one, and the demo says which; a port given
+with ``--listen`` is used or the demo stops with a message (exit 1). It prints how to reach
+each part and stops everything on Ctrl-C or SIGTERM (exit 0).
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import logging
+import shutil
 import signal
+import socket
 import sys
-from datetime import datetime
+from collections.abc import Awaitable, Callable
 from pathlib import Path
+from typing import TypeVar
 
+from sondalog.app.bus import BusServer, start_bus_server
+from sondalog.app.collector import collect_with_dashboard
+from sondalog.app.demo_world import (
+    BUS_MODULES,
+    HISTORY_DAYS,
+    LOGGERS,
+    MAIL_ACCOUNTS,
+    collector_toml,
+    fast_forward,
+    write_world,
+)
 from sondalog.app.logger import Logger, start_logger
-from sondalog.client import Ala1Client, Request, Response
+from sondalog.app.mailhub import MailHub, MailHubConfig
 from sondalog.io.address import format_address, parse_listen
-from sondalog.io.clock import RealClock
-from sondalog.io.tcp import DEFAULT_PORT
+from sondalog.io.clock import AcceleratedClock, RealClock
 
 STATE_DIR = Path("state/demo")
 HOST = "127.0.0.1"
-
-#: (what it shows, the request) for the sample session.
-SAMPLES: tuple[tuple[str, Request], ...] = (
-    ("protocol version (§6.3.1)", Request("read i version")),
-    ("several commands on one line (§7.1)", Request("read i device read i snumber read date")),
-    ("a command protected by check (§8.3.1)", Request("read date", check=True)),
-    ("an answer with per-line sums (§8.4.2)", Request("read com speed", sum=True)),
-    ("an answer with a POSIX cksum line (§8.4.1)", Request("read channel name", crcsum=True)),
-    ("a command the logger does not know (§3.3.1)", Request("read weather")),
-)
+#: Module seconds per real second while the demo runs live (a 5-minute sample every 5 s).
+SPEED = 60.0
+BUS_PORT, SMTP_PORT, POP3_PORT, WEB_PORT = 10485, 2525, 1110, 8080
+T = TypeVar("T")
 
 
-def _show(title: str, response: Response) -> None:
-    print(f"  # {title}")
-    print(f"  => {response.command}")
-    for line in response.raw.decode("latin-1").splitlines():
-        print(f"  <= {line}")
+class Taken(OSError):
+    """A port given with ``--listen`` cannot be used."""
 
 
-async def _start(listen: tuple[str, int] | None) -> Logger:
-    """Listen on ``listen``, or on 10001 and else on a free port (saying so)."""
-    if listen is not None:
-        return await start_logger(STATE_DIR, RealClock(), listen)
+async def _on_port(
+    what: str,
+    port: int,
+    start: Callable[[int], Awaitable[T]],
+    bound: Callable[[T], int],
+    hint: str = "",
+) -> T:
+    """``start(port)``, or ``start(0)`` when ``port`` is taken, saying so on stderr."""
     try:
-        return await start_logger(STATE_DIR, RealClock(), (HOST, DEFAULT_PORT))
+        return await start(port)
     except OSError as exc:
-        logger = await start_logger(STATE_DIR, RealClock(), (HOST, 0))
-        _, port = logger.servers[0].address
+        running = await start(0)
         print(
-            f"port {DEFAULT_PORT} is taken ({exc.strerror}): using the free port {port} instead"
-            f' (choose one with: make demo ARGS="--listen {HOST}:PORT")',
+            f"port {port} is taken ({exc.strerror or exc}): {what} uses the free port "
+            f"{bound(running)} instead{hint}",
             file=sys.stderr,
         )
-        return logger
+        return running
 
 
-def _arguments(argv: list[str] | None) -> tuple[str, int] | None:
+def _free_web_port() -> int:
+    """:data:`WEB_PORT`, or 0 (any free port) when it is taken."""
+    with socket.socket() as probe:
+        try:
+            probe.bind((HOST, WEB_PORT))
+        except OSError as exc:
+            print(
+                f"port {WEB_PORT} is taken ({exc.strerror}): the dashboard uses a free port",
+                file=sys.stderr,
+            )
+            return 0
+    return WEB_PORT
+
+
+class Demo:
+    """Everything the demo started, closed in reverse by :meth:`close`."""
+
+    def __init__(self, clock: AcceleratedClock) -> None:
+        self.clock = clock
+        self.loggers: dict[str, Logger] = {}
+        self.bus: BusServer | None = None
+        self.mail: MailHub | None = None
+        self.collector: asyncio.Task[None] | None = None
+        self.web = ""
+        self.web_ready: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+
+    async def start(self, listen: tuple[str, int] | None, stop: asyncio.Event) -> None:
+        for number, spec in enumerate(LOGGERS):
+            directory = STATE_DIR / spec.key
+
+            async def serve(port: int, directory: Path = directory) -> Logger:
+                return await start_logger(directory, self.clock, (HOST, port))
+
+            if number == 0 and listen is not None:
+                try:
+                    logger = await start_logger(directory, self.clock, listen)
+                except OSError as exc:
+                    raise Taken(f"{format_address(*listen)}: {exc.strerror or exc}") from exc
+            else:
+                hint = (
+                    f' (choose one with: make demo ARGS="--listen {HOST}:PORT")'
+                    if number == 0
+                    else ""
+                )
+                logger = await _on_port(
+                    f"logger {spec.serial}",
+                    spec.port,
+                    serve,
+                    lambda lg: lg.servers[0].address[1],
+                    hint,
+                )
+            self.loggers[spec.key] = logger
+        self.bus = await _on_port(
+            "the bus",
+            BUS_PORT,
+            lambda port: start_bus_server(
+                RealClock(),
+                (HOST, port),
+                site=STATE_DIR / "bus.toml",
+                state_dir=STATE_DIR / "bus",
+            ),
+            lambda bus: bus.address[1],
+        )
+        self.mail = await self._mail()
+        web_port = _free_web_port()
+        config = STATE_DIR / "collector.toml"
+        addresses = {key: lg.servers[0].address for key, lg in self.loggers.items()}
+        config.write_text(
+            collector_toml(addresses, self.bus.address, (HOST, web_port)), encoding="utf-8"
+        )
+
+        def on_web(host: str, port: int) -> None:
+            if not self.web_ready.done():
+                self.web = f"http://{host}:{port}/"
+                self.web_ready.set_result(None)
+
+        self.collector = asyncio.create_task(
+            collect_with_dashboard(config, stop, on_web), name="collector"
+        )
+        done, _ = await asyncio.wait(
+            [self.web_ready, self.collector], return_when=asyncio.FIRST_COMPLETED
+        )
+        if self.collector in done:
+            self.collector.result()  # raises what stopped it
+            raise RuntimeError("the collector stopped before its dashboard listened")
+
+    async def _mail(self) -> MailHub:
+        async def start(smtp: int, pop3: int) -> MailHub:
+            hub = MailHub(MailHubConfig(STATE_DIR / "mail", MAIL_ACCOUNTS, HOST, smtp, HOST, pop3))
+            await hub.start()
+            return hub
+
+        try:
+            return await start(SMTP_PORT, POP3_PORT)
+        except OSError as exc:
+            hub = await start(0, 0)
+            print(
+                f"port {SMTP_PORT} or {POP3_PORT} is taken ({exc.strerror or exc}): the mail "
+                f"hub uses the free ports {hub.smtp_port} (SMTP), {hub.pop3_port} (POP3) instead",
+                file=sys.stderr,
+            )
+            return hub
+
+    def describe(self) -> str:
+        """What runs and how to talk to it."""
+        assert self.bus is not None and self.mail is not None
+        bus = f"tcp://{format_address(*self.bus.address)}"
+        lines = [
+            f"sondalog demo: the whole system, state in {STATE_DIR}/ (written anew at each start)",
+            f"{HISTORY_DAYS} days of history recorded; module time now runs {SPEED:g}x faster.",
+            "",
+            f"Dashboard:  {self.web}",
+            "",
+            "Loggers (talk to one from another terminal):",
+        ]
+        for spec in LOGGERS:
+            host, port = self.loggers[spec.key].servers[0].address
+            lines.append(f"  {spec.serial}: {spec.what}")
+            lines.append(f"    .venv/bin/sondalog term tcp://{host}:{port}")
+        lines.append("    (a logger in the field with a GSM modem comes with the GSM world)")
+        first = next(iter(BUS_MODULES))
+        lines += [
+            "",
+            f"RS-485 bus with HCTMPS1 modules {', '.join(BUS_MODULES)}:",
+            f"  .venv/bin/sondalog bus scan {bus}",
+            f"  .venv/bin/sondalog bus ask {bus} {first} PV",
+            "",
+            f"Mail hub: SMTP {HOST}:{self.mail.smtp_port}, POP3 {HOST}:{self.mail.pop3_port}"
+            f" (accounts {', '.join(MAIL_ACCOUNTS)}, password secret)",
+            f"Collector: {STATE_DIR}/collector.toml -> {STATE_DIR}/collector.sqlite",
+            "",
+            "Serving until Ctrl-C.",
+        ]
+        return "\n".join(lines)
+
+    async def close(self) -> None:
+        if self.collector is not None:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await asyncio.wait_for(self.collector, 10)
+        if self.mail is not None:
+            with contextlib.suppress(Exception):
+                await self.mail.stop()
+        if self.bus is not None:
+            await self.bus.close()
+        for logger in self.loggers.values():
+            await logger.close()
+
+
+def _arguments(argv: list[str] | None) -> tuple[tuple[str, int] | None, float]:
     parser = argparse.ArgumentParser(
-        prog="python -m sondalog.demo", description="Serve a virtual ALA1 logger and show it."
+        prog="python -m sondalog.demo",
+        description="Serve virtual loggers, a bus, a mail hub and the collector with its "
+        "dashboard.",
     )
     parser.add_argument(
         "--listen",
         metavar="HOST:PORT",
-        help=f"address to serve on (default {HOST}:{DEFAULT_PORT}, or a free port if taken)",
+        help=f"address of the first logger (default {HOST}:{LOGGERS[0].port}, or a free port "
+        "if taken)",
+    )
+    parser.add_argument(
+        "--speed",
+        type=float,
+        default=SPEED,
+        help=f"module seconds per real second while live (default {SPEED:g})",
     )
     args = parser.parse_args(argv)
+    if args.speed <= 0:
+        parser.error("--speed: must be more than 0")
     if args.listen is None:
-        return None
+        return None, args.speed
     try:
-        return parse_listen(args.listen)
+        return parse_listen(args.listen), args.speed
     except ValueError as exc:
         parser.error(f"--listen: {exc}")  # exits with status 2
 
 
-async def main(listen: tuple[str, int] | None = None) -> None:
+async def main(listen: tuple[str, int] | None = None, speed: float = SPEED) -> None:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for signum in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(signum, stop.set)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    if STATE_DIR.exists():
+        shutil.rmtree(STATE_DIR)
+    write_world(STATE_DIR)
+    print(f"recording {HISTORY_DAYS} days of history ...", flush=True)
+    for spec in LOGGERS:
+        await asyncio.to_thread(fast_forward, STATE_DIR, spec)
+    demo = Demo(AcceleratedClock(speed))
     try:
-        logger = await _start(listen)
-    except OSError as exc:
-        where = format_address(*listen) if listen else f"{HOST}:{DEFAULT_PORT}"
-        print(f"cannot serve the demo on {where}: {exc.strerror or exc}", file=sys.stderr)
-        raise SystemExit(1) from exc
-    host, port = logger.servers[0].address
-    url = f"tcp://{host}:{port}"
-    identity = logger.identity
-    print(f"sondalog demo: a virtual ALA1 logger, protocol {identity.version.value}, ", end="")
-    print(f"serial number {identity.serial_number}, state in {STATE_DIR}/")
-    print(f"listening on {host}:{port}\n")
-    print("Talk to it from another terminal:")
-    print(f"  .venv/bin/sondalog term {url}")
-    print(f"  telnet {host} {port}    (or: nc {host} {port}), then type: read i version\n")
-
-    print("A sample session through sondalog.client:")
-    async with await Ala1Client.connect(url) as client:
-        now = datetime.now().strftime("%Y%m%d%H%M%S")
-        _show(
-            "set the module clock to this computer's time (§6.2)",
-            await client.command(f"write date {now}"),
-        )
-        for title, request in SAMPLES:
-            (response,) = await client.pipeline([request])
-            _show(title, response)
-
-    print("\nServing until Ctrl-C.")
-    sys.stdout.flush()
-    try:
-        await stop.wait()
+        if not stop.is_set():
+            await demo.start(listen, stop)
+            print(demo.describe(), flush=True)
+            await stop.wait()
+    except Taken as exc:
+        print(f"cannot serve the demo on {exc}", file=sys.stderr)
+        raise SystemExit(1) from None
     finally:
-        await logger.close()
+        stop.set()
+        await demo.close()
     print("stopped.")
 
 
 if __name__ == "__main__":
-    asyncio.run(main(_arguments(None)))
+    asyncio.run(main(*_arguments(None)))

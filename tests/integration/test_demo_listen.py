@@ -1,43 +1,31 @@
 """``make demo`` (``python -m sondalog.demo``) when port 10001 is taken, and ``--listen``
-(issue 16, item 6)."""
+(issue 16, item 6); SIGTERM stops it as Ctrl-C does."""
 
 from __future__ import annotations
 
 import contextlib
 import errno
-import select
+import re
 import signal
 import socket
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-DEMO = [sys.executable, "-m", "sondalog.demo"]
+from demo_process import DEMO, DemoProcess
 
 
 @contextlib.contextmanager
-def demo(cwd: Path, *args: str) -> Iterator[tuple[subprocess.Popen[str], list[str]]]:
-    """The demo with stdout and stderr merged; yields it once it listens, stops it after."""
-    proc = subprocess.Popen(
-        [*DEMO, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-    )
-    assert proc.stdout is not None
-    lines: list[str] = []
-    try:
-        while not lines or not lines[-1].startswith("listening on "):
-            ready, _, _ = select.select([proc.stdout], [], [], 20)
-            line = proc.stdout.readline() if ready else ""
-            assert line, "".join(lines)
-            lines.append(line)
-        yield proc, lines
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=10)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(timeout=10)
-        proc.stdout.close()
+def demo(cwd: Path, *args: str, stop: int = signal.SIGINT) -> Iterator[tuple[DemoProcess, int]]:
+    """The demo, yielded with its first logger's port once it serves; stopped with ``stop``
+    (which must end it with exit status 0)."""
+    with DemoProcess(cwd, *args) as running:
+        text = running.wait_for("Serving until Ctrl-C.")
+        match = re.search(r"sondalog term tcp://127\.0\.0\.1:(\d+)", text)
+        assert match, text
+        yield running, int(match.group(1))
+        running.proc.send_signal(stop)
+        assert running.proc.wait(timeout=20) == 0
 
 
 def _listener(port: int = 0) -> socket.socket:
@@ -50,8 +38,8 @@ def _listener(port: int = 0) -> socket.socket:
 def test_listen_chooses_the_address(tmp_path: Path) -> None:
     with _listener() as probe:
         port = probe.getsockname()[1]
-    with demo(tmp_path, "--listen", f"127.0.0.1:{port}") as (_, lines):
-        assert lines[-1] == f"listening on 127.0.0.1:{port}\n"
+    with demo(tmp_path, "--listen", f"127.0.0.1:{port}", stop=signal.SIGTERM) as (_, got):
+        assert got == port
         with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:
             sock.sendall(b"read i version\r")
             assert sock.recv(100).startswith(b"2.10\r\n")
@@ -80,9 +68,8 @@ def test_a_taken_10001_gives_a_free_port_and_says_which(tmp_path: Path) -> None:
         except OSError as exc:  # taken already (a demo runs on this machine): just as good
             if exc.errno != errno.EADDRINUSE:
                 raise
-        with demo(tmp_path) as (_, lines):
-            port = int(lines[-1].rsplit(":", 1)[1])
+        with demo(tmp_path) as (running, port):
             assert port != 10001
-            assert lines[0].startswith("port 10001 is taken (")
-            assert f"using the free port {port} instead" in lines[0]
-            assert 'make demo ARGS="--listen 127.0.0.1:PORT"' in lines[0]
+            (line,) = [x for x in running.lines if x.startswith("port 10001 is taken (")]
+            assert f"logger CABLE-01 uses the free port {port} instead" in line
+            assert 'make demo ARGS="--listen 127.0.0.1:PORT"' in line

@@ -1,42 +1,94 @@
-"""``python -m sondalog.demo`` (what ``make demo`` runs) starts, shows its session, stops."""
+"""``python -m sondalog.demo`` (what ``make demo`` runs): the whole system, then Ctrl-C.
+
+The demo is started as a subprocess in a temporary directory; the test reads the addresses
+it prints, checks the dashboard shows both loggers with their history and the bus modules,
+talks to a logger and to the bus as the printed commands do, and stops it with SIGINT.
+"""
 
 from __future__ import annotations
 
-import queue
+import json
+import re
 import signal
+import socket
 import subprocess
 import sys
-import threading
+import time
+import urllib.request
+from datetime import datetime
 from pathlib import Path
+from typing import Any
+
+from demo_process import DemoProcess
 
 
-def test_demo_serves_and_stops_on_ctrl_c(tmp_path: Path) -> None:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sondalog.demo"],
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    assert proc.stdout is not None
-    lines: queue.Queue[str] = queue.Queue()
-    reader = threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout or ()])
-    reader.start()
-    seen: list[str] = []
+def get_json(url: str) -> Any:
+    with urllib.request.urlopen(url, timeout=10) as answer:
+        return json.load(answer)
+
+
+def wait_for_data(web: str, deadline: float) -> dict[str, Any]:
+    """The overview once both loggers and both modules have readings."""
+    while True:
+        got = get_json(web + "api/loggers")
+        by_name = {entry["logger"]: entry for entry in got["loggers"]}
+        wanted = ("CABLE-01", "RAIN-02", "bus:T1", "bus:H1")
+        if all(by_name.get(k, {}).get("last_reading") for k in wanted):
+            return by_name
+        assert time.monotonic() < deadline, json.dumps(got, indent=1)
+        time.sleep(0.5)
+
+
+def closed(port: int) -> bool:
     try:
-        while not seen or seen[-1] != "Serving until Ctrl-C.\n":
-            try:
-                seen.append(lines.get(timeout=20))
-            except queue.Empty:
-                raise AssertionError("".join(seen)) from None
-        proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=10) == 0
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait(timeout=10)
-        reader.join(timeout=10)
-    text = "".join(seen)
-    assert "sondalog term tcp://127.0.0.1:" in text
-    assert "  <= 2.10\n" in text and "  <= ERROR\n" in text
-    assert (tmp_path / "state" / "demo" / "identity.json").exists()
+        socket.create_connection(("127.0.0.1", port), timeout=2).close()
+    except OSError:
+        return True
+    return False
+
+
+def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
+    with DemoProcess(tmp_path) as demo:
+        text = demo.wait_for("Serving until Ctrl-C.")
+        web = demo.url("Dashboard:  ", r"http://127\.0\.0\.1:\d+/")
+        loggers = re.findall(r"sondalog term (tcp://127\.0\.0\.1:(\d+))", text)
+        bus = demo.url("sondalog bus ask ", r"tcp://127\.0\.0\.1:\d+")
+        assert len(loggers) == 2 and "sondalog bus scan tcp://" in text, text
+
+        entries = wait_for_data(web, time.monotonic() + 60)
+        cable, rain = entries["CABLE-01"], entries["RAIN-02"]
+        assert [c["name"] for c in cable["channels"]] == ["Supply", "Level", "Water"]
+        assert [c["kind"] for c in rain["channels"]] == ["line", "line", "bars", "line", "line"]
+        assert rain["signal"] is not None and rain["credit"] is not None
+        assert cable["signal"] is None and cable["record_fill"].endswith("FILLING")
+        assert not any(e["trouble"] for e in entries.values())
+        # the history was fast-forwarded: four weeks of 5-minute rows, plotted downsampled
+        week = get_json(web + "api/loggers/CABLE-01/series")  # the default: the last 7 days
+        assert all(len(s["t"]) > 1000 for s in week["series"]), week
+        first, last = (datetime.fromisoformat(week[k]) for k in ("first", "last"))
+        assert (last - first).days >= 27
+        with urllib.request.urlopen(web, timeout=10) as page:
+            assert "CABLE-01" in page.read().decode()
+
+        # talk to a logger and to the bus as the printed commands do
+        sondalog = [sys.executable, "-m", "sondalog"]
+        term = subprocess.run(
+            [*sondalog, "term", loggers[1][0]],
+            input="read i snumber\n",
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+        assert term.returncode == 0 and "RAIN-02" in term.stdout, term.stdout + term.stderr
+        ask = subprocess.run(
+            [*sondalog, "bus", "ask", bus, "T1", "PV"], capture_output=True, text=True, timeout=30
+        )
+        assert ask.returncode == 0 and re.search(r"\d", ask.stdout), ask.stdout + ask.stderr
+
+        ports = [int(p) for _, p in loggers] + [int(web.rsplit(":", 1)[1].rstrip("/"))]
+        demo.proc.send_signal(signal.SIGINT)
+        assert demo.proc.wait(timeout=20) == 0
+        assert "stopped." in demo.rest()
+    assert all(closed(port) for port in ports)
+    assert (tmp_path / "state" / "demo" / "cable" / "identity.json").exists()
+    assert (tmp_path / "state" / "demo" / "collector.sqlite").exists()

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import click
 
+from sondalog.app.collector import WebUnavailable, run_collector
 from sondalog.collect.config import ConfigError, load_config
 from sondalog.collect.runner import Collector
 from sondalog.collect.store_sqlite import StoreError
@@ -30,7 +31,8 @@ class _Refused(click.ClickException):
 def collect(config_file: Path, once: bool, check: bool) -> None:
     """Collect readings from loggers and buses into SQLite (and PostgreSQL, MQTT).
 
-    Runs until SIGINT or SIGTERM. The configuration is described in docs/collector.md.
+    Runs until SIGINT or SIGTERM, serving the dashboard (default http://127.0.0.1:8080/,
+    the [web] table). The configuration is described in docs/collector.md.
     """
     try:
         config = load_config(config_file)
@@ -50,7 +52,11 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     except ConfigError as exc:
         collector.store.close_sync()
         raise _Refused(str(exc)) from None
-    asyncio.run(_run(collector, once))
+    try:
+        asyncio.run(_run(collector, once))
+    except WebUnavailable as exc:
+        collector.store.close_sync()
+        raise _Refused(f"{config_file}: web.listen: {exc}") from None
     if once and collector.failing:
         raise click.ClickException(f"sources failed: {', '.join(sorted(collector.failing))}")
 
@@ -60,4 +66,8 @@ async def _run(collector: Collector, once: bool) -> None:
     loop = asyncio.get_running_loop()
     for signum in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(signum, stop.set)
-    await collector.run(stop, once=once)
+
+    def listening(host: str, port: int) -> None:
+        click.echo(f"dashboard on http://{host}:{port}/", err=True)
+
+    await run_collector(collector, stop, once=once, on_web=listening)

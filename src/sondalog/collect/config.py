@@ -25,6 +25,9 @@
     units = { T1 = "°C", H1 = "%" }
     interval = 10
 
+    [web]                       # the dashboard (default: on, 127.0.0.1:8080)
+    listen = "127.0.0.1:8080"   # beyond loopback: allow_remote = true and a token
+
     [postgres]                  # optional sinks (docs/collector-sinks.md)
     dsn = "postgresql://..."
     [mqtt]
@@ -35,6 +38,7 @@ Relative paths are relative to the configuration file's directory.
 
 from __future__ import annotations
 
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -44,9 +48,10 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.sitefile import locate
 
-_TOP = {"sqlite", "buffer", "source", "postgres", "mqtt"}
+_TOP = {"sqlite", "buffer", "source", "postgres", "mqtt", "web"}
 _SOURCE = {
     "url",
     "interval",
@@ -96,6 +101,7 @@ class CollectorConfig:
     sources: tuple[SourceConfig, ...]
     sinks: dict[str, dict[str, Any]]
     sink_lines: dict[str, int | None] = field(default_factory=dict)
+    web: WebConfig = field(default_factory=WebConfig)
 
     def sink_error(self, name: str, exc: Exception) -> ConfigError:
         """A sink factory's complaint about its table, with the table's line."""
@@ -159,7 +165,8 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
         seen.add(source.name)
     sinks = {name: table(name) for name in SINK_TABLES if name in data}
     lines = {name: locate(text, name) for name in sinks}
-    return CollectorConfig(path, store, keep, buffer, tuple(sources), sinks, lines)
+    web = parse_web(table("web"), fail, os.environ)
+    return CollectorConfig(path, store, keep, buffer, tuple(sources), sinks, lines, web)
 
 
 def _path(value: object, base: Path, where: str, fail: Any) -> Path:

@@ -11,6 +11,12 @@ idempotent: a record row seen twice (by download and by a data message) is store
 - ``type``: the record row type (1 scheduled, 2 ``write channel value``, 3..9 text).
 - ``value``: the number, or NULL for "no valid value" (an empty field); ``text`` for text rows.
 - ``name``/``unit``: the channel's name and unit as the logger reported them.
+
+Additive tables (:data:`SQLITE_ADDITIVE_DDL`) are created on every open of a store of this
+version, old or new, without changing ``schema_version``: a sondalog that does not know them
+ignores them. ``channels(logger, channel, name, unit, type)`` is each logger channel's name,
+unit and ``channel type`` (§6.5.6) as last read by the collector; the dashboard draws type-6
+channels (sporadic pulses, §6.5.6.4) as bars.
 """
 
 from __future__ import annotations
@@ -57,5 +63,17 @@ CREATE TABLE IF NOT EXISTS events (
 CREATE TABLE IF NOT EXISTS meta (
     key   TEXT PRIMARY KEY,
     value TEXT NOT NULL
+);
+"""
+
+#: Tables added within version 1 (``CREATE ... IF NOT EXISTS``, run on every open).
+SQLITE_ADDITIVE_DDL = """
+CREATE TABLE IF NOT EXISTS channels (
+    logger  TEXT    NOT NULL,
+    channel INTEGER NOT NULL,
+    name    TEXT,
+    unit    TEXT,
+    type    INTEGER,
+    PRIMARY KEY (logger, channel)
 );
 """

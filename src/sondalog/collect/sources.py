@@ -55,6 +55,12 @@ class LoggerSource:
             download = Download(client, after=known.get("cursor"), zone=cfg.zone)
             info = await download.identify()
             status = await client.command("read record status")
+            types = await _channel_types(client, len(info.channels))
+            store.set_channels(
+                info.snumber,
+                [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())],
+            )
+            gsm = {n: GSM_TYPES[t] for n, t in types.items() if t in GSM_TYPES}
             state: dict[str, Any] = {
                 "logger": info.snumber,
                 "last_contact": now_text(),
@@ -78,7 +84,8 @@ class LoggerSource:
                     log.warning("%s: %s", cfg.name, chunk.gap.describe())
                     store.event(cfg.name, "gap", chunk.gap.describe())
                 batch = rows_to_readings(chunk.rows, info.snumber, info.channels, cfg.zone)
-                await deliver(cfg.name, batch, chunk.cursor)
+                latest = {gsm[r.channel]: r.value for r in batch if r.channel in gsm}
+                await deliver(cfg.name, batch, chunk.cursor, **latest)
                 rows += len(chunk.rows)
                 readings += len(batch)
                 first = first or (chunk.rows[0].key if chunk.rows else None)
@@ -90,6 +97,21 @@ class LoggerSource:
             f"logger {info.snumber}: {rows} new rows, {readings} readings{span}; "
             f"{info.clock.describe()}"
         )
+
+
+#: ``channel type`` (§6.5.6) -> the ``sources`` column its newest reading fills.
+GSM_TYPES = {12: "signal", 11: "credit"}
+
+
+async def _channel_types(client: Ala1Client, count: int) -> dict[int, int]:
+    """``read channel type``: channel number -> type; {} when the answer is not that."""
+    response = await client.command("read channel type")
+    if not response.ok or len(response.lines) != 1:
+        return {}
+    fields = response.lines[0].split(",")
+    if len(fields) != count or not all(f.strip().isdigit() for f in fields):
+        return {}
+    return {n: int(f) for n, f in enumerate(fields, start=1)}
 
 
 class BusSource:

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.collect.model import Reading, SinkUnavailable
-from sondalog.collect.schema import SCHEMA_VERSION, SQLITE_DDL
+from sondalog.collect.schema import SCHEMA_VERSION, SQLITE_ADDITIVE_DDL, SQLITE_DDL
 
 _INSERT = (
     "INSERT OR IGNORE INTO readings "
@@ -141,13 +141,18 @@ class SqliteStore:
                 f"{SCHEMA_VERSION}: upgrade sondalog"
             )
         if version == SCHEMA_VERSION:
+            db.executescript(SQLITE_ADDITIVE_DDL)
             return
         script = ["BEGIN IMMEDIATE;", SQLITE_DDL if version == 0 else ""]
         for step in range(max(version, 1), SCHEMA_VERSION):
             script.extend(f"{sql};" for sql in MIGRATIONS[step])
-        script.append(
-            "INSERT OR REPLACE INTO meta (key, value) "
-            f"VALUES ('schema_version', '{SCHEMA_VERSION}'); COMMIT;"
+        script.extend(
+            (
+                "INSERT OR REPLACE INTO meta (key, value) "
+                f"VALUES ('schema_version', '{SCHEMA_VERSION}');",
+                SQLITE_ADDITIVE_DDL,
+                "COMMIT;",
+            )
         )
         try:
             db.executescript("\n".join(script))
@@ -208,6 +213,17 @@ class SqliteStore:
             raise ValueError(f"unknown source columns {sorted(unknown)}")
         assignments = ", ".join(f"{column} = ?" for column in state)
         self.db.execute(f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name))
+
+    def set_channels(
+        self, logger: str, channels: Iterable[tuple[int, str | None, str | None, int | None]]
+    ) -> None:
+        """Replace ``logger``'s rows of the ``channels`` table: ``(channel, name, unit, type)``."""
+        with self.db:
+            self.db.execute("DELETE FROM channels WHERE logger = ?", (logger,))
+            self.db.executemany(
+                "INSERT INTO channels (logger, channel, name, unit, type) VALUES (?, ?, ?, ?, ?)",
+                [(logger, *c) for c in channels],
+            )
 
     def event(self, source: str, kind: str, text: str, time: str | None = None) -> None:
         with self.db:

@@ -1,4 +1,4 @@
-"""What the modem and the network say to each other (``shared/spec/gsm.md`` §1).
+"""What the modem and the network say to each other (the gsm notes (docs/gsm-notes.md) §1).
 
 The modem core (:mod:`sondalog.gsm.modem`) returns *effects* toward the network; the network
 core (:mod:`sondalog.gsm.network`) answers with *events* for the modem. Neither does I/O: the

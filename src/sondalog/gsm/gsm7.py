@@ -4,7 +4,7 @@ An SMS carries at most 140 octets of user data: 160 GSM-7 characters packed seve
 or 70 UCS2 characters. The logger's replies and messages are sent as GSM-7 text; characters
 outside the alphabet become ``?`` and a reply longer than one SMS goes as several, each at most
 160 characters, where a character of the extension table (``{``, ``€``...) counts 2
-(``shared/spec/gsm.md`` §4, manual §3.4.6.1).
+(the gsm notes (docs/gsm-notes.md) §4, manual §3.4.6.1).
 """
 
 from __future__ import annotations

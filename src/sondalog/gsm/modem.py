@@ -4,10 +4,10 @@ The logger (or gammu, or a person on a terminal) talks to it with AT commands on
 line at ``com speed``; the network talks to it with :mod:`sondalog.gsm.events`. The core never
 reads a clock: every call gets ``now`` and returns an :class:`Output` (bytes for the line,
 effects for the network); :meth:`Modem.next_deadline` says when to call :meth:`Modem.advance`
-(ring repetition, auto-answer, the ``+++`` guard time). The dialect is ``shared/spec/gsm.md``
-§2: V.250 basics, 3GPP TS 27.007 (calls, registration, signal, USSD), 27.005 (SMS, text and
-PDU mode; :mod:`sondalog.gsm.modem_sms`) and Wavecom's WIPsoft GPRS/TCP commands
-(:mod:`sondalog.gsm.wip`). ``docs/gsm.md`` lists every answer.
+(ring repetition, auto-answer, the ``+++`` guard time). The dialect is the gsm notes
+(docs/gsm-notes.md) §2: V.250 basics, 3GPP TS 27.007 (calls, registration, signal, USSD),
+27.005 (SMS, text and PDU mode; :mod:`sondalog.gsm.modem_sms`) and Wavecom's WIPsoft GPRS/TCP
+commands (:mod:`sondalog.gsm.wip`). ``docs/gsm.md`` lists every answer.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The GSM network as a pure core (``shared/spec/gsm.md`` §1, §3, §6; manual §6.11.5).
+"""The GSM network as a pure core (the gsm notes (docs/gsm-notes.md) §1, §3, §6; manual §6.11.5).
 
 Subscribers are E.164 numbers, each a modem (driven by :class:`~sondalog.gsm.modem.Modem`
 effects) or a phone (driven by the runtime: the ``sondalog phone`` commands, the HTTP API).

@@ -1,0 +1,106 @@
+"""The collector with its dashboard in one event loop (``sondalog collect``, ``make demo``).
+
+The collector (:mod:`sondalog.collect`) does not know the dashboard (the web sits above it in
+the package map); this wiring runs both: :class:`~sondalog.collect.runner.Collector` and,
+unless ``[web] enabled = false``, :func:`sondalog.web.serve` over the same SQLite store, as
+tasks of the caller's loop. Stopping the collector stops the dashboard.
+
+A busy *default* port (no ``[web] listen`` in the file) is a warning and the collector runs
+without its dashboard: collecting is its job, and a second collector on one machine must not
+fail for it. A busy port the file asks for is an error (:class:`WebUnavailable`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable
+from pathlib import Path
+
+from sondalog.collect.config import load_config
+from sondalog.collect.runner import Collector
+from sondalog.web import create_app, serve
+from sondalog.web.server import bind
+
+log = logging.getLogger(__name__)
+
+
+class WebUnavailable(OSError):
+    """The dashboard cannot listen where the configuration says."""
+
+
+async def run_collector(
+    collector: Collector,
+    stop: asyncio.Event,
+    *,
+    once: bool = False,
+    on_web: Callable[[str, int], None] | None = None,
+    poll_interval: float = 1.0,
+) -> None:
+    """Run ``collector`` until ``stop``, serving the dashboard beside it (not with ``once``).
+
+    ``on_web(host, port)`` is called once the dashboard listens. Raises
+    :class:`WebUnavailable` when the address the file names cannot be used.
+    """
+    web = collector.config.web
+    task: asyncio.Task[None] | None = None
+    if web.enabled and not once:
+        try:
+            bind(web.host, web.port).close()  # a clear error before anything starts
+        except OSError as exc:
+            where = f"{web.host}:{web.port}"
+            if web.explicit:
+                raise WebUnavailable(
+                    f"the dashboard cannot listen on {where}: {exc.strerror or exc} "
+                    "(choose another [web] listen, or port 0 for any free port)"
+                ) from exc
+            log.warning(
+                "the dashboard is not served: %s is taken (%s); set [web] listen",
+                where,
+                exc.strerror or exc,
+            )
+        else:
+            app = create_app(collector.config.store, token=web.token, poll_interval=poll_interval)
+            task = asyncio.create_task(
+                serve(
+                    app,
+                    web.host,
+                    web.port,
+                    allow_remote=web.allow_remote,
+                    token=web.token,
+                    on_listen=on_web,
+                ),
+                name="dashboard",
+            )
+            task.add_done_callback(_report)
+    try:
+        await collector.run(stop, once=once)
+    finally:
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+
+
+def _report(task: asyncio.Task[None]) -> None:
+    if not task.cancelled() and task.exception() is not None:
+        log.warning("the dashboard stopped: %s", task.exception())
+
+
+async def collect_with_dashboard(
+    config_path: Path,
+    stop: asyncio.Event,
+    on_web: Callable[[str, int], None] | None = None,
+    poll_interval: float = 1.0,
+) -> None:
+    """Load the collector's configuration file, open its store and run it with the
+    dashboard until ``stop`` (what ``make demo`` runs). Raises ``ConfigError``,
+    ``StoreError`` or :class:`WebUnavailable`."""
+    collector = Collector(load_config(config_path))
+    try:
+        collector.open()
+    except BaseException:
+        await collector.close()
+        raise
+    await run_collector(collector, stop, on_web=on_web, poll_interval=poll_interval)

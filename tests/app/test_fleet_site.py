@@ -176,7 +176,17 @@ def test_served_fleet_answers_and_keeps_its_memory(tmp_path: Path) -> None:
             stderr=subprocess.PIPE,
         )
         assert proc.stdout is not None
-        ports = {}
+        ports: dict[str, int] = {}
+        try:
+            read_ports(proc, ports)
+        except BaseException:
+            proc.kill()
+            proc.wait()
+            raise
+        return proc, ports
+
+    def read_ports(proc: subprocess.Popen[bytes], ports: dict[str, int]) -> None:
+        assert proc.stdout is not None
         while len(ports) < 3:
             ready, _, _ = select.select([proc.stdout], [], [], 60)
             if not ready:
@@ -185,7 +195,6 @@ def test_served_fleet_answers_and_keeps_its_memory(tmp_path: Path) -> None:
             words = proc.stdout.readline().decode().split()
             assert words[:1] == ["logger"], words
             ports[words[1]] = int(words[-1].rsplit(":", 1)[1])
-        return proc, ports
 
     def ask(port: int, line: bytes) -> bytes:
         with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:

@@ -365,7 +365,6 @@ class Transaction:
         cfg = state.channel_config(ch) if pristine else channel_config(self, ch)
         now = state.module_seconds(self.host_now)
         outputs = state.outputs
-        hold = period_seconds(self.get("command channel switch hold")) or 0
         ready_at = now
         switched: list[int] = []
         for inp in cfg.used_inputs:
@@ -378,11 +377,13 @@ class Transaction:
             if inp.device_type == "DS18B20" and cfg.type in (3, 9):
                 conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
                 ready_at = max(ready_at, conversion)
-        for output in switched:  # §6.9: the hold runs from each measurement, renewed by each
-            until = ready_at + max(hold, MEASURE_TIME)
-            outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), until)
-        outputs.update(now, state.clock_offset)
-        state.forget_schedule()  # a hold may have started
+        if switched:  # (an input without a switch changes no output: nothing to update)
+            hold = period_seconds(self.get("command channel switch hold")) or 0
+            for output in switched:  # §6.9: the hold runs from each measurement, renewed
+                until = ready_at + max(hold, MEASURE_TIME)
+                outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), until)
+            outputs.update(now, state.clock_offset)
+            state.forget_schedule()  # a hold may have started
         if ready_at > now:
             self.waits.append(ready_at - now)
             state.hardware.prepare(ready_at - state.clock_offset)  # acquire by then

@@ -74,6 +74,8 @@ class Messages:
         self._messages: dict[int, _Message] = {}
         self._flights: dict[int, _Flight] = {}
         outbox.on_done(self._done)
+        #: No message is scheduled, waiting or on its way: a command's step costs nothing.
+        self._idle = False
         state.sampler.observer = self._sampled
         self._refresh(host_now)
 
@@ -102,6 +104,13 @@ class Messages:
                 message.crossing = _watcher(config)
             message.config = config
             message.due = next_due(config.period, config.start, after)
+        self._idle = self._nothing_to_do()
+
+    def _nothing_to_do(self) -> bool:
+        return all(
+            m.due is None and m.pending is None and m.flight is None and m.crossing is None
+            for m in self._messages.values()
+        )
 
     # -- triggers ------------------------------------------------------------------------------
     def trigger(self, number: int, host_time: float) -> None:
@@ -109,6 +118,7 @@ class Messages:
         message = self._messages.get(number)
         if message is not None and message.pending is None:
             message.pending = host_time
+            self._idle = False
 
     def _sampled(self, t: int, runs: list[ChannelRun], wrote: bool) -> None:
         """The sampler's observer: one sampling instant (module second ``t``)."""
@@ -140,6 +150,8 @@ class Messages:
         self._now = host_now
         self._refresh(host_now)
         state = self.state
+        if self._idle and not state.message_runs:
+            return
         module_now = state.module_seconds(host_now)
         for number, message in self._messages.items():
             if message.due is not None and message.due <= module_now:
@@ -160,6 +172,7 @@ class Messages:
                 continue
             self._send(message, host_now)
         state.message_runs.clear()  # a message's own command does not start messages
+        self._idle = self._nothing_to_do()
 
     def _send(self, message: _Message, host_now: float) -> None:
         config = message.config
@@ -219,6 +232,8 @@ class Messages:
     def next_deadline(self, *, local_ready: bool) -> float | None:
         """Host time of the next periodic trigger, or of a waiting message that may go."""
         self._refresh(self._now)  # a change committed outside a step (an SMS command)
+        if self._idle and not self.state.message_runs:
+            return None
         offset = self.state.clock_offset
         deadlines = [m.due - offset for m in self._messages.values() if m.due is not None]
         waiting = [

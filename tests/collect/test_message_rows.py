@@ -1,10 +1,15 @@
-"""A logger's data message -> rows (§6.14, §6.8.4.1): decorations, crcsum, identification."""
+"""A logger's data message -> rows (§6.14, §6.8.4.1): decorations, crcsum, identification;
+the message sources' configuration."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
+from sondalog.collect.config import CollectorConfig, ConfigError, load_config
 from sondalog.collect.message_rows import MessageError, MessageRows, identify, parse_message
+from sondalog.collect.message_url import Pop3Url, parse_pop3_url
 from sondalog.protocol.cksum import cksum
 
 ROWS = ["20261130010000.0,1,12.6,0.250", "20261130010000.1,1,12.6,", "20261130020000.0,3,door open"]
@@ -65,3 +70,51 @@ def test_identification_order() -> None:
     assert identify(plain, "+420600000001", loggers, "000009") == "000001"
     assert identify(plain, "+420699999999", loggers, "000009") == "000009"
     assert identify(plain, "+420699999999", loggers, None) is None
+
+
+MAILBOX = """[[source]]
+kind = "mailbox"
+url = "pop3://user@example.net:secret@127.0.0.1:1110"
+logger = "000001"
+keep = true
+
+[[source]]
+kind = "network"
+url = "http://127.0.0.1:8025"
+number = "+420700000001"
+loggers = { "+420600000001" = "000001" }
+"""
+
+
+def _config(tmp_path: Path, text: str) -> CollectorConfig:
+    path = tmp_path / "collector.toml"
+    path.write_text(text)
+    return load_config(path)
+
+
+def test_message_source_config(tmp_path: Path) -> None:
+    mailbox, network = _config(tmp_path, MAILBOX).sources
+    assert (mailbox.kind, mailbox.logger, mailbox.keep) == ("mailbox", "000001", True)
+    assert parse_pop3_url(mailbox.url) == Pop3Url("127.0.0.1", 1110, "user@example.net", "secret")
+    assert (network.number, network.loggers) == ("+420700000001", {"+420600000001": "000001"})
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ("pop3://user@example.net:secret@", "pop3://user@", r"source\[0\].url: .*USER:PASSWORD"),
+        ("pop3://", "imap://", r":3: source\[0\].url: a mailbox URL is pop3://"),
+        ('number = "+420700000001"\n', "", r"source\[1\].number: required"),
+        ("keep = true", 'number = "1"', r"source\[0\].number: only a network source"),
+        ('"000001" }', "1 }", r"source\[1\].loggers: must be a table"),
+        ("http://127", "tcp://127", r"source\[1\].url: a network source's URL"),
+    ],
+)
+def test_bad_message_source_config(tmp_path: Path, old: str, new: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        _config(tmp_path, MAILBOX.replace(old, new, 1))
+
+
+def test_logger_sources_refuse_message_keys(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"source\[0\].keep: only a mailbox or network"):
+        _config(tmp_path, '[[source]]\nurl = "tcp://127.0.0.1:1"\nkeep = true\n')

@@ -4,8 +4,11 @@
   messages to. Each contact reads every mail; a mail is deleted once its rows are committed
   (``keep = true``: left in the mailbox, its UIDL remembered in the source's cursor).
 - ``network``: the SMS delivered to ``number`` through the GSM network's HTTP API
-  (``GET /sms?to=NUMBER``, concatenated SMS already joined in order). The ids handled are the
-  source's cursor; a part whose other parts have not arrived waits for them.
+  (``GET /sms?to=NUMBER``). A logger sends an answer longer than 160 characters as several
+  SMS in order, each full but the last (spec gsm.md §5): the source joins a sender's
+  consecutive full SMS with the next shorter one (or one ending ``OK``) into one message; a
+  part whose rest has not arrived yet waits for it (concatenated SMS with a user data header
+  come joined from the API already). The ids handled are the source's cursor.
 
 Each message goes through :func:`~sondalog.collect.message_rows.parse_message` (the
 download's row parser) and :func:`~sondalog.collect.message_rows.identify`, and its readings
@@ -37,6 +40,8 @@ from sondalog.collect.sources import GSM_TYPES, Deliver
 from sondalog.collect.store_sqlite import SqliteStore, now_text
 
 log = logging.getLogger(__name__)
+#: A logger splits a longer answer into SMS of this many characters, in order (gsm.md §5).
+SMS_LENGTH = 160
 
 
 class MessageIntake:
@@ -175,15 +180,23 @@ class NetworkSource:
         if not isinstance(listing, list):
             raise OSError(f"the network API at {self.config.url} did not list SMS")
         done = _Handled.load(self.store.cursor(self.config.name))
+        listed = [int(s["id"]) for s in listing]
+        pending: dict[str, list[dict[str, Any]]] = {}  # sender -> the parts so far
         new = 0
         for sms in sorted(listing, key=lambda s: int(s["id"])):
-            sms_id = int(sms["id"])
-            if done.has(sms_id) or "part" in sms:  # a lone part waits for the others
+            if done.has(int(sms["id"])) or "part" in sms:  # a lone part waits for the others
                 continue
-            done.add(sms_id)
+            sender, text = str(sms.get("from", "?")), str(sms["text"])
+            parts = pending.setdefault(sender, [])
+            parts.append(sms)
+            if len(text) >= SMS_LENGTH and not text.endswith("OK\r\n"):
+                continue  # a full part of a longer answer: the next SMS goes on with it
+            del pending[sender]
+            for part in parts:
+                done.add(int(part["id"]))
             new += 1
-            cursor = done.dump(int(s["id"]) for s in listing)
-            await self.intake.take(deliver, str(sms.get("from", "?")), str(sms["text"]), cursor)
+            body = "".join(str(part["text"]) for part in parts)
+            await self.intake.take(deliver, sender, body, done.dump(listed))
         return self.intake.summary(f"SMS to {number}: {new} new")
 
 

@@ -88,6 +88,7 @@ name = "mail"
 kind = "mailbox"
 url = "pop3://user@example.net:secret@127.0.0.1:{hub.pop3_port}"
 loggers = {{ "logger@example.net" = "000001" }}
+signal = 2
 """
             )
             _collect(config)
@@ -106,6 +107,9 @@ loggers = {{ "logger@example.net" = "000001" }}
             assert any("impossible date" in e for e in events), events
             assert any("stranger@example.org skipped: unknown logger" in e for e in events)
             assert not list((hub.maildir("user@example.net") / "cur").iterdir())
+            # the newest value of the channel named the GSM signal is the source's signal
+            state = _query(store, "SELECT logger, signal FROM sources WHERE name = 'mail'")
+            assert state == [("000001", mailed[-1].values[1])]
             # the same rows downloaded too: stored once, the download adds only the newer rows
             config.write_text(
                 config.read_text() + f'\n[[source]]\nname = "cable"\nurl = "{served.url}"\n'

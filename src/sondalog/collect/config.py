@@ -31,6 +31,8 @@
     logger = "000001"           # optional: whose rows, when the message does not say
     loggers = { "logger@example.net" = "000001" }   # optional: sender or i name -> snumber
     keep = false                # optional: true leaves the mails in the mailbox
+    signal = 3                  # optional: the channels with GSM signal and credit (types
+    credit = 4                  # 12, 11) when no download told the store
 
     [[source]]                  # loggers' data messages by SMS, from the GSM network's API
     kind = "network"
@@ -80,10 +82,12 @@ _SOURCE = {
     "loggers",
     "number",
     "keep",
+    "signal",
+    "credit",
 }
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Keys only the message sources (``mailbox``, ``network``) take.
-_MESSAGE_KEYS = ("logger", "loggers", "number", "keep")
+_MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit")
 #: Sink tables handed to :func:`sondalog.collect.sinks.load_sink` besides the store.
 SINK_TABLES = ("postgres", "mqtt")
 
@@ -113,6 +117,10 @@ class SourceConfig:
     loggers: dict[str, str] = field(default_factory=dict)
     number: str | None = None
     keep: bool = False
+    #: Channel numbers of the GSM signal (type 12) and credit (type 11) in the rows of a
+    #: message source, when no download told the store the channels' types.
+    signal: int | None = None
+    credit: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -279,4 +287,12 @@ def _message_keys(s: Mapping[str, Any], kind: str, where: str, fail: Any) -> dic
     keep = s.get("keep", False)
     if not isinstance(keep, bool) or (keep and kind == "network"):
         raise fail(f"{where}.keep", "a mailbox source's keep is true or false")
-    return {"logger": logger, "loggers": dict(loggers), "number": number, "keep": keep}
+    gsm: dict[str, int | None] = {}
+    for key in ("signal", "credit"):
+        value = s.get(key)
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int) or value < 1
+        ):
+            raise fail(f"{where}.{key}", "must be the number of the logger's channel")
+        gsm[key] = value
+    return {"logger": logger, "loggers": dict(loggers), "number": number, "keep": keep, **gsm}

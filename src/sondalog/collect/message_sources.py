@@ -93,7 +93,11 @@ class MessageIntake:
             "SELECT channel, name, unit, type FROM channels WHERE logger = ?", (logger,)
         ).fetchall()
         channels = {n: Channel(name, unit) for n, name, unit, _ in rows if name}
-        return channels, {n: t for n, _, _, t in rows if t in GSM_TYPES}
+        types = {n: t for n, _, _, t in rows if t in GSM_TYPES}
+        if not types:  # no download told the store: the source's signal and credit
+            gsm = ((self.config.signal, 12), (self.config.credit, 11))
+            types = {n: t for n, t in gsm if n is not None}
+        return channels, types
 
     def summary(self, what: str) -> str:
         text = f"{what}: {self.stored} messages stored, {self.skipped} skipped"

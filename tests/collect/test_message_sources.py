@@ -106,7 +106,8 @@ signal = 2
             assert any("logger 000001, 4 rows" in e for e in events), events
             assert any("impossible date" in e for e in events), events
             assert any("stranger@example.org skipped: unknown logger" in e for e in events)
-            assert not list((hub.maildir("user@example.net") / "cur").iterdir())
+            box = hub.maildir("user@example.net")
+            assert not [*(box / "new").iterdir(), *(box / "cur").iterdir()]  # all read, deleted
             # the newest value of the channel named the GSM signal is the source's signal
             state = _query(store, "SELECT logger, signal FROM sources WHERE name = 'mail'")
             assert state == [("000001", mailed[-1].values[1])]

@@ -11,6 +11,7 @@ import signal
 import socket
 import sqlite3
 import time
+from functools import partial
 from pathlib import Path
 
 from gsm_served import MODEM, PHONE, PHONE2
@@ -24,6 +25,10 @@ from sondalog.collect.runner import Collector
 def _query(store: Path, sql: str) -> list[tuple[object, ...]]:
     with contextlib.closing(sqlite3.connect(store)) as db:
         return db.execute(sql).fetchall()
+
+
+def _collect(config: Path) -> None:
+    asyncio.run(Collector(load_config(config)).run(asyncio.Event(), once=True))
 
 
 def test_rows_sent_by_sms_arrive_in_the_store_once(tmp_path: Path) -> None:
@@ -57,22 +62,33 @@ name = "sms"
 kind = "network"
 url = "{api}"
 number = "{PHONE}"
-loggers = {{ "{MODEM}" = "000001" }}
+loggers = {{ "{MODEM}" = "000001", "{PHONE2}" = "000002" }}
 """
         )
-        asyncio.run(Collector(load_config(config)).run(asyncio.Event(), once=True))
+        collect = partial(_collect, config)
+        collect()
         store = tmp_path / "collector.sqlite"
         got = _query(store, "SELECT logger, time, counter, channel FROM readings")
         assert sorted(got) == sorted(("000001", r.time.isoformat(), r.counter, 1) for r in mailed)
         events = [e[0] for e in _query(store, "SELECT text FROM events WHERE kind='message'")]
         assert any(f"logger 000001, {len(mailed)} rows" in e for e in events), events
         assert any(f"{PHONE2} skipped" in e for e in events), events
+        # an answer split into plain SMS of 160 characters: the first part waits for the rest
+        body = "".join(f"20261130{h:02d}0000.0,1,{h}.5\r\n" for h in range(7)) + "OK\r\n"
+        _api(lines, "POST", "/sms", {"from": PHONE2, "to": PHONE, "text": body[:160]})
+        collect()
+        two = "SELECT value FROM readings WHERE logger = '000002' ORDER BY time"
+        assert _query(store, two) == []
+        _api(lines, "POST", "/sms", {"from": PHONE2, "to": PHONE, "text": body[160:]})
+        collect()
+        assert _query(store, two) == [(h + 0.5,) for h in range(7)]
+        events = [e[0] for e in _query(store, "SELECT text FROM events WHERE kind='message'")]
         # again, with the cable line downloaded too: nothing twice, nothing read again
         config.write_text(
             config.read_text()
             + f'\n[[source]]\nname = "cable"\nurl = "tcp://127.0.0.1:{cable_port}"\n'
         )
-        asyncio.run(Collector(load_config(config)).run(asyncio.Event(), once=True))
+        collect()
         counts = _query(
             store, "SELECT COUNT(*) FROM readings GROUP BY logger, time, counter, channel"
         )

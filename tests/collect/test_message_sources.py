@@ -11,6 +11,7 @@ import socket
 import sqlite3
 import threading
 import time
+from collections.abc import Iterator
 from email.message import EmailMessage
 from pathlib import Path
 
@@ -59,17 +60,25 @@ def _collect(path: Path) -> None:
     asyncio.run(Collector(load_config(path)).run(asyncio.Event(), once=True))
 
 
-def test_mailbox_rows_arrive_once_and_bad_mail_is_skipped(tmp_path: Path) -> None:
-    async def start() -> MailHub:
-        hub = MailHub(MailHubConfig(tmp_path / "mail", ACCOUNTS, smtp_port=0, pop3_port=0))
-        await hub.start()
-        return hub
-
+@contextlib.contextmanager
+def _hub(root: Path) -> Iterator[MailHub]:
+    """The real mail hub, served by an event loop in a thread while the test runs."""
     loop = asyncio.new_event_loop()
-    hub = loop.run_until_complete(start())
+    hub = MailHub(MailHubConfig(root, ACCOUNTS, smtp_port=0, pop3_port=0))
+    loop.run_until_complete(hub.start())
+    thread = threading.Thread(target=loop.run_forever, daemon=True)
+    thread.start()
     try:
-        thread = threading.Thread(target=loop.run_forever, daemon=True)
-        thread.start()
+        yield hub
+    finally:
+        asyncio.run_coroutine_threadsafe(hub.stop(), loop).result(10)
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(10)
+        loop.close()
+
+
+def test_mailbox_rows_arrive_once_and_bad_mail_is_skipped(tmp_path: Path) -> None:
+    with _hub(tmp_path / "mail") as hub:
         with sampling_logger(tmp_path) as served:
             configure(served)
             _rows(served, 6)
@@ -126,6 +135,31 @@ signal = 2
         downloaded = {(parse_row(x).time.isoformat(), parse_row(x).counter) for x in record}
         assert {(r[1], r[2]) for r in rows} <= downloaded
         assert len({(r[1], r[2]) for r in rows}) >= len(mailed)
-    finally:
-        asyncio.run_coroutine_threadsafe(hub.stop(), loop).result(10)
-        loop.call_soon_threadsafe(loop.stop)
+
+
+def test_mailbox_keep_leaves_the_mail_and_reads_it_once(tmp_path: Path) -> None:
+    with _hub(tmp_path / "mail") as hub:
+        _mail(hub.smtp_port, "logger@example.net", "20261130010000.0,1,1.5\r\nOK\r\n")
+        config = tmp_path / "collect.toml"
+        config.write_text(
+            f"""[web]\nenabled = false\n
+[[source]]
+name = "mail"
+kind = "mailbox"
+url = "pop3://user@example.net:secret@127.0.0.1:{hub.pop3_port}"
+logger = "000009"
+keep = true
+"""
+        )
+        _collect(config)
+        _mail(hub.smtp_port, "logger@example.net", "20261130020000.0,1,2.5\r\nOK\r\n")
+        _collect(config)
+        store = tmp_path / "collector.sqlite"
+        assert _query(store, "SELECT logger, value FROM readings ORDER BY time") == [
+            ("000009", 1.5),
+            ("000009", 2.5),
+        ]
+        stored = _query(store, "SELECT text FROM events WHERE kind = 'message'")
+        assert len(stored) == 2  # each mail read once, though both stay in the mailbox
+        box = hub.maildir("user@example.net")
+        assert len([*(box / "new").iterdir(), *(box / "cur").iterdir()]) == 2

@@ -8,6 +8,10 @@ event loop:
 - the virtual loggers of :data:`~sondalog.app.demo_world.LOGGERS` (module time
   :data:`SPEED` times faster than real time, ``--speed``): ``CABLE-01`` on 10001 (the ALA GPRS
   modem's port, §6.11.5.2.4; ``--listen HOST:PORT`` chooses another), ``RAIN-02`` on 10002;
+- ``GSM-03`` (cable line 10003) driving its modem ``+420600000003`` of a GSM network (its
+  HTTP API on 8025), served from ``gsm-site.toml`` as ``sondalog serve`` serves a site: it
+  e-mails its new rows every module hour to the mail hub, and the collector reads them from
+  the mailbox;
 - an RS-485 bus with two HCTMPS1 modules on 10485, the mail hub (SMTP 2525, POP3 1110);
 - the collector (``state/demo/collector.toml``) into SQLite, with its dashboard on 8080.
 
@@ -34,15 +38,24 @@ from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.collector import collect_with_dashboard
 from sondalog.app.demo_world import (
     BUS_MODULES,
+    GSM,
+    GSM_HISTORY_DAYS,
+    GSM_MODEM,
+    GSM_PHONE,
     HISTORY_DAYS,
     LOGGERS,
     MAIL_ACCOUNTS,
     collector_toml,
     fast_forward,
+    gsm_message_settings,
+    gsm_site,
     write_world,
 )
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, MailHubConfig
+from sondalog.app.serve import RunningSite, start_site
+from sondalog.app.site import load_site
+from sondalog.client import Ala1Client
 from sondalog.io.address import format_address, parse_listen
 from sondalog.io.clock import AcceleratedClock, RealClock
 
@@ -50,7 +63,7 @@ STATE_DIR = Path("state/demo")
 HOST = "127.0.0.1"
 #: Module seconds per real second while the demo runs live (a 5-minute sample every 5 s).
 SPEED = 60.0
-BUS_PORT, SMTP_PORT, POP3_PORT, WEB_PORT = 10485, 2525, 1110, 8080
+BUS_PORT, SMTP_PORT, POP3_PORT, WEB_PORT, GSM_API_PORT = 10485, 2525, 1110, 8080, 8025
 T = TypeVar("T")
 
 
@@ -100,6 +113,8 @@ class Demo:
         self.loggers: dict[str, Logger] = {}
         self.bus: BusServer | None = None
         self.mail: MailHub | None = None
+        self.gsm: RunningSite | None = None
+        self.gsm_api = ""
         self.collector: asyncio.Task[None] | None = None
         self.web = ""
         self.web_ready: asyncio.Future[None] = asyncio.get_running_loop().create_future()
@@ -142,11 +157,14 @@ class Demo:
             lambda bus: bus.address[1],
         )
         self.mail = await self._mail()
+        self.gsm = await self._gsm(self.mail.smtp_port)
         web_port = _free_web_port()
         config = STATE_DIR / "collector.toml"
-        addresses = {key: lg.servers[0].address for key, lg in self.loggers.items()}
+        # the GSM logger is in the field: its rows come by e-mail only
+        addresses = {s.key: self.loggers[s.key].servers[0].address for s in LOGGERS}
+        pop3 = (HOST, self.mail.pop3_port)
         config.write_text(
-            collector_toml(addresses, self.bus.address, (HOST, web_port)), encoding="utf-8"
+            collector_toml(addresses, self.bus.address, (HOST, web_port), pop3), encoding="utf-8"
         )
 
         def on_web(host: str, port: int) -> None:
@@ -181,6 +199,38 @@ class Demo:
             )
             return hub
 
+    async def _gsm(self, smtp_port: int) -> RunningSite:
+        """The GSM logger with its modem and the network, as ``sondalog serve`` serves a site
+        file (``gsm-site.toml``); then told to e-mail its new rows every hour."""
+        site = STATE_DIR / "gsm-site.toml"
+
+        async def start(port: int, api: int) -> RunningSite:
+            site.write_text(gsm_site((HOST, port), (HOST, api)), encoding="utf-8")
+            return await start_site(load_site(site), STATE_DIR / "gsm", self.clock)
+
+        try:
+            running = await start(GSM.port, GSM_API_PORT)
+        except OSError as exc:
+            running = await start(0, 0)
+            print(
+                f"port {GSM.port} or {GSM_API_PORT} is taken ({exc.strerror or exc}): the GSM "
+                "logger and the network's API use free ports",
+                file=sys.stderr,
+            )
+        assert running.logger is not None and running.gsm_api is not None
+        self.loggers[GSM.key] = running.logger
+        self.gsm_api = f"http://{format_address(*running.gsm_api.address)}"
+        host, port = running.logger.servers[0].address
+        client = await Ala1Client.connect(f"tcp://{host}:{port}", timeout=10)
+        try:
+            for line in gsm_message_settings(smtp_port):
+                answer = await client.command(line)
+                if not answer.ok:
+                    raise RuntimeError(f"{GSM.serial}: {line!r} -> {answer.lines!r}")
+        finally:
+            await client.close()
+        return running
+
     def describe(self) -> str:
         """What runs and how to talk to it."""
         assert self.bus is not None and self.mail is not None
@@ -193,11 +243,17 @@ class Demo:
             "",
             "Loggers (talk to one from another terminal):",
         ]
-        for spec in LOGGERS:
+        for spec in (*LOGGERS, GSM):
             host, port = self.loggers[spec.key].servers[0].address
             lines.append(f"  {spec.serial}: {spec.what}")
             lines.append(f"    .venv/bin/sondalog term tcp://{host}:{port}")
-        lines.append("    (a logger in the field with a GSM modem comes with the GSM world)")
+        api = f"--api {self.gsm_api} " if not self.gsm_api.endswith(f":{GSM_API_PORT}") else ""
+        lines += [
+            f"    its modem {GSM_MODEM}; text it from the phone {GSM_PHONE} and read the reply:",
+            f"    .venv/bin/sondalog phone {api}sms {GSM_PHONE} {GSM_MODEM} "
+            "'##*#read i snumber##*#'",
+            f"    .venv/bin/sondalog phone {api}inbox {GSM_PHONE}",
+        ]
         first = next(iter(BUS_MODULES))
         lines += [
             "",
@@ -217,6 +273,9 @@ class Demo:
         if self.collector is not None:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await asyncio.wait_for(self.collector, 10)
+        if self.gsm is not None:
+            self.loggers.pop(GSM.key, None)
+            await self.gsm.close()
         if self.mail is not None:
             with contextlib.suppress(Exception):
                 await self.mail.stop()
@@ -267,6 +326,8 @@ async def main(listen: tuple[str, int] | None = None, speed: float = SPEED) -> N
     print(f"recording {HISTORY_DAYS} days of history ...", flush=True)
     for spec in LOGGERS:
         await asyncio.to_thread(fast_forward, STATE_DIR, spec)
+    gsm_logger = STATE_DIR / GSM.key / "logger"  # where start_site keeps the site's logger
+    await asyncio.to_thread(fast_forward, STATE_DIR, GSM, GSM_HISTORY_DAYS, gsm_logger)
     demo = Demo(AcceleratedClock(speed))
     try:
         if not stop.is_set():

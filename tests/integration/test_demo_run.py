@@ -28,15 +28,20 @@ def get_json(url: str) -> Any:
 
 
 def wait_for_data(web: str, deadline: float) -> dict[str, Any]:
-    """The overview once both loggers and both modules have readings."""
+    """The overview once the loggers and both modules have readings."""
     while True:
         got = get_json(web + "api/loggers")
         by_name = {entry["logger"]: entry for entry in got["loggers"]}
-        wanted = ("CABLE-01", "RAIN-02", "bus:T1", "bus:H1")
+        wanted = ("CABLE-01", "RAIN-02", "GSM-03", "bus:T1", "bus:H1")
         if all(by_name.get(k, {}).get("last_reading") for k in wanted):
             return by_name
         assert time.monotonic() < deadline, json.dumps(got, indent=1)
         time.sleep(0.5)
+
+
+def _inbox(command: list[str]) -> str:
+    run = subprocess.run(command, capture_output=True, text=True, timeout=30)
+    return run.stdout + run.stderr
 
 
 def closed(port: int) -> bool:
@@ -53,7 +58,9 @@ def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
         web = demo.url("Dashboard:  ", r"http://127\.0\.0\.1:\d+/")
         loggers = re.findall(r"sondalog term (tcp://127\.0\.0\.1:(\d+))", text)
         bus = demo.url("sondalog bus ask ", r"tcp://127\.0\.0\.1:\d+")
-        assert len(loggers) == 2 and "sondalog bus scan tcp://" in text, text
+        assert len(loggers) == 3 and "sondalog bus scan tcp://" in text, text
+        sms = re.search(r"sondalog phone ((?:--api \S+ )?)sms (\S+) (\S+) '([^']+)'", text)
+        assert sms is not None, text
 
         entries = wait_for_data(web, time.monotonic() + 60)
         cable, rain = entries["CABLE-01"], entries["RAIN-02"]
@@ -62,6 +69,11 @@ def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
         assert rain["signal"] is not None and rain["credit"] is not None
         assert cable["signal"] is None and cable["record_fill"].endswith("FILLING")
         assert not any(e["trouble"] for e in entries.values())
+        # the GSM logger's rows came by e-mail through the mail hub, read from the mailbox
+        gsm = entries["GSM-03"]
+        assert [s["kind"] for s in gsm["sources"]] == ["mailbox"], gsm["sources"]
+        assert gsm["signal"] is not None and gsm["credit"] == 250.0
+        assert [c["channel"] for c in gsm["channels"]] == [1, 2, 3, 4]
         # the history was fast-forwarded: four weeks of 5-minute rows, plotted downsampled
         week = get_json(web + "api/loggers/CABLE-01/series")  # the default: the last 7 days
         assert all(len(s["t"]) > 1000 for s in week["series"]), week
@@ -80,6 +92,19 @@ def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
             timeout=30,
         )
         assert term.returncode == 0 and "RAIN-02" in term.stdout, term.stdout + term.stderr
+        # text the GSM logger as the demo says: the reply comes by SMS
+        phone = [*sondalog, "phone", *sms.group(1).split()]
+        texted = subprocess.run(
+            [*phone, "sms", sms.group(2), sms.group(3), sms.group(4)],
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+        assert texted.returncode == 0, texted.stdout + texted.stderr
+        deadline = time.monotonic() + 60
+        while "GSM-03" not in (inbox := _inbox([*phone, "inbox", sms.group(2)])):
+            assert time.monotonic() < deadline, inbox
+            time.sleep(1)
         ask = subprocess.run(
             [*sondalog, "bus", "ask", bus, "T1", "PV"], capture_output=True, text=True, timeout=30
         )

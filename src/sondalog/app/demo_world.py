@@ -6,8 +6,9 @@ new logger its channel settings through the protocol (as a user would, §6.5) an
 through :data:`HISTORY_DAYS` days of module time (:class:`~sondalog.app.virtual.VirtualLogger`
 on the logger's own state directory), so the served logger starts with a full record.
 
-The loggers are :data:`LOGGERS`. A logger in the field with a GSM modem sending its rows by
-e-mail belongs in that list too, once the GSM world can be served (see ``GSM LOGGER`` below).
+The loggers on cable lines are :data:`LOGGERS`; the logger in the field with a GSM modem
+sending its rows by e-mail is :data:`GSM`, served with the demo's GSM network (``GSM LOGGER``
+below).
 """
 
 from __future__ import annotations
@@ -121,10 +122,87 @@ max = 31
     ),
 )
 
-# GSM LOGGER: the logger in the field with a modem that sends its new rows by e-mail every
-# hour (gsm.md) goes here as a third DemoLogger once the GSM world can be served: its site
-# file then has a [logger.modem] part, the mail hub below receives its messages, and the
-# collector reads them with a mailbox source (a [[source]] of kind "mailbox").
+# GSM LOGGER: the logger in the field with a modem of the demo's GSM network (gsm.md): its
+# site file has the network too (served by the same machinery as `sondalog serve`,
+# :func:`gsm_site`); once served it is told (:func:`gsm_message_settings`) to send its new
+# rows by e-mail every hour to the demo's mail hub, which the collector reads with a mailbox
+# source (:func:`collector_toml`).
+GSM = DemoLogger(
+    "gsm",
+    "GSM-03",
+    10003,
+    "in the field with a GSM modem: sends its new rows by e-mail every hour",
+    """[logger]
+seed = 11
+supply = { model = "sine", mean = 12.2, amplitude = 0.2, period = 86400 }
+
+[[logger.ds18b20]]              # soil temperature on P6 bit 4
+pin = 4
+signal = { model = "sine", mean = 8.0, amplitude = 2.0, period = 86400, phase = -25200 }
+
+[logger.gsm]                    # what the network reports for its modem (types 12 and 11)
+signal = { model = "sine", mean = 18, amplitude = 4, period = 3600 }
+credit = { model = "constant", value = 250.0 }
+""",
+    (
+        "write channel max number 4",
+        "write device 3 type ds18b20 write device 3 address 4",
+        "write channel 2 device 3 write channel 2 type 3 write channel 2 address 0",
+        "write channel 3 type 12 write channel 4 type 11",
+        "write channel 1 name/Supply[V]/ write channel 2 name/Soil[C]/",
+        "write channel 3 name/Signal/ write channel 4 name/Credit[CZK]/",
+        "write channel 1 sampling period 0015 write channel 2 sampling period 0015",
+        "write channel 3 sampling period 0015 write channel 4 sampling period 0015",
+    ),
+)
+#: The GSM logger's history is short: its first e-mail carries all of it.
+GSM_HISTORY_DAYS = 2
+GSM_MODEM, GSM_PHONE = "+420600000003", "+420700000001"
+LOGGER_MAIL, USER_MAIL = "logger@example.net", "user@example.net"
+
+
+def gsm_site(listen: tuple[str, int], api: tuple[str, int]) -> str:
+    """The GSM logger's whole site file: the logger, its modem, the network and a phone."""
+    return f"""# The demo logger {GSM.serial} with its modem {GSM_MODEM} and the demo's GSM network.
+{GSM.site}
+[logger.serve]
+listen = "{listen[0]}:{listen[1]}"
+protocol = "2.10"
+modem = "{GSM_MODEM}"
+
+[gsm]
+logger_modem = "{GSM_MODEM}"
+hosts = {{ "smtp.example.net" = "127.0.0.1", "pop3.example.net" = "127.0.0.1" }}
+
+[gsm.serve]
+api = "{api[0]}:{api[1]}"
+
+[[gsm.modem]]
+number = "{GSM_MODEM}"
+credit = 250.0
+ussd = {{ "*101#" = "Your credit is {{credit:.2f}} CZK. Thank you." }}
+
+[[gsm.phone]]
+number = "{GSM_PHONE}"
+"""
+
+
+def gsm_message_settings(smtp_port: int) -> tuple[str, ...]:
+    """What a user types to have the GSM logger e-mail its new rows every hour (§6.14)."""
+    return (
+        "write com device wavecom41",
+        f"write com network smtp address {LOGGER_MAIL}:secret@smtp.example.net:{smtp_port}",
+        f"write email send from {LOGGER_MAIL}",
+        f"write address 1 type email write address 1 value {USER_MAIL}",
+        "write command 1 value/read record 1000 from lastread shift/",
+        "write message 1 command 1 write message 1 address 1",
+        "write message 1 period 010000",
+        "write message 1 run 1",
+        "write com close",
+    )
+
+
+#: The loggers on a cable line of their own (the GSM logger is served with its network).
 LOGGERS: tuple[DemoLogger, ...] = (CABLE, RAIN)
 
 BUS_MODULES = {"T1": "C", "H1": "%"}
@@ -149,13 +227,13 @@ seed = 9
 min = 30
 max = 70
 """
-MAIL_ACCOUNTS = {"logger@example.net": "secret", "user@example.net": "secret"}
+MAIL_ACCOUNTS = {LOGGER_MAIL: "secret", USER_MAIL: "secret"}
 
 
 def write_world(state: Path) -> None:
     """The site files of :data:`LOGGERS` and of the bus (``bus.toml``)."""
     state.mkdir(parents=True, exist_ok=True)
-    for logger in LOGGERS:
+    for logger in (*LOGGERS, GSM):
         (state / f"{logger.key}.toml").write_text(
             f"# The demo logger {logger.serial}: {logger.what}.\n{logger.site}", encoding="utf-8"
         )
@@ -165,9 +243,13 @@ def write_world(state: Path) -> None:
 
 
 def collector_toml(
-    loggers: dict[str, tuple[str, int]], bus: tuple[str, int], web: tuple[str, int]
+    loggers: dict[str, tuple[str, int]],
+    bus: tuple[str, int],
+    web: tuple[str, int],
+    pop3: tuple[str, int] | None = None,
 ) -> str:
-    """The collector's configuration: every logger, the bus, the dashboard on ``web``."""
+    """The collector's configuration: every logger, the bus, the dashboard on ``web``, and
+    the GSM logger's e-mails in the mailbox on ``pop3``."""
     parts = [
         "# The demo's collector: written by `make demo`, see docs/collector.md.",
         '[sqlite]\npath = "collector.sqlite"',
@@ -183,6 +265,13 @@ def collector_toml(
         f'[[source]]\nname = "bus"\nkind = "bus"\nurl = "tcp://{bus[0]}:{bus[1]}"\n'
         f"modules = [{modules}]\nunits = {{ {units} }}\ninterval = 3"
     )
+    if pop3 is not None:
+        parts.append(
+            f'[[source]]\nname = "gsm-mail"\nkind = "mailbox"\n'
+            f'url = "pop3://{USER_MAIL}:secret@{pop3[0]}:{pop3[1]}"\n'
+            f'loggers = {{ "{LOGGER_MAIL}" = "{GSM.serial}" }}\n'
+            "signal = 3\ncredit = 4\ninterval = 5"
+        )
     return "\n\n".join(parts) + "\n"
 
 
@@ -190,11 +279,13 @@ class SettingRefused(RuntimeError):
     """A demo logger answered a setting with something else than OK."""
 
 
-def fast_forward(state: Path, logger: DemoLogger, days: float = HISTORY_DAYS) -> int:
-    """Configure the new logger in ``state / logger.key`` and record ``days`` of history
-    ending now; returns the bytes of record it holds then (``record status``). Module time
-    is this computer's local time."""
-    directory = state / logger.key
+def fast_forward(
+    state: Path, logger: DemoLogger, days: float = HISTORY_DAYS, directory: Path | None = None
+) -> int:
+    """Configure the new logger in ``directory`` (default ``state / logger.key``) and record
+    ``days`` of history ending now; returns the bytes of record it holds then (``record
+    status``). Module time is this computer's local time."""
+    directory = directory if directory is not None else state / logger.key
     load_identity(directory, Version.V2_10, logger.serial)
     start = time.time() - days * 86400
     virtual = VirtualLogger(

@@ -10,7 +10,8 @@ Served on loopback by uvicorn inside the ``sondalog serve`` event loop (default
 ``POST /sms``              ``{"from", "to", "text"}``: a phone sends an SMS -> 201
                            ``{"ids": [...], "queued": bool}``
 ``GET /sms?to=NUMBER``     the SMS delivered to NUMBER, oldest first (``from``, ``to``,
-                           ``text``, ``time``: ISO 8601 UTC, ``id``); ``&queued=1``: waiting
+                           ``text``, ``time``: ISO 8601 UTC, ``id``; ``part``: [seq, total]
+                           of an incomplete concatenated SMS); ``&queued=1``: waiting
 ``POST /call``             ``{"from", "to", "kind": "voice" | "data"}`` -> 201, the call
                            (``state``, ``reason``, ``bridge``: the data port)
 ``GET /calls``             the calls phones placed (``GET /calls/ID`` one of them);
@@ -52,13 +53,16 @@ class ApiError(Exception):
 
 
 def _sms_json(sms: Sms) -> dict[str, Any]:
-    return {
+    out: dict[str, Any] = {
         "id": sms.sms_id,
         "from": sms.sender,
         "to": sms.to,
         "text": sms.text,
         "time": datetime.fromtimestamp(sms.timestamp, tz=UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
     }
+    if sms.concat is not None:  # a part of a concatenated SMS whose other parts are missing
+        out["part"] = [sms.concat.seq, sms.concat.total]
+    return out
 
 
 async def _body(request: Request) -> dict[str, Any]:

@@ -25,6 +25,20 @@
     units = { T1 = "°C", H1 = "%" }
     interval = 10
 
+    [[source]]                  # loggers' data messages by e-mail (docs/collector.md)
+    kind = "mailbox"
+    url = "pop3://user@example.net:secret@127.0.0.1:1110"
+    logger = "000001"           # optional: whose rows, when the message does not say
+    loggers = { "logger@example.net" = "000001" }   # optional: sender or i name -> snumber
+    keep = false                # optional: true leaves the mails in the mailbox
+    signal = 3                  # optional: the channels with GSM signal and credit (types
+    credit = 4                  # 12, 11) when no download told the store
+
+    [[source]]                  # loggers' data messages by SMS, from the GSM network's API
+    kind = "network"
+    url = "http://127.0.0.1:8025"
+    number = "+420700000001"    # the phone the loggers text
+
     [web]                       # the dashboard (default: on, 127.0.0.1:8080)
     listen = "127.0.0.1:8080"   # beyond loopback: allow_remote = true and a token
 
@@ -48,6 +62,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.collect.message_url import check_message_url
 from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.sitefile import locate
 
@@ -63,8 +78,16 @@ _SOURCE = {
     "retry_max",
     "modules",
     "units",
+    "logger",
+    "loggers",
+    "number",
+    "keep",
+    "signal",
+    "credit",
 }
-KINDS = ("logger", "bus")
+KINDS = ("logger", "bus", "mailbox", "network")
+#: Keys only the message sources (``mailbox``, ``network``) take.
+_MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit")
 #: Sink tables handed to :func:`sondalog.collect.sinks.load_sink` besides the store.
 SINK_TABLES = ("postgres", "mqtt")
 
@@ -90,6 +113,14 @@ class SourceConfig:
     retry_max: float = 600.0
     modules: tuple[str, ...] = ()
     units: dict[str, str] = field(default_factory=dict)
+    logger: str | None = None
+    loggers: dict[str, str] = field(default_factory=dict)
+    number: str | None = None
+    keep: bool = False
+    #: Channel numbers of the GSM signal (type 12) and credit (type 11) in the rows of a
+    #: message source, when no download told the store the channels' types.
+    signal: int | None = None
+    credit: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -193,9 +224,15 @@ def _source(s: Mapping[str, Any], where: str, fail: Any) -> SourceConfig:
     if kind not in KINDS:
         raise fail(f"{where}.kind", f"must be one of {', '.join(KINDS)}")
     try:
-        parse_url(url) if kind == "logger" else parse_bus_url(url)
+        if kind == "logger":
+            parse_url(url)
+        elif kind == "bus":
+            parse_bus_url(url)
+        else:
+            check_message_url(kind, url)
     except (ValueError, BusUrlError) as exc:
         raise fail(f"{where}.url", str(exc)) from None
+    message = _message_keys(s, kind, where, fail)
     name = s.get("name", url)
     if not isinstance(name, str) or not name.strip():
         raise fail(f"{where}.name", "must be a non-empty string")
@@ -206,7 +243,7 @@ def _source(s: Mapping[str, Any], where: str, fail: Any) -> SourceConfig:
         except (ZoneInfoNotFoundError, ValueError):
             raise fail(f"{where}.timezone", f"unknown time zone {s['timezone']!r}") from None
     modules = s.get("modules", [])
-    if kind == "logger" and ("modules" in s or "units" in s):
+    if kind != "bus" and ("modules" in s or "units" in s):
         raise fail(f"{where}.modules", "only a bus source has modules and units")
     if not isinstance(modules, list) or not all(isinstance(m, str) and m for m in modules):
         raise fail(f"{where}.modules", "must be a list of module IDs")
@@ -225,4 +262,37 @@ def _source(s: Mapping[str, Any], where: str, fail: Any) -> SourceConfig:
         retry_max=max(retry, _number(s, "retry_max", 600.0, where, fail)),
         modules=tuple(modules),
         units=dict(units),
+        **message,
     )
+
+
+def _message_keys(s: Mapping[str, Any], kind: str, where: str, fail: Any) -> dict[str, Any]:
+    """``logger``, ``loggers``, ``number``, ``keep`` of a message source, checked."""
+    if kind not in ("mailbox", "network"):
+        for key in _MESSAGE_KEYS:
+            if key in s:
+                raise fail(f"{where}.{key}", "only a mailbox or network source has it")
+        return {}
+    logger = s.get("logger")
+    if logger is not None and (not isinstance(logger, str) or not logger.strip()):
+        raise fail(f"{where}.logger", "must be the logger's i snumber")
+    loggers = s.get("loggers", {})
+    if not isinstance(loggers, dict) or not all(isinstance(v, str) and v for v in loggers.values()):
+        raise fail(f"{where}.loggers", 'must be a table of sender or i name = "i snumber"')
+    number = s.get("number")
+    if kind == "network" and (not isinstance(number, str) or not number.strip()):
+        raise fail(f"{where}.number", "required: the phone number whose SMS to read")
+    if kind == "mailbox" and number is not None:
+        raise fail(f"{where}.number", "only a network source has a number")
+    keep = s.get("keep", False)
+    if not isinstance(keep, bool) or (keep and kind == "network"):
+        raise fail(f"{where}.keep", "a mailbox source's keep is true or false")
+    gsm: dict[str, int | None] = {}
+    for key in ("signal", "credit"):
+        value = s.get(key)
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int) or value < 1
+        ):
+            raise fail(f"{where}.{key}", "must be the number of the logger's channel")
+        gsm[key] = value
+    return {"logger": logger, "loggers": dict(loggers), "number": number, "keep": keep, **gsm}

@@ -168,4 +168,12 @@ class BusSource:
 def make_source(config: SourceConfig, store: SqliteStore) -> Source:
     if config.kind == "bus":
         return BusSource(config, store)
+    if config.kind in ("mailbox", "network"):
+        from sondalog.collect.message_sources import MailboxSource, NetworkSource
+
+        return (
+            MailboxSource(config, store)
+            if config.kind == "mailbox"
+            else NetworkSource(config, store)
+        )
     return LoggerSource(config, store)

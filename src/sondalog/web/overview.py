@@ -11,8 +11,9 @@ from typing import Any
 
 from . import store
 
-#: Source states that are not trouble.
-GOOD_STATES = frozenset({"ok", "new"})
+#: Source states that are not trouble (a source being contacted is in trouble only when its
+#: last contact failed: its ``last_error`` is kept until a contact succeeds).
+GOOD_STATES = frozenset({"ok", "new", "contacting"})
 
 
 def in_trouble(source: dict[str, Any]) -> bool:

@@ -24,10 +24,13 @@ LOGIN = "secret"
 ACCOUNT = f"logger@example.net:{LOGIN}"
 
 
-def _start(tmp_path: Path) -> tuple[subprocess.Popen[bytes], list[str]]:
+def _start(
+    tmp_path: Path, published: int | None = None
+) -> tuple[subprocess.Popen[bytes], list[str]]:
     text = EXAMPLE.read_text()
     text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
-    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {free_port()} }}')
+    port = published if published is not None else free_port()
+    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {port} }}')
     site = tmp_path / "gsm-site.toml"
     site.write_text(text)
     proc = subprocess.Popen(
@@ -122,3 +125,42 @@ def test_the_logger_sends_by_sms_and_email_and_answers_sms_commands(tmp_path: Pa
         assert proc.wait(15) == 0
     trace = (tmp_path / "s" / "gsm" / "modem.trace").read_text()
     assert "AT+CMGS=" in trace  # the logger drove its modem with AT commands
+
+
+def test_download_over_a_data_call_and_over_the_gprs_port(tmp_path: Path) -> None:
+    """Issue 13: the download works over every line the client knows, GSM included."""
+    published = free_port()
+    proc, lines = _start(tmp_path, published)
+    try:
+        with socket.create_connection(("127.0.0.1", _port(lines, "logger "))) as cable:
+            cable.settimeout(10)
+            for command in (
+                *(f"write text/row {n}/" for n in range(5)),
+                "write com device wavecom42",
+            ):
+                assert _ask(cable, command) == b"OK\r\n", command
+            assert _ask(cable, "write com close") == b"OK\r\n"
+        api = f"127.0.0.1:{_port(lines, 'gsm API')}"
+        urls = {
+            "call": f"gsm://{api}/{MODEM}?from={PHONE}",
+            "gprs": f"tcp://127.0.0.1:{published}",
+        }
+        time.sleep(10)  # the logger first registers and attaches to GPRS through its modem
+        for name, url in urls.items():
+            out = tmp_path / f"{name}.csv"
+            deadline = time.monotonic() + 60
+            while True:
+                done = subprocess.run(
+                    [sys.executable, "-m", "sondalog", "logger", "download", url, "-o", str(out)],
+                    capture_output=True, text=True, timeout=90,
+                )  # fmt: skip
+                if done.returncode == 0 or time.monotonic() > deadline:
+                    break
+                time.sleep(1)
+            assert done.returncode == 0, (name, done.stderr)
+            rows = out.read_text().splitlines()
+            assert rows[0].startswith("logger,time,counter,type,channel,value")
+            assert [r.split(",")[6] for r in rows[1:]] == [f"row {n}" for n in range(5)]
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(15) == 0

@@ -178,5 +178,5 @@ def join_modem(logger: Logger, gsm: GsmRuntime, number: str, now: float) -> None
     engine = host.device
     assert isinstance(engine, Engine)
     line = engine.attach_modem(now)
-    modem = gsm.dte(number, lambda data: host.feed(line, data))
+    modem = gsm.dte(number, lambda data: host.deliver(line, data))
     host.adopt(line, lambda output: modem.write(output.data))

@@ -188,6 +188,14 @@ class DeviceHost:
             self._pump_scheduled = True
             asyncio.get_running_loop().call_soon(self._pump)
 
+    def deliver(self, line_id: int, data: bytes) -> None:
+        """Bytes from a device's own peer (the ALA1's modem) run at once and whole: they are
+        not a person's command lines to share out fairly, and their result codes must not be
+        cut apart (``\r\nSHUTDOWN\r\n``)."""
+        if line_id in self._sinks:
+            self._receive(line_id, data)
+            self._check_deadline()
+
     def _receive(self, line_id: int, data: bytes) -> None:
         try:
             outputs = self.device.receive(line_id, data, self.clock.now())

@@ -40,14 +40,17 @@ def data_session(d: ModemDriver, socket: int | None) -> Generator[Request, objec
     d.session = session
     last = d.now
     ended = False
+    tail = b""  # the last bytes seen: the end marker may come cut across reads
     try:
         while True:
             data = yield Recv(last + IDLE_HANGUP)
             if not isinstance(data, bytes):
                 data = b""
-            if marker in data:
-                data = data.split(marker, 1)[0]
+            seen = tail + data
+            if marker in seen:
+                data = data[: max(seen.index(marker) - len(tail), 0)]
                 ended = True
+            tail = seen[-(len(marker) - 1) :]
             if data:
                 d.host.session_input(session, data, d.now)
                 if b"\r" in data or b"\n" in data:

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sondalog.gsm import gsm7
+from sondalog.protocol import gsm7
 
 GSM_CHARS = [c for i, c in enumerate(gsm7.DEFAULT_ALPHABET) if i != gsm7.ESCAPE]
 GSM_TEXT = st.text(alphabet=st.sampled_from(GSM_CHARS + list(gsm7.EXTENSION.values())))

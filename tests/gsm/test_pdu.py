@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sondalog.gsm import gsm7, pdu
+from sondalog.gsm import pdu
+from sondalog.protocol import gsm7
 
 GAMMU_PDU = "079124603050020011000C912470000000100000FF02E834"
 

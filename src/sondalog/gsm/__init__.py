@@ -1,6 +1,6 @@
 """Pure GSM cores: the Wavecom modem (:mod:`~sondalog.gsm.modem`), the network
 (:mod:`~sondalog.gsm.network`), their composition (:mod:`~sondalog.gsm.system`), GSM-7
-(:mod:`~sondalog.gsm.gsm7`) and SMS PDUs (:mod:`~sondalog.gsm.pdu`). See ``docs/gsm.md``.
+(:mod:`~sondalog.protocol.gsm7`) and SMS PDUs (:mod:`~sondalog.gsm.pdu`). See ``docs/gsm.md``.
 """
 
 from sondalog.gsm.modem import Modem, ModemConfig, Output

@@ -13,8 +13,8 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
-from sondalog.gsm import gsm7
 from sondalog.gsm.atline import EXEC, READ, SET, TEST, AtCommand, AtSyntaxError
+from sondalog.protocol import gsm7
 
 if TYPE_CHECKING:
     from sondalog.gsm.modem import Modem

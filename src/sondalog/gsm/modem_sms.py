@@ -11,10 +11,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
-from sondalog.gsm import gsm7, pdu
+from sondalog.gsm import pdu
 from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError
 from sondalog.gsm.modem_basic import Handler, number_type
 from sondalog.gsm.smsstore import ALL, STAT_NUMBER, STAT_TEXT, STO_SENT, STO_UNSENT, StoredSms
+from sondalog.protocol import gsm7
 
 if TYPE_CHECKING:
     from sondalog.gsm.modem import Modem

@@ -19,10 +19,10 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from sondalog.gsm import events as ev
-from sondalog.gsm import gsm7
 from sondalog.gsm.gateway import IpEvent, IpGateway, ModemEvent
 from sondalog.gsm.pdu import GSM7, UCS2, Concat
 from sondalog.gsm.sms import Sms, normalize, parts_of
+from sondalog.protocol import gsm7
 
 MODEM = "modem"
 PHONE = "phone"

@@ -15,7 +15,7 @@ import calendar
 from dataclasses import dataclass
 from datetime import UTC, datetime
 
-from sondalog.gsm import gsm7
+from sondalog.protocol import gsm7
 
 GSM7 = "gsm7"
 DATA8 = "8bit"

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from sondalog.gsm import gsm7
 from sondalog.gsm.pdu import GSM7, Concat
+from sondalog.protocol import gsm7
 
 
 @dataclass(frozen=True, slots=True)

@@ -21,7 +21,7 @@ import click
 
 from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
 from sondalog.backends.linux.rs485 import Mode, Rs485Error, Rs485Settings
-from sondalog.cli.common import allow_remote_option, format_address, listen_option
+from sondalog.cli.common import allow_remote_option, format_address, listen_option, speed_option
 from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster
 from sondalog.client.bus_actions import (
     ConnectRefused,
@@ -106,13 +106,7 @@ def bus() -> None:
     help="Site file (TOML) naming the modules; default: T1 (temp) and H1 (hum).",
 )
 @click.option("--baud", type=click.IntRange(min=1), help="Bus speed (default 9600).")
-@click.option(
-    "--speed",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="Run the bus clock this many times faster than real time.",
-)
+@speed_option("the bus clock")
 @click.option(
     "--noise",
     type=click.FloatRange(min=0, max=1, max_open=True),

@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, TypeVar
+
 import click
 
 from sondalog.io.address import format_address, is_loopback, parse_listen
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 __all__ = [
     "Refused",
@@ -13,6 +18,7 @@ __all__ = [
     "is_loopback",
     "listen_option",
     "parse_listen",
+    "speed_option",
 ]
 
 
@@ -53,3 +59,15 @@ class Refused(click.ClickException):
     """A usage problem found after parsing (exit code 2, like click's own usage errors)."""
 
     exit_code = 2
+
+
+def speed_option(what: str) -> Callable[[F], F]:
+    """``--speed F``: ``what`` runs F times faster than real time; the lines keep real time
+    (docs/decisions.md "Time base")."""
+    return click.option(
+        "--speed",
+        type=click.FloatRange(min=0, min_open=True),
+        default=1.0,
+        show_default=True,
+        help=f"Run {what} this many times faster than real time.",
+    )

@@ -21,7 +21,7 @@ from sondalog.app.logger import (
     start_logger,
     valid_serial_number,
 )
-from sondalog.cli.common import allow_remote_option, format_address, listen_option
+from sondalog.cli.common import allow_remote_option, format_address, listen_option, speed_option
 from sondalog.io import loop as serve_loop
 from sondalog.io.clock import Clock, make_clock
 from sondalog.io.tcp import DEFAULT_PORT
@@ -68,13 +68,7 @@ def logger() -> None:
     default=None,
     help="Serial number (i snumber) of a new logger (default 000001); fixed once created.",
 )
-@click.option(
-    "--speed",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="Run the module clock this many times faster than real time.",
-)
+@speed_option("the module clock")
 @click.option(
     "--site",
     type=click.Path(dir_okay=False, path_type=Path),

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from sondalog.cli.common import Refused, allow_remote_option, is_loopback
+from sondalog.cli.common import Refused, allow_remote_option, is_loopback, speed_option
 from sondalog.io import loop as serve_loop
 
 
@@ -22,13 +22,7 @@ from sondalog.io import loop as serve_loop
     default=None,
     help="State directory (non-volatile memories, mailboxes); default state/<site name>.",
 )
-@click.option(
-    "--speed",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="Run the devices' clock this many times faster than real time.",
-)
+@speed_option("the devices' clock")
 @click.option(
     "--trace",
     type=click.Path(dir_okay=False, path_type=Path),

@@ -96,25 +96,21 @@ def load_site(path: Path) -> SitePlan:
     def fail(where: str, message: str) -> SiteError:
         return SiteError(path, where, message, locate(text, where))
 
-    logger = bus = mail = None
+    def table(name: str) -> Mapping[str, object] | None:
+        found = data.get(name)
+        if found is not None and not isinstance(found, Mapping):
+            raise fail(name, "must be a table")
+        return found
+
     listens: list[tuple[str, tuple[str, int]]] = []
-    table = data.get("logger")
-    if table is not None:
-        if not isinstance(table, Mapping):
-            raise fail("logger", "must be a table")
-        logger = _logger_plan(table, fail)
+    logger = bus = None
+    if (logger_table := table("logger")) is not None:
+        logger = _logger_plan(logger_table, fail)
         listens.append(("logger.serve.listen", logger.listen))
-    table = data.get("bus")
-    if table is not None:
-        if not isinstance(table, Mapping):
-            raise fail("bus", "must be a table")
-        bus = _bus_plan(table, fail)
+    if (bus_table := table("bus")) is not None:
+        bus = _bus_plan(bus_table, fail)
         listens.append(("bus.serve.listen", bus.listen))
-    table = data.get("mail")
-    if table is not None:
-        if not isinstance(table, Mapping):
-            raise fail("mail", "must be a table")
-        mail = table
+    mail = table("mail")
     if bus is not None:
         parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
         if bus.serial is None and "board" in data:

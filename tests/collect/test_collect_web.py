@@ -138,7 +138,11 @@ def test_the_collector_serves_what_it_collects(tmp_path: Path) -> None:
         )
         try:
             assert proc.stderr is not None
-            line = proc.stderr.readline().decode()
+            # log lines of the first download may come before the dashboard's address
+            for _ in range(50):
+                line = proc.stderr.readline().decode()
+                if line.startswith("dashboard on ") or not line:
+                    break
             assert line.startswith("dashboard on http://127.0.0.1:"), line
             web = line.split()[-1]
             deadline = time.monotonic() + 20

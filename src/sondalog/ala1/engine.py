@@ -92,7 +92,7 @@ class Engine:
         go through the modem driver (:mod:`sondalog.ala1.modem`); returns the line id."""
         from sondalog.ala1.modem.link import ModemLink
 
-        line_id = self.open_line()
+        line_id = self.open_line(paced=True)  # 8N1 at com speed to the modem (§6.11.2)
         self.modem = ModemLink(self, line_id, now, outbox or self.outbox)
         self.modem.on_ring = self.messages.trigger  # §6.10.2.3-4: ringvoice/ringdata M
         return line_id
@@ -131,6 +131,13 @@ class Engine:
     def modem_busy(self, busy: bool) -> None:
         self.outbox.modem_busy = busy
 
+    def _sync_modem(self) -> None:
+        """§6.14.9.1: messages wait while the modem is in use; with no modem answering the
+        com line works as local (gsm notes §3)."""
+        if self.modem is not None:
+            self.outbox.modem_busy = self.modem.busy
+            self.state.modem_absent = self.modem.driver.present is False
+
     def _local_ready(self) -> bool:
         """A cable line is attached and none blocks messages (§6.14.9.2)."""
         return bool(self._lines) and not self.messages_blocked
@@ -138,11 +145,7 @@ class Engine:
     def _messages(self, now: float) -> None:
         """§6.14: messages that may go now; with ``com device local`` this is their carrier:
         the body goes on every line as plain text, and that counts as delivered."""
-        if self.modem is not None:
-            # §6.14.9.1: messages wait while the modem is in use; with no modem answering the
-            # com line works as local (gsm notes §3)
-            self.outbox.modem_busy = self.modem.busy
-            self.state.modem_absent = self.modem.driver.present is False
+        self._sync_modem()
         ready = self._local_ready()
         self.messages.step(now, local_ready=ready)
         while ready and (outgoing := self.outbox.take("local")) is not None:
@@ -201,9 +204,9 @@ class Engine:
         self.state.run_sampling(now)
         for line_id, line in list(self._busy.items()):
             self._expire(line_id, line, now)
+        self._messages(now)  # first: a sending it queues is the modem driver's to start now
         if self.modem is not None:
             self.modem.advance(now)
-        self._messages(now)
         return self._drain(now)
 
     def next_deadline(self) -> float | None:
@@ -212,6 +215,7 @@ class Engine:
         deadlines = [] if sampling is None else [sampling]
         if self.modem is not None and (modem := self.modem.next_deadline()) is not None:
             deadlines.append(modem)
+        self._sync_modem()  # a modem no longer busy wakes the messages that waited for it
         message = self.messages.next_deadline(local_ready=self._local_ready())
         if message is not None:
             deadlines.append(message)

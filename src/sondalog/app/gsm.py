@@ -155,8 +155,9 @@ class GsmRuntime:
 
     def dte(self, number: str, on_data: Callable[[bytes], None]) -> LocalLink:
         """An in-process DTE line of modem ``number`` (the logger's com line, joined by the
-        wiring): ``link.write(bytes)`` goes to the modem, its output goes to ``on_data``."""
-        return self.modem_hosts[number].link(on_data)
+        wiring): ``link.write(bytes)`` goes to the modem, its output goes to ``on_data``,
+        paced at the modem's serial speed."""
+        return self.modem_hosts[number].link(on_data, paced=True)
 
     def _tracer(self, number: str) -> Callable[[str, bytes, float], None] | None:
         target = next((m.trace for m in self.plan.modems if m.number == number), None)

@@ -219,10 +219,10 @@ class DeviceHost:
         self._dispatch(effects)
         self._check_deadline()
 
-    def link(self, on_data: Sink | None = None) -> LocalLink:
+    def link(self, on_data: Sink | None = None, *, paced: bool = False) -> LocalLink:
         """An in-process line (a bus master or a client in the same process); received
         bytes go to ``on_data`` when given, else to :meth:`LocalLink.receive`."""
-        return LocalLink(self, on_data)
+        return LocalLink(self, on_data, paced=paced)
 
     def _dispatch(self, effects: Sequence[Effect]) -> None:
         for output in effects:
@@ -290,11 +290,13 @@ class LocalLink:
     It has the byte-link interface of :mod:`sondalog.client` (``send``, ``receive``,
     ``close``), so a bus master or an ALA1 client can talk to a device without a socket."""
 
-    def __init__(self, host: DeviceHost, on_data: Sink | None = None) -> None:
+    def __init__(
+        self, host: DeviceHost, on_data: Sink | None = None, *, paced: bool = False
+    ) -> None:
         self._host = host
         self._queue: asyncio.Queue[bytes] = asyncio.Queue()
         self.closed = False
-        self.line = host.attach(on_data or self._queue.put_nowait)
+        self.line = host.attach(on_data or self._queue.put_nowait, paced=paced)
 
     def write(self, data: bytes) -> None:
         """Send ``data`` on the line now."""

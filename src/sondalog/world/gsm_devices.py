@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from sondalog.ala1.pacing import Pacer
 from sondalog.gsm import events as ev
 from sondalog.gsm.gateway import IpEvent, ModemEvent
 from sondalog.gsm.modem import Modem, Output
@@ -77,46 +78,65 @@ class IpAction(Effect):
 
 
 class ModemDevice:
-    """One modem core as a Device: its lines are the DTE side."""
+    """One modem core as a Device: its lines are the DTE side. A paced line carries the
+    modem's output at its serial speed (10 bit times a byte, as the logger's com line does)."""
 
     def __init__(self, number: str, modem: Modem) -> None:
         self.number = number
         self.modem = modem
         self._lines: set[int] = set()
+        self._pacers: dict[int, Pacer] = {}
         self._next_line = 1
 
     def open_line(self, *, paced: bool = False) -> int:
         line = self._next_line
         self._next_line += 1
         self._lines.add(line)
+        if paced:
+            self._pacers[line] = Pacer(True)
         return line
 
     def close_line(self, line: int) -> None:
         self._lines.discard(line)
+        self._pacers.pop(line, None)
 
     def line_speed(self) -> int:
         return self.modem.speed
 
     def receive(self, line: int, data: bytes, now: float) -> Sequence[Effect]:
-        return self._effects(self.modem.receive(data, now))
+        return self._effects(self.modem.receive(data, now), now)
 
     def handle(self, event: Event, now: float) -> Sequence[Effect]:
         if isinstance(event, FromNetwork):
-            return self._effects(self.modem.event(event.event, now))
+            return self._effects(self.modem.event(event.event, now), now)
         return []
 
     def advance(self, now: float) -> Sequence[Effect]:
-        return self._effects(self.modem.advance(now))
+        return self._effects(self.modem.advance(now), now)
 
     def next_deadline(self) -> float | None:
-        return self.modem.next_deadline()
+        deadlines = [d for p in self._pacers.values() if (d := p.next_deadline()) is not None]
+        modem = self.modem.next_deadline()
+        if modem is not None:
+            deadlines.append(modem)
+        return min(deadlines, default=None)
 
-    def output(self, data: bytes) -> list[Effect]:
-        """``data`` for every line (bytes the modem produced outside a call into it)."""
-        return [LineSend(line, data) for line in sorted(self._lines)] if data else []
+    def output(self, data: bytes, now: float) -> list[Effect]:
+        """``data`` for every line: at once, or paced on a paced line."""
+        effects: list[Effect] = []
+        for line in sorted(self._lines):
+            pacer = self._pacers.get(line)
+            if pacer is None:
+                if data:
+                    effects.append(LineSend(line, data))
+                continue
+            if data:
+                pacer.push(data, self.modem.speed, now)
+            effects += [LineSend(line, piece, baud) for piece, baud in pacer.take(now)]
+        return effects
 
-    def _effects(self, out: Output) -> list[Effect]:
-        effects = self.output(out.data)
+    def _effects(self, out: Output, now: float) -> list[Effect]:
+        effects = self.output(out.data, now)
         effects += [ToNetwork(self.number, effect) for effect in out.effects]
         return effects
 

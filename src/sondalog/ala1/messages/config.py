@@ -22,6 +22,12 @@ class Settings(Protocol):
     def get(self, key: str) -> str: ...
 
 
+class Module(Settings, Protocol):
+    """The module's settings and whether its modem answers (ModuleState)."""
+
+    modem_absent: bool
+
+
 @dataclass(frozen=True)
 class MessageConfig:
     """What message ``number`` is set to do."""
@@ -70,13 +76,12 @@ def off(number: int) -> MessageConfig:
     return MessageConfig(number, (), 1, "000000", 0.0, False, "NO", 1, zero, zero)
 
 
-def is_local(settings: Settings) -> bool:
+def is_local(module: Module) -> bool:
     """``com device local``, or a modem that does not answer (the line works as local)."""
-    owner = getattr(settings, "state", settings)
-    return settings.get("com device") == "LOCAL" or bool(getattr(owner, "modem_absent", False))
+    return module.get("com device") == "LOCAL" or module.modem_absent
 
 
-def destinations(settings: Settings, config: MessageConfig) -> tuple[Destination, ...]:
+def destinations(settings: Module, config: MessageConfig) -> tuple[Destination, ...]:
     """Where a sending of the message goes now (empty: nowhere)."""
     if is_local(settings):
         return (Destination("local"),)

@@ -111,3 +111,101 @@ def test_choose_word_matches_choose_keyword(text: str, start: int) -> None:
     expected = slow.choose_keyword([(w,) for w in _WORDS])
     assert found == (None if expected is None else expected[0])
     assert fast.pos == slow.pos
+
+
+# -- parsed lines (Plan) and compiled on-demand measurements ---------------------------------
+
+
+def test_a_parsed_read_follows_the_channel_count() -> None:
+    m = one_channel(volts=1.5)
+    assert m.read("read channel value") == "1.50"
+    assert m.read("read channel value") == "1.50"  # the second time from the parsed line
+    m.ok("write channel 2 switch output 0 write channel 3 switch output 0")
+    m.ok("write channel max number 3")
+    # channels 2 and 3 are factory type 1: the supply, none simulated here: no value
+    assert m.read("read channel value") == "1.50,,"
+    m.ok("write channel max number 1")
+    assert m.read("read channel value") == "1.50"
+
+
+def test_a_parsed_read_yields_to_a_new_command_name() -> None:
+    m = one_channel()
+    assert m.read("read i version") == "2.10"
+    m.ok("write command 1 value*read text/named/* write command 1 name/read i/")
+    # §6.8.2: the longest command name that prefixes the line runs instead
+    assert m.read("read i version") == "named"
+    m.ok("write command 1 name//")
+    assert m.read("read i version") == "2.10"
+
+
+def test_a_parsed_read_obeys_the_own_address() -> None:
+    m = one_channel()
+    assert m.ask("iaddress abc read i version") == b"2.10\r\nOK\r\n"  # no own address yet
+    m.ok("write i address xyz")
+    assert m.ask("iaddress abc read i version") == b""  # another module's line (§8.5.3)
+
+
+def test_a_parsed_pause_line_waits_every_time() -> None:
+    m = one_channel()
+    for _ in range(2):
+        assert m.ask("pause 2 read i version") == b""
+        assert m.advance(1.0) == b""
+        assert m.advance(1.0) == b"2.10\r\nOK\r\n"
+
+
+def test_the_parsed_lines_kept_are_bounded() -> None:
+    m = one_channel()
+    for n in range(600):
+        assert m.read(f"read text/{n}/") == str(n)
+    assert 0 < len(m.engine.state.plans) <= 256
+
+
+def test_a_manual_output_change_makes_a_channel_wait_again() -> None:
+    m = one_channel()
+    m.ok("write channel 1 switch output 2 write channel 1 switch advance 1")
+    m.ok("write output 2 device 1 write output 2 address 8 write output 2 value 1")
+    assert m.read("read channel 1 value") == "1.00"  # held on by hand: no wait (§6.7.2)
+    m.ok("write output 2 value NO")
+    assert m.ask("read channel 1 value") == b""  # the module switches it: the advance first
+    assert m.settle("") == b"1.00\r\nOK\r\n"
+
+
+@given(seconds=st.lists(st.floats(0.0, 90000.0), min_size=1, max_size=5))
+def test_on_demand_reads_match_the_long_way(seconds: list[float]) -> None:
+    """Every kind of channel, read at the same instants with the compiled measurements
+    (``Measurer.fast``) and through the interpreted configuration: the same answers."""
+    answers: list[list[bytes]] = []
+    for fast in (True, False):
+        m = mixed_module(fast)
+        answers.append([])
+        for step in seconds:
+            m.advance(step)
+            for line in ("read channel value", "read channel 1 2 3 4 7 value"):
+                answers[-1].append(m.settle(line))
+            answers[-1].extend(m.ask(f"read channel {ch} value") for ch in (1, 2, 3, 4, 6, 7))
+    assert answers[0] == answers[1]
+    assert all(a.endswith(b"OK\r\n") for a in answers[0])
+
+
+def mixed_module(fast: bool) -> Module:
+    from sondalog.backends.sim.logger import PulseSource
+    from sondalog.backends.sim.signals import sine
+
+    hardware = SimHardware(
+        supply=sine(12.4, 0.3, 86400.0, 0.0, 0.0),
+        analog=[Analog(16, sine(1.1, 0.9, 3600.0, 0.0, 0.0)), Analog(17, constant(0.4))],
+        pulses=[PulseSource(True, 0, rate=0.5, origin=0.0)],
+    )
+    hardware.external_reference = 2.0
+    m = Module(hardware=hardware)
+    m.engine.state.measurer.fast = fast
+    m.ok("write channel max number 7 write output 2 device 1 write output 2 address 8")
+    for ch, address in ((1, 16), (2, 17), (3, 32), (4, 33), (5, 16)):
+        m.ok(f"write channel {ch} type 3 write channel {ch} address {address}")
+        m.ok(f"write channel {ch} switch output 0 write channel {ch} format 1.{ch % 4}")
+    m.ok("write channel 2 cal mult value 3.5 write channel 2 cal add value -0.25")
+    m.ok("write channel 3 cal2 mult 1000 write channel 3 cal2 add 7")
+    m.ok("write channel 5 switch output 2 write channel 5 switch advance 1")  # switched
+    m.ok("write channel 6 type 2 write channel 6 device 1 write channel 6 address 0")  # pulses
+    m.ok("write channel 7 switch output 0 write channel 7 cal mult value 2")  # the supply
+    return m

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from sondalog.ala1.headers import HEADER_WORDS, MAX_LINE, Headers
 from sondalog.ala1.model import CommandError, Unavailable, View
 from sondalog.ala1.params import ROOT
-from sondalog.ala1.parser import Command, parse_command, parse_switch
+from sondalog.ala1.parser import Command, Plan, parse_command, parse_switch
 from sondalog.ala1.special import TransferRequest, request
 from sondalog.ala1.state import ModuleState, NeedWait, Transaction
 from sondalog.ala1.tokens import Cursor, ParseError, format_stamp
@@ -22,6 +22,8 @@ from sondalog.protocol.cksum import cksum
 #: Keyword sets matched on every line (one-word keywords: :meth:`Cursor.choose_word`).
 _SWITCH_WORDS = ("read", "write")
 _HEADER_OR_SWITCH = (*HEADER_WORDS, *_SWITCH_WORDS)
+#: The most parsed lines kept (:class:`Plan`).
+MAX_PLANS = 256
 
 
 @dataclass
@@ -59,6 +61,9 @@ class Interpreter:
         ``overflow``: the line had more than 120 characters; the extra ones were dropped and
         the answer is the error response for the first 120 (spec notes §1).
         """
+        plan = None if overflow else self.state.plans.get(line)
+        if plan is not None:
+            return self._run_plan(line, plan, host_now, paused)
         too_long = overflow or len(line) > MAX_LINE
         line = line[:MAX_LINE]
         cur = Cursor(line)
@@ -76,7 +81,7 @@ class Interpreter:
             return None
         if failed:
             return self._error(line, headers)
-        return self._run(line, cur, headers, named, host_now, paused, None)
+        return self._run(line, cur, headers, named, host_now, paused, None, keep=True)
 
     def run_stored(
         self,
@@ -114,21 +119,63 @@ class Interpreter:
         host_now: float,
         paused: bool,
         deferred: dict[str, str] | None,
+        *,
+        keep: bool = False,
     ) -> Answer | None:
+        """``keep``: a line received (not a stored command) may keep its parse (:class:`Plan`)."""
         if headers.pause and not paused:
             raise NeedWait(headers.pause, line_time=True)
         txn = self.state.begin(host_now)
         txn.deferred = deferred
+        commands: list[Command] = []
         try:
             if named is not None:
                 cur = self._expand(named, cur, headers, txn)
-            lines = self._body(cur, txn)
+            lines = self._body(cur, txn, commands)
         except (ParseError, CommandError, Unavailable, ValueError):
             txn.rollback()
             return self._error(line, headers)
         except BaseException:
             txn.rollback()
             raise
+        if (
+            keep
+            and named is None
+            and all(command.switch == "R" for command in commands)
+            and (len(commands) == 1 or not txn.changes)
+        ):
+            # Every command was parsed against the committed values: the parse holds
+            # until they change. (A later command of a line can see an earlier one's
+            # moved read point: such lines are parsed again.)
+            plans = self.state.plans
+            if len(plans) >= MAX_PLANS:
+                plans.clear()  # a client sending ever new lines does not grow the memory
+            plans[line] = Plan(headers, tuple(commands))
+        return self._finish(line, headers, txn, lines)
+
+    def _run_plan(self, line: str, plan: Plan, host_now: float, paused: bool) -> Answer | None:
+        """:meth:`_run` for a line parsed before (issue 11): only the commands run."""
+        headers = plan.headers
+        if headers.pause and not paused:
+            raise NeedWait(headers.pause, line_time=True)
+        txn = self.state.begin(host_now)
+        lines: list[str] = []
+        self._commands = len(plan.commands)
+        try:
+            for command in plan.commands:
+                lines.extend(self._execute(command, txn))
+        except (ParseError, CommandError, Unavailable, ValueError):
+            txn.rollback()
+            return self._error(line, headers)
+        except BaseException:
+            txn.rollback()
+            raise
+        return self._finish(line, headers, txn, lines)
+
+    def _finish(
+        self, line: str, headers: Headers, txn: Transaction, lines: list[str]
+    ) -> Answer | None:
+        """The end of a line that ran: wait, transfer, or commit and answer."""
         if txn.waits:
             txn.rollback()
             raise NeedWait(max(txn.waits))
@@ -182,8 +229,9 @@ class Interpreter:
         return inner
 
     # -- body ------------------------------------------------------------------------------
-    def _body(self, cur: Cursor, view: Transaction) -> list[str]:
-        """§5, §7: run every command of the body, chained, and collect the data lines."""
+    def _body(self, cur: Cursor, view: Transaction, commands: list[Command]) -> list[str]:
+        """§5, §7: run every command of the body, chained, and collect the data lines;
+        ``commands`` collects the parsed commands."""
         lines: list[str] = []
         self._commands = 0
         switch = parse_switch(cur)
@@ -199,6 +247,7 @@ class Interpreter:
             if first is None:
                 first = first_word
             self._commands += 1
+            commands.append(command)
             lines.extend(self._execute(command, view))
             if cur.at_end():
                 return lines
@@ -228,6 +277,8 @@ class Interpreter:
         if leaf.reader is not None:
             if len(command.targets) == 1:
                 return leaf.reader(view, command.targets[0], command.arg)
+            if leaf.group_reader is not None:
+                return leaf.group_reader(view, command.targets, command.arg)
             return [",".join(",".join(leaf.reader(view, t, command.arg)) for t in command.targets)]
         return [",".join(self._render_value(command, view, t) for t in command.targets)]
 

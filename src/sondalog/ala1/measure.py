@@ -12,6 +12,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from decimal import Decimal
+from typing import Protocol
 
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.model import View
@@ -112,6 +113,12 @@ def channel_config(view: View, ch: int) -> ChannelConfig:
     )
 
 
+class Direct(Protocol):
+    """A channel's value at host time ``t`` (:meth:`Measurer.direct`)."""
+
+    def __call__(self, t: float, window: float = 0.0, /) -> float | None: ...
+
+
 class Measurer:
     """Turns hardware readings into channel values."""
 
@@ -147,28 +154,49 @@ class Measurer:
 
     def compiled(self, cfg: ChannelConfig) -> Callable[[float, float], float | None]:
         """:meth:`value` for ``cfg`` as one function (issue 11: scheduled sampling): the
-        common analog channel without tables computes the same floats in the same order
-        without interpreting the configuration; every other channel goes through
-        :meth:`value`."""
+        common analog or supply channel without tables through :meth:`direct`, every other
+        channel through :meth:`value`."""
+        direct = self.direct(cfg)
+        if direct is None:
+            return lambda t, window: self.value(cfg, t, window)
+        return direct
+
+    def direct(self, cfg: ChannelConfig) -> Direct | None:
+        """:meth:`value` of an analog (type 3) or supply (type 1) channel without tables,
+        read through the internal ADC, as one function of the host time (the window is for
+        pulses: unused) that computes the same floats in the same order without
+        interpreting the configuration; None for every other channel (issue 11)."""
         first = cfg.inputs[0]
         if (
             not self.fast
-            or cfg.type != 3
+            or cfg.type not in (1, 3)
             or cfg.table1
             or cfg.table2
             or first.device == 0
             or first.device_type != "MSP430ADC"
         ):
-            return lambda t, window: self.value(cfg, t, window)
-        device, address = first.device, first.address
+            return None
         device_mult, device_add = first.device_mult, first.device_add
         cal2_mult, cal2_add = first.cal2_mult, first.cal2_add
         mult, add = cfg.mult, cfg.add
+        if cfg.type == 1:
+            supply = self.hardware.supply
+
+            def battery(t: float, window: float = 0.0) -> float | None:
+                raw = supply(t)
+                if raw is None:
+                    return None
+                r = (raw * device_mult + device_add) * SUPPLY_DIVIDER
+                x = r * cal2_mult + cal2_add
+                return x * mult + add
+
+            return battery
+        device, address = first.device, first.address
         read = self.hardware.adc
         key = (device, address)
         measurer = self
 
-        def analog(t: float, window: float) -> float | None:
+        def analog(t: float, window: float = 0.0) -> float | None:
             memo = measurer._memo
             if memo is None:
                 raw = read(device, address, t)

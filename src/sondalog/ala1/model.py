@@ -122,6 +122,10 @@ class View(Protocol):
         """Measure channel ``ch`` now, formatted; empty when it has no value (§6.5.8)."""
         ...
 
+    def measure_many(self, channels: list[int]) -> list[str]:
+        """:meth:`measure` of each of ``channels``, in order (§6.5.8)."""
+        ...
+
     def append_row(self, row_type: int, body: str) -> None:
         """Stage a record row of type ``row_type`` stamped now (§9)."""
         ...

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from sondalog.ala1.headers import Headers
 from sondalog.ala1.model import Unavailable, View
 from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
 from sondalog.ala1.tokens import Cursor, ParseError
@@ -26,6 +27,16 @@ class Command:
     hexadecimal: bool = False
     values: list[list[str]] = field(default_factory=list)
     arg: str | None = None
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A parsed read-only line (issue 11): its header and body commands. Parsing depends on
+    the committed values only, so a plan holds until they change
+    (:meth:`~sondalog.ala1.state.ModuleState.forget_values`)."""
+
+    headers: Headers
+    commands: tuple[Command, ...]
 
 
 def parse_switch(cur: Cursor) -> str | None:

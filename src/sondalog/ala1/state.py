@@ -15,8 +15,8 @@ import math
 from datetime import datetime
 from typing import Protocol
 
-from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware, NoHardware
-from sondalog.ala1.measure import ChannelConfig, Input, Measurer, channel_config, format_value
+from sondalog.ala1.hardware import Hardware, NoHardware
+from sondalog.ala1.measure import ChannelConfig, Measurer, channel_config, format_value
 from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.moduleclock import (
     CLOCK_MAX,
@@ -25,18 +25,17 @@ from sondalog.ala1.moduleclock import (
     from_seconds,
     to_seconds,
 )
+from sondalog.ala1.ondemand import OnDemand, measure_now
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
+from sondalog.ala1.parser import Plan
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.ala1.sampling import Outputs, Sampler
-from sondalog.ala1.tokens import format_stamp, period_seconds
+from sondalog.ala1.tokens import format_stamp
 from sondalog.protocol.tables import TableSet
 
 log = logging.getLogger("sondalog.ala1.state")
 
 #: Keys whose change reconfigures sampling, outputs or the record.
-#: Seconds a switched sensor stays on at least after its on-demand measurement instant, so a
-#: ``command channel switch hold`` of 000000 still measures before switching off (§6.9).
-MEASURE_TIME = 0.001
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
 
 
@@ -120,12 +119,18 @@ class ModuleState:
         self.record = RecordMemory(rows, first_seq, 0, True, wrapped, refused)
         self.outputs = Outputs(self.hardware)
         self.sampler = Sampler(self.measurer, self.outputs)
+        self.on_demand = OnDemand(
+            self.channel_config, self.measurer, self.outputs, self.sampler.faults
+        )
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
         #: Typed channel configurations of the committed parameters (speed, issue 11):
         #: emptied whenever a parameter commits (:meth:`Transaction.commit`, ``_repair``).
         self._configs: dict[int, ChannelConfig] = {}
         self._settings: dict[str, str] = {}  # committed values read per command, likewise
+        #: Parsed read-only lines (the interpreter's, issue 11): parsing depends on committed
+        #: values only (channel max number, command names), so it holds until they change.
+        self.plans: dict[str, Plan] = {}
         #: The sampler's next event (module time) while nothing changed it; None: unknown.
         self._event: tuple[float | None] | None = None
         self.generation = 0  # counts committed changes of message parameters or the clock
@@ -154,8 +159,7 @@ class ModuleState:
             self.store.commit(bad, None, seen=host_now)
             for key in bad:
                 del self.values[key]
-            self._configs.clear()
-            self._settings.clear()
+            self.forget_values()
 
     # -- time --------------------------------------------------------------------------------
     def module_seconds(self, host_now: float) -> float:
@@ -188,6 +192,14 @@ class ModuleState:
         return self._names
 
     setting = get  # a committed value read on every command (``com speed``)
+
+    def forget_values(self) -> None:
+        """Committed values changed: drop everything computed from them (issue 11)."""
+        self._names = None
+        self._configs.clear()
+        self._settings.clear()
+        self.plans.clear()
+        self.on_demand.forget()
 
     def channel_config(self, ch: int) -> ChannelConfig:
         """Channel ``ch``'s typed configuration from the committed parameters (cached)."""
@@ -360,52 +372,15 @@ class Transaction:
     # -- measurement and rows ------------------------------------------------------------------
     def measure(self, ch: int) -> str:
         """§6.5.8: measure channel ``ch`` now; a switched or DS18B20 input may need time."""
-        state = self.state
-        pristine = not self.changes and not self.reset_all  # the committed view holds
-        cfg = state.channel_config(ch) if pristine else channel_config(self, ch)
-        now = state.module_seconds(self.host_now)
-        outputs = state.outputs
-        ready_at = now
-        switched: list[int] = []
-        for inp in cfg.used_inputs:
-            output = inp.switch_output
-            if output and outputs.manual.get(output, "NO") == "NO":
-                on_since = outputs.on_since.get(output) if outputs.is_on(output) else None
-                powered_at = (on_since if on_since is not None else now) + inp.switch_advance
-                ready_at = max(ready_at, powered_at)
-                switched.append(output)
-            if inp.device_type == "DS18B20" and cfg.type in (3, 9):
-                conversion = state.conversions.setdefault(ch, ready_at + DS18B20_CONVERSION)
-                ready_at = max(ready_at, conversion)
-        if switched:  # (an input without a switch changes no output: nothing to update)
-            hold = period_seconds(self.get("command channel switch hold")) or 0
-            for output in switched:  # §6.9: the hold runs from each measurement, renewed
-                until = ready_at + max(hold, MEASURE_TIME)
-                outputs.held_until[output] = max(outputs.held_until.get(output, 0.0), until)
-            outputs.update(now, state.clock_offset)
-            state.forget_schedule()  # a hold may have started
-        if ready_at > now:
-            self.waits.append(ready_at - now)
-            state.hardware.prepare(ready_at - state.clock_offset)  # acquire by then
-            return ""
-        state.conversions.pop(ch, None)
-        run = state.sampler.runs.get(ch)
-        window = now - run.last_t if run and run.last_t is not None else float(cfg.period or 1)
-        self._detect(cfg.inputs[0], ch)
-        try:
-            value = state.measurer.value(cfg, self.host_now, window)
-        except Exception as exc:  # defence in depth: no valid value (issue 9)
-            state.sampler.faults.report(ch, exc, self.host_now)
-            value = None
-        return format_value(cfg, value)
+        return measure_now(self, ch)
 
-    def _detect(self, inp: Input, ch: int) -> None:
-        """§6.4.3.1.1: a detection address learns the sensor's ROM code."""
-        if inp.device_type != "DS18B20" or inp.address & 0xFF or not inp.address:
-            return
-        found = self.state.hardware.ds18b20(inp.device_address, inp.address, self.host_now)
-        if found is not None:
-            self.set(f"channel {ch} address", str(found[0] & ~0xFF))
+    def measure_many(self, channels: list[int]) -> list[str]:
+        """§6.5.8: :meth:`measure` of several channels, at once when they allow it."""
+        if not self.changes and not self.reset_all:
+            many = self.state.on_demand.many(tuple(channels))
+            if many is not None:
+                return many(self.host_now)
+        return [measure_now(self, ch) for ch in channels]
 
     def channel_state(self, ch: int) -> tuple[str, str]:
         run = self.state.sampler.runs.get(ch)
@@ -444,9 +419,7 @@ class Transaction:
             else:
                 state.values[key] = value
         if changes:
-            state._names = None  # command names may have changed
-            state._configs.clear()  # and so may channel configurations
-            state._settings.clear()
+            state.forget_values()
         if offset is not None or any(key.startswith("message ") for key in changes):
             state.generation += 1
         state.message_runs.extend(self.runs)

@@ -201,12 +201,18 @@ def read_value(view: View, indices: Indices, arg: str | None) -> list[str]:
     return [view.measure(indices["ch"])]
 
 
+def read_values(view: View, targets: list[Indices], arg: str | None) -> list[str]:
+    """§6.5.8: several channels measured now, one line."""
+    return [",".join(view.measure_many([t["ch"] for t in targets]))]
+
+
 def write_values(view: View, targets: list[Indices], values: list[str]) -> None:
     """§6.5.8: measure the channels now and store them as one row of type t (default 2)."""
     count = int(view.get("channel max number"))
     fields = [""] * max(count, max(t["ch"] for t in targets))
-    for target in targets:
-        fields[target["ch"] - 1] = view.measure(target["ch"])
+    channels = [t["ch"] for t in targets]
+    for ch, value in zip(channels, view.measure_many(channels), strict=True):
+        fields[ch - 1] = value
     view.append_row(int(values[0]) if values else 2, ",".join(fields[:count]))
 
 

@@ -19,6 +19,8 @@ Default = str | Callable[[View, Indices], str]
 Reader = Callable[[View, Indices, str | None], list[str]]
 #: A write with side effects: receives the parsed values (two for ``all``).
 Writer = Callable[[View, Indices, list[str]], None]
+#: A read of several targets at once: the data lines of the answer.
+GroupReader = Callable[[View, list[Indices], str | None], list[str]]
 #: A write that takes one value for all its targets (``write channel 1 3 value 5``).
 GroupWriter = Callable[[View, list[Indices], list[str]], None]
 
@@ -80,6 +82,7 @@ class Leaf:
     stored: bool = True  # has a storage key
     default_doc: str = ""  # the factory value in words, when it depends on other values
     group_writer: GroupWriter | None = None  # one value for all targets
+    group_reader: GroupReader | None = None  # all targets at once (speed, issue 11)
 
     @property
     def words(self) -> tuple[str, ...]:

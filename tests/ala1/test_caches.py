@@ -209,3 +209,40 @@ def mixed_module(fast: bool) -> Module:
     m.ok("write channel 6 type 2 write channel 6 device 1 write channel 6 address 0")  # pulses
     m.ok("write channel 7 switch output 0 write channel 7 cal mult value 2")  # the supply
     return m
+
+
+def test_a_kept_answer_follows_the_committed_value() -> None:
+    m = one_channel()
+    assert m.read("read i name") == ""
+    assert m.read("read i name") == ""  # kept: only a committed change can change it
+    m.ok("write i name/north/")
+    assert m.read("read i name") == "north"
+    assert m.ask("sum read i name") == m.ask("sum read i name")
+    assert m.ask("number 7 read i name read i version") == b"7,north\r\n8,2.10\r\n9,OK\r\n"
+    assert m.ask("number 7 read i name read i version") == b"7,north\r\n8,2.10\r\n9,OK\r\n"
+
+
+def test_answers_with_the_time_or_a_counter_are_made_every_time() -> None:
+    m = one_channel()
+    assert m.ask("counter 1 read i version") == b"0,2.10\r\n1,OK\r\n"
+    assert m.ask("counter 1 read i version") == b"2,2.10\r\n3,OK\r\n"
+    first = m.ask("date read i version")
+    date = m.read("read date")
+    m.advance(1.0)
+    assert m.ask("date read i version") != first
+    assert m.read("read date") != date
+
+
+def test_a_failing_input_empties_only_its_channel_in_a_group_read() -> None:
+    def broken(t: float) -> float:
+        raise ZeroDivisionError("a broken signal model")
+
+    hardware = SimHardware(analog=[Analog(16, constant(1.0)), Analog(17, broken)])
+    m = Module(hardware=hardware)
+    m.ok("write channel max number 3")
+    for ch, address in ((1, 16), (2, 17), (3, 16)):
+        m.ok(f"write channel {ch} type 3 write channel {ch} address {address}")
+        m.ok(f"write channel {ch} switch output 0")
+    assert m.read("read channel value") == "1.0,,1.0"
+    hardware.set_signal("analog:17", 0.5)
+    assert m.read("read channel value") == "1.0,0.5,1.0"

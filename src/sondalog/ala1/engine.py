@@ -14,19 +14,17 @@ import logging
 import re
 from typing import TYPE_CHECKING
 
-from sondalog.ala1 import special
+from sondalog.ala1 import transfers
 from sondalog.ala1.hardware import Hardware
 from sondalog.ala1.headers import MAX_LINE
 from sondalog.ala1.interpreter import Answer, Interpreter
 from sondalog.ala1.lines import Line as _Line
-from sondalog.ala1.lines import Transfer as _Transfer
 from sondalog.ala1.messages import Messages
-from sondalog.ala1.model import CommandError, Identity
+from sondalog.ala1.model import Identity
 from sondalog.ala1.outbox import Outbox
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 from sondalog.protocol.device import Event, LineSend
-from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
 
 if TYPE_CHECKING:
     from sondalog.ala1.modem.link import ModemLink
@@ -37,10 +35,10 @@ CR, LF, BS, DEL, ESC, XON, XOFF = 0x0D, 0x0A, 0x08, 0x7F, 0x1B, 0x11, 0x13
 #: §3.4.5: a command must be entered within one minute of its first character.
 ENTRY_TIMEOUT = 60.0
 BREAK = b"BREAK\r\n"
-EOT = 0x04
 _PLUS, _EDITING = ord("+"), re.compile(rb"[\r\n\x08\x7f\x1b]")  # what _feed edits
-#: After a completed upload, repeated EOTs (the host lost our last ACK) are still answered.
-TRANSFER_GRACE = 2.0
+#: A whole command line as a program sends it: no echo, no editing key, no flow control
+#: byte, at most 120 characters, then CR (and LF): :meth:`Engine._plain` (issue 11).
+_PLAIN = re.compile(rb"[^+\r\n\x08\x7f\x1b\x11\x13][^\r\n\x08\x7f\x1b\x11\x13]{0,119}\r\n?")
 
 
 class Engine:
@@ -104,7 +102,7 @@ class Engine:
         return execute(self, text, now, paused)
 
     def write_line(self, line_id: int, data: bytes, now: float) -> None:
-        self._send(self._lines[line_id], data, now)
+        self.send(self._lines[line_id], data, now)
 
     def take_line_output(self, line_id: int, now: float) -> bytes:
         line = self._lines.get(line_id)
@@ -151,7 +149,7 @@ class Engine:
         while ready and (outgoing := self.outbox.take("local")) is not None:
             data = outgoing.body.encode("latin-1", "replace")
             for line in self._lines.values():
-                self._send(line, data, now)
+                self.send(line, data, now)
             self.outbox.done(outgoing.ident, True)
 
     def output_pending(self, line_id: int) -> bool:
@@ -179,8 +177,38 @@ class Engine:
             self.state.run_sampling(now)
             if self.modem.receive(data, now):
                 return self._drain(now)
+        line = self._lines[line_id]
+        if (
+            line.started is None
+            and line.pending is None
+            and line.transfer is None
+            and line.pacer.quiet()
+            and _PLAIN.fullmatch(data) is not None
+        ):
+            return self._plain(line_id, line, data.rstrip(b"\n")[:-1].decode("latin-1"), now)
         self.accept(line_id, data, now)
         return self._drain(now)
+
+    def _plain(self, line_id: int, line: _Line, text: str, now: float) -> list[LineSend]:
+        """One whole command line on a quiet line without pacing (issue 11): what
+        :meth:`accept` and :meth:`_drain` do with it, without the line discipline's edits
+        and the transmitter's queue (nothing waits in it)."""
+        self.state.run_sampling(now)
+        out: list[LineSend] = []
+        if text.strip(" "):
+            line.blocks_messages = True  # §6.14.9.2: the first command blocks messages
+            self._blocking.add(line_id)
+            speed = self.com_speed
+            answer = self._answer(line_id, line, text, now, speed)
+            if answer is not None and answer.transfer is None:
+                if answer.data:
+                    out.append(LineSend(line_id, answer.data, answer.baud or speed))
+            elif answer is not None:
+                self._deliver(line, text, answer, now, speed)
+        self._messages(now)
+        if self._busy:
+            out += self._drain(now)
+        return out
 
     def accept(self, line_id: int, data: bytes, now: float) -> None:
         """Bytes received on a line, through the line discipline (nothing drained)."""
@@ -189,7 +217,7 @@ class Engine:
         self.state.run_sampling(now)
         self._expire(line_id, line, now)
         if line.transfer is not None:
-            data = self._transfer_input(line, data, now)
+            data = transfers.take_input(self, line, data, now)
         if not data:
             pass
         elif line.pending is not None:
@@ -258,7 +286,8 @@ class Engine:
                 out.append(LineSend(line_id, data, baud))
         return out
 
-    def _send(self, line: _Line, data: bytes, now: float, baud: int | None = None) -> None:
+    def send(self, line: _Line, data: bytes, now: float, baud: int | None = None) -> None:
+        """Queue ``data`` on ``line``'s transmitter at ``baud`` (default ``com speed``)."""
         self._busy[line.ident] = line
         line.pacer.push(data, baud or self.com_speed, now / self.scale)
 
@@ -274,13 +303,8 @@ class Engine:
         return data.replace(bytes([XON]), b"").replace(bytes([XOFF]), b"")
 
     def _expire(self, line_id: int, line: _Line, now: float) -> None:
-        transfer = line.transfer
-        if transfer is not None:
-            if transfer.grace_until is None:
-                self._send(line, transfer.peer.advance(now / self.scale), now, transfer.speed)
-                self._finish_transfer(line, now)
-            elif now >= transfer.grace_until:
-                line.transfer = None
+        if line.transfer is not None:
+            transfers.expire(self, line, now)
         if line.pending is not None and now >= line.run_at:
             command, line.pending = line.pending, None
             self._run(line_id, line, command, now, line.speed, paused=True)
@@ -294,7 +318,7 @@ class Engine:
     def _break(self, line: _Line, now: float) -> None:
         """§3.4.3, §3.4.5: discard the partial command; ``BREAK`` when echo is on."""
         if line.echo:
-            self._send(line, b"\r\n" + BREAK, now)
+            self.send(line, b"\r\n" + BREAK, now)
         self._reset(line)
 
     @staticmethod
@@ -324,7 +348,7 @@ class Engine:
                 if line.echo:
                     echo += b"\r\n"
                 if echo:
-                    self._send(line, bytes(echo), now)
+                    self.send(line, bytes(echo), now)
                     echo = bytearray()
                 text = "".join(line.buffer)
                 overflow = line.overflow
@@ -334,13 +358,13 @@ class Engine:
                     line.backlog.extend(data[index + 1 :])
                     return
                 if line.transfer is not None:  # the rest belongs to the XMODEM transfer
-                    rest = self._transfer_input(line, data[index + 1 :], now)
+                    rest = transfers.take_input(self, line, data[index + 1 :], now)
                     if rest:
                         self._feed(line_id, line, rest, now)
                     return
             elif byte == ESC:
                 if echo:
-                    self._send(line, bytes(echo), now)
+                    self.send(line, bytes(echo), now)
                     echo = bytearray()
                 self._break(line, now)
             elif byte in (BS, DEL):
@@ -362,7 +386,7 @@ class Engine:
                 else:
                     line.overflow = True
         if echo:
-            self._send(line, bytes(echo), now)
+            self.send(line, bytes(echo), now)
 
     def _complete(self, line_id: int, line: _Line, text: str, overflow: bool, now: float) -> None:
         if not text.strip(" "):
@@ -383,76 +407,42 @@ class Engine:
         overflow: bool = False,
         paused: bool = False,
     ) -> None:
-        answer: Answer | None
+        answer = self._answer(line_id, line, text, now, speed, overflow=overflow, paused=paused)
+        if answer is not None:
+            self._deliver(line, text, answer, now, speed)
+
+    def _answer(
+        self,
+        line_id: int,
+        line: _Line,
+        text: str,
+        now: float,
+        speed: int | None,
+        *,
+        overflow: bool = False,
+        paused: bool = False,
+    ) -> Answer | None:
+        """Run ``text``: its answer, or None (silence, or the line waits: ``line.pending``)."""
         try:
             answer = self.interpreter.run_line(text, now, overflow=overflow, paused=paused)
         except NeedWait as wait:  # §8.5.1 pause, §6.5.13 sensors: the line runs again later
             delay = wait.seconds * (self.scale if wait.line_time else 1.0)
             line.pending, line.run_at, line.speed = text, now + delay, speed
-            return
+            self._busy[line_id] = line
+            return None
         except Exception:  # DESIGN.md point 6: never stop the device loop
             log.exception("internal error on line %r", text)
             answer = self.interpreter.error_answer(text)
-        if answer is None:
-            return
-        if answer.release:
+        if answer is not None and answer.release:
             line.blocks_messages = False  # `write com close` (§6.11.8)
             self._blocking.discard(line_id)
-        if answer.data:
-            self._send(line, answer.data, now, answer.baud or speed)
-        if answer.transfer is not None:
-            self._start_transfer(line, text, answer.transfer, now, answer.baud or speed)
+        return answer
 
-    # -- XMODEM (§6.16) ----------------------------------------------------------------------
-    def _start_transfer(
-        self,
-        line: _Line,
-        text: str,
-        request: special.TransferRequest,
-        now: float,
-        speed: int | None,
+    def _deliver(
+        self, line: _Line, text: str, answer: Answer, now: float, speed: int | None
     ) -> None:
-        """The module sends nothing before the transfer itself (§6.16)."""
-        peer: XmodemSender | XmodemReceiver
-        if request.send is not None:
-            peer = XmodemSender(request.send, one_k=True)
-        else:
-            peer = XmodemReceiver(max_size=request.max_size)
-        line.transfer = _Transfer(text, request.area, peer, speed)
-        self._send(line, peer.start(now / self.scale), now, speed)
-
-    def _transfer_input(self, line: _Line, data: bytes, now: float) -> bytes:
-        """Bytes of a running transfer go to XMODEM, not to the command parser; returns
-        what is left for the parser."""
-        transfer = line.transfer
-        assert transfer is not None
-        if transfer.grace_until is not None:
-            if data and all(byte == EOT for byte in data):
-                self._send(line, transfer.peer.receive(data, now / self.scale), now, transfer.speed)
-                return b""
-            line.transfer = None
-            return data
-        self._send(line, transfer.peer.receive(data, now / self.scale), now, transfer.speed)
-        self._finish_transfer(line, now)
-        return b""
-
-    def _finish_transfer(self, line: _Line, now: float) -> None:
-        transfer = line.transfer
-        assert transfer is not None
-        peer = transfer.peer
-        if not peer.done:
-            return
-        ok = peer.ok
-        if ok and isinstance(peer, XmodemReceiver):
-            try:
-                special.apply(self.state, transfer.area, peer.data, now)
-            except (CommandError, ValueError) as exc:
-                log.info("transfer of %s refused: %s", transfer.area, exc)
-                ok = False
-        if ok:
-            self._send(line, b"OK\r\n", now, transfer.speed)
-        else:
-            error = self.interpreter.error_answer(transfer.command).data
-            self._send(line, error, now, transfer.speed)
-        grace = TRANSFER_GRACE * self.scale if isinstance(peer, XmodemReceiver) else 0.0
-        transfer.grace_until = now + grace
+        """Send an answer on its line; start the XMODEM transfer it announces."""
+        if answer.data:
+            self.send(line, answer.data, now, answer.baud or speed)
+        if answer.transfer is not None:
+            transfers.start(self, line, text, answer.transfer, now, answer.baud or speed)

@@ -14,7 +14,14 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION
-from sondalog.ala1.measure import ChannelConfig, Input, Measurer, channel_config, format_value
+from sondalog.ala1.measure import (
+    ChannelConfig,
+    Direct,
+    Input,
+    Measurer,
+    channel_config,
+    format_value,
+)
 from sondalog.ala1.sampling import FaultLog, Outputs
 from sondalog.ala1.tokens import period_seconds
 
@@ -25,6 +32,8 @@ if TYPE_CHECKING:
 Measure = Callable[[float], str]
 #: Several channels measured at the same host time.
 MeasureMany = Callable[[float], list[str]]
+#: Texts of recent values kept per channel (:meth:`OnDemand.many`).
+_TEXTS = 4096
 #: Seconds a switched sensor stays on at least after its on-demand measurement instant, so a
 #: ``command channel switch hold`` of 000000 still measures before switching off (§6.9).
 MEASURE_TIME = 0.001
@@ -63,15 +72,40 @@ class OnDemand:
         """Several channels as one function, or None when one of them takes the long way."""
         if channels in self._many:
             return self._many[channels]
-        parts = [self.one(ch) for ch in channels]
+        singles = [self.one(ch) for ch in channels]
         many: MeasureMany | None = None
-        if all(part is not None for part in parts):
-            measures = tuple(part for part in parts if part is not None)
-
-            def many(host_now: float) -> list[str]:
-                return [measure(host_now) for measure in measures]
-
+        if all(single is not None for single in singles):
+            many = self._group(channels, [m for m in singles if m is not None])
         self._many[channels] = many
+        return many
+
+    def _group(self, channels: tuple[int, ...], singles: list[Measure]) -> MeasureMany:
+        """The channels' values and texts in one loop: each channel remembers the texts of
+        its recent values (an ADC has 4096 levels). A failure anywhere measures each
+        channel alone, so that only the failing one has no value."""
+        parts: list[tuple[Direct, ChannelConfig, dict[float | None, str]]] = []
+        for ch in channels:
+            cfg = self._config(ch)
+            direct = self._measurer.direct(cfg)
+            assert direct is not None  # (each single compiled)
+            parts.append((direct, cfg, {}))
+
+        def many(host_now: float) -> list[str]:
+            out = []
+            try:
+                for direct, cfg, texts in parts:
+                    value = direct(host_now)
+                    text = texts.get(value)
+                    if text is None:
+                        text = format_value(cfg, value)
+                        if len(texts) >= _TEXTS:
+                            texts.clear()
+                        texts[value] = text
+                    out.append(text)
+            except Exception:
+                return [single(host_now) for single in singles]
+            return out
+
         return many
 
     def _compile(self, ch: int) -> Measure | None:

@@ -61,6 +61,10 @@ class Pacer:
         """Nothing queued and not stopped by XOFF: no output and no deadline."""
         return not self._queue and self._stopped_at is None
 
+    def quiet(self) -> bool:
+        """Unpaced and :meth:`idle`: what is sent now leaves at once, nothing before it."""
+        return not self.paced and not self._queue and self._stopped_at is None
+
     def pending(self) -> int:
         return sum(len(d) for d, _ in self._queue) - self._offset
 

@@ -37,6 +37,9 @@ class Plan:
 
     headers: Headers
     commands: tuple[Command, ...]
+    #: The answer, when it is as constant as the parse: every command reads stored values
+    #: or the identity, and no header adds the time or a counter.
+    answer: bytes | None = None
 
 
 def parse_switch(cur: Cursor) -> str | None:

@@ -83,6 +83,14 @@ class Leaf:
     default_doc: str = ""  # the factory value in words, when it depends on other values
     group_writer: GroupWriter | None = None  # one value for all targets
     group_reader: GroupReader | None = None  # all targets at once (speed, issue 11)
+    #: The reader answers from the identity and the committed values only (issue 11).
+    static: bool = False
+
+    @property
+    def constant_read(self) -> bool:
+        """Reading it answers the same until a committed value changes: a stored value, or
+        a :attr:`static` reader (issue 11)."""
+        return self.reader is None or self.static
 
     @property
     def words(self) -> tuple[str, ...]:

@@ -8,6 +8,7 @@ connected, a sensor without power, a missing or malformed table) gives no value 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -113,6 +114,12 @@ def channel_config(view: View, ch: int) -> ChannelConfig:
     )
 
 
+#: The raw reading of a :meth:`Measurer.direct` channel at a host time; None: no reading.
+Reading = Callable[[float], float | None]
+#: The value of a raw reading (:meth:`Measurer.parts`).
+Calibration = Callable[[float], float]
+
+
 class Direct(Protocol):
     """A channel's value at host time ``t`` (:meth:`Measurer.direct`)."""
 
@@ -161,42 +168,71 @@ class Measurer:
             return lambda t, window: self.value(cfg, t, window)
         return direct
 
+    def _is_direct(self, cfg: ChannelConfig) -> bool:
+        first = cfg.inputs[0]
+        return (
+            self.fast
+            and cfg.type in (1, 3)
+            and not cfg.table1
+            and not cfg.table2
+            and first.device != 0
+            and first.device_type == "MSP430ADC"
+        )
+
+    def parts(self, cfg: ChannelConfig) -> tuple[Reading, Calibration] | None:
+        """A :meth:`direct` channel in two parts: its raw reading at a host time (an ADC
+        fraction) and the value of a raw reading, for a caller that keeps what it made of
+        each raw reading (on-demand reads: an ADC has 4096 levels); None otherwise."""
+        if not self._is_direct(cfg):
+            return None
+        first = cfg.inputs[0]
+        device_mult, device_add = first.device_mult, first.device_add
+        cal2_mult, cal2_add = first.cal2_mult, first.cal2_add
+        mult, add = cfg.mult, cfg.add
+        if cfg.type == 1:
+
+            def battery(raw: float) -> float:
+                r = (raw * device_mult + device_add) * SUPPLY_DIVIDER
+                x = r * cal2_mult + cal2_add
+                return x * mult + add
+
+            return self.hardware.supply, battery
+
+        def analog(raw: float) -> float:  # (as :meth:`direct`'s analog)
+            r = raw * device_mult + device_add
+            x = r * cal2_mult + cal2_add
+            return x * mult + add
+
+        return functools.partial(self.hardware.adc, first.device, first.address), analog
+
     def direct(self, cfg: ChannelConfig) -> Direct | None:
         """:meth:`value` of an analog (type 3) or supply (type 1) channel without tables,
         read through the internal ADC, as one function of the host time (the window is for
         pulses: unused) that computes the same floats in the same order without
         interpreting the configuration; None for every other channel (issue 11)."""
-        first = cfg.inputs[0]
-        if (
-            not self.fast
-            or cfg.type not in (1, 3)
-            or cfg.table1
-            or cfg.table2
-            or first.device == 0
-            or first.device_type != "MSP430ADC"
-        ):
+        parts = self.parts(cfg)
+        if parts is None:
             return None
+        if cfg.type == 1:
+            supply, battery = parts
+
+            def supplied(t: float, window: float = 0.0) -> float | None:
+                raw = supply(t)
+                return None if raw is None else battery(raw)
+
+            return supplied
+        first = cfg.inputs[0]
         device_mult, device_add = first.device_mult, first.device_add
         cal2_mult, cal2_add = first.cal2_mult, first.cal2_add
         mult, add = cfg.mult, cfg.add
-        if cfg.type == 1:
-            supply = self.hardware.supply
-
-            def battery(t: float, window: float = 0.0) -> float | None:
-                raw = supply(t)
-                if raw is None:
-                    return None
-                r = (raw * device_mult + device_add) * SUPPLY_DIVIDER
-                x = r * cal2_mult + cal2_add
-                return x * mult + add
-
-            return battery
         device, address = first.device, first.address
         read = self.hardware.adc
         key = (device, address)
         measurer = self
 
         def analog(t: float, window: float = 0.0) -> float | None:
+            # Scheduled sampling runs this for every sample: the reading (one per input and
+            # instant) and :meth:`parts`' calibration in one function.
             memo = measurer._memo
             if memo is None:
                 raw = read(device, address, t)

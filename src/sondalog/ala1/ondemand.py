@@ -15,10 +15,11 @@ from typing import TYPE_CHECKING
 
 from sondalog.ala1.hardware import DS18B20_CONVERSION
 from sondalog.ala1.measure import (
+    Calibration,
     ChannelConfig,
-    Direct,
     Input,
     Measurer,
+    Reading,
     channel_config,
     format_value,
 )
@@ -80,27 +81,27 @@ class OnDemand:
         return many
 
     def _group(self, channels: tuple[int, ...], singles: list[Measure]) -> MeasureMany:
-        """The channels' values and texts in one loop: each channel remembers the texts of
-        its recent values (an ADC has 4096 levels). A failure anywhere measures each
+        """The channels' readings and texts in one loop: each channel remembers the texts of
+        its recent raw readings (an ADC has 4096 levels). A failure anywhere measures each
         channel alone, so that only the failing one has no value."""
-        parts: list[tuple[Direct, ChannelConfig, dict[float | None, str]]] = []
+        parts: list[tuple[Reading, Calibration, ChannelConfig, dict[float | None, str]]] = []
         for ch in channels:
             cfg = self._config(ch)
-            direct = self._measurer.direct(cfg)
-            assert direct is not None  # (each single compiled)
-            parts.append((direct, cfg, {}))
+            compiled = self._measurer.parts(cfg)
+            assert compiled is not None  # (each single compiled)
+            parts.append((*compiled, cfg, {}))
 
         def many(host_now: float) -> list[str]:
             out = []
             try:
-                for direct, cfg, texts in parts:
-                    value = direct(host_now)
-                    text = texts.get(value)
+                for read, calibrate, cfg, texts in parts:
+                    raw = read(host_now)
+                    text = texts.get(raw)
                     if text is None:
-                        text = format_value(cfg, value)
+                        text = format_value(cfg, None if raw is None else calibrate(raw))
                         if len(texts) >= _TEXTS:
                             texts.clear()
-                        texts[value] = text
+                        texts[raw] = text
                     out.append(text)
             except Exception:
                 return [single(host_now) for single in singles]

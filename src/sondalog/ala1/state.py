@@ -300,6 +300,11 @@ class ModuleState:
 class Transaction:
     """One command line's view of the module (implements :class:`~.model.View`)."""
 
+    __slots__ = (
+        "_mark", "changes", "clock", "deferred", "host_now", "identity", "record", "released",
+        "reset_all", "runs", "state", "transfer", "waits",
+    )  # fmt: skip
+
     def __init__(self, state: ModuleState, host_now: float) -> None:
         self.state = state
         self.identity = state.identity
@@ -400,6 +405,11 @@ class Transaction:
     def commit(self) -> None:
         """Make the line's effects durable, then visible."""
         state = self.state
+        if not self.changes and not self.reset_all and self.clock is None and not self.runs:
+            record = self.record.take_changes()  # a line of reads, or of rows only
+            if record is not None:
+                state.store.commit({}, None, record, seen=self.host_now)
+            return
         changes = dict(self.changes)
         for key in self.deferred or ():
             del changes[key]  # committed after the delivery (§6.8.4.1)

@@ -63,6 +63,7 @@ class ModemLink:
         hardware = ModemHardware(state.hardware, self.driver.readings)
         state.hardware = hardware
         state.measurer.hardware = hardware
+        state.on_demand.forget()  # compiled against the hardware it replaces
 
     # -- from the engine -----------------------------------------------------------------
     def receive(self, data: bytes, now: float) -> bool:

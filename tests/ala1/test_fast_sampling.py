@@ -10,6 +10,7 @@ import pytest
 from ala1_module import T0, Module
 
 from sondalog.ala1.measure import Measurer
+from sondalog.ala1.sampling import ChannelRun, RowSink, Sampler
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware
 from sondalog.backends.sim.signals import RandomWalk, sine
 from sondalog.protocol.tables import build_files
@@ -31,7 +32,9 @@ def world() -> SimHardware:
     )
 
 
-def logged_week(db: Path, fast: bool, monkeypatch: pytest.MonkeyPatch) -> list[str]:
+def logged_week(
+    db: Path, fast: bool, monkeypatch: pytest.MonkeyPatch, switched: bool = True
+) -> list[str]:
     monkeypatch.setattr(Measurer, "fast", fast)
     m = Module(db=db, hardware=world())
     m.ok("write date 20070101000000 write channel max number 12")
@@ -49,7 +52,8 @@ def logged_week(db: Path, fast: bool, monkeypatch: pytest.MonkeyPatch) -> list[s
     m.ok("write channel 2 cal mult value 3.5 write channel 2 cal add value -0.25")
     m.ok("write channel 3 cal2 mult 1000 write channel 3 convert file name/sq/")  # a table
     m.ok("write channel 4 type 2 write channel 4 device 1 write channel 4 address 0")  # pulses
-    m.ok("write channel 5 switch output 2 write channel 5 switch advance 2")  # switched
+    if switched:
+        m.ok("write channel 5 switch output 2 write channel 5 switch advance 2")
     m.ok("write channel 6 type 1 write channel 6 address 0")  # the supply
     m.ok("write output 2 device 1 write output 2 address 8")
     for hour in range(1, DAYS * 24 + 1):
@@ -68,3 +72,21 @@ def test_a_week_fast_is_byte_identical_to_the_interpreted_path(
     assert fast == slow
     columns = [row.split(",") for row in fast[-5:]]
     assert all(len(c) == 14 for c in columns), columns  # stamp, type, 12 fields
+
+
+def test_a_series_of_instants_is_sampled_as_instant_by_instant(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Channels that sample together and switch nothing run as a series of instants
+    (``Sampler._series``); event by event they log the same week."""
+    series = logged_week(tmp_path / "series.sqlite", True, monkeypatch, switched=False)
+
+    def one_instant(
+        sampler: Sampler, t: int, due: list[ChannelRun], target: float, offset: float, sink: RowSink
+    ) -> None:
+        sampler._sample(t, due, offset, sink)
+
+    monkeypatch.setattr(Sampler, "_series", one_instant)
+    events = logged_week(tmp_path / "events.sqlite", True, monkeypatch, switched=False)
+    assert len(events) > DAYS * 1440 // 2
+    assert series == events

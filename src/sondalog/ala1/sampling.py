@@ -24,7 +24,7 @@ _ZERO = Decimal(0)
 _NEVER = Decimal(-1)
 
 
-@dataclass
+@dataclass(slots=True)
 class ChannelRun:
     """Sampling state of one channel (RAM, like the module's)."""
 
@@ -129,6 +129,7 @@ class Sampler:
         self.faults = FaultLog()
         self.runs: dict[int, ChannelRun] = {}
         self.max_number = 1
+        self._switching = False  # a channel's input is switched by an output (§6.5.13)
         self.observer: SampleObserver | None = None  # messages (§6.14.6, §6.14.7)
 
     def configure(self, configs: list[ChannelConfig], max_number: int, now: int) -> None:
@@ -152,6 +153,7 @@ class Sampler:
             self.runs[cfg.number] = run
         for output in list(self.outputs.scheduled):
             self.outputs.scheduled[output].clear()
+        self._switching = any(run.cfg.switches for run in self.runs.values())
 
     def reschedule(self, now: int) -> None:
         """The clock was set: every channel finds its next sample from the new time."""
@@ -161,10 +163,13 @@ class Sampler:
     def _scan(self) -> tuple[int | None, list[ChannelRun], int | None, float | None]:
         """One pass: the next sample time and the channels due then, the next switch
         power-on, and the next hold expiry (module times)."""
+        held = self.outputs.held_until
+        hold = min(held.values()) if held else None
         sample: int | None = None
         due: list[ChannelRun] = []
         power: int | None = None
         scheduled = self.outputs.scheduled
+        switching = self._switching
         for run in self.runs.values():
             t = run.next_t
             if t is None:
@@ -173,6 +178,8 @@ class Sampler:
                 sample, due = t, [run]
             elif t == sample:
                 due.append(run)
+            if not switching:
+                continue
             for output, advance in run.cfg.switches:
                 if (
                     advance > 0
@@ -180,8 +187,7 @@ class Sampler:
                     and (power is None or t - advance < power)
                 ):
                     power = t - advance
-        held = self.outputs.held_until
-        return sample, due, power, (min(held.values()) if held else None)
+        return sample, due, power, hold
 
     def next_event(self) -> float | None:
         """Module time of the next thing the sampler must do."""
@@ -205,7 +211,10 @@ class Sampler:
             if sample is None or sample > target:
                 outputs.update(target, offset)
                 return
-            self._sample(sample, due, offset, sink)
+            if hold is None and not self._switching and len(due) == len(self.runs):
+                self._series(sample, due, target, offset, sink)
+            else:
+                self._sample(sample, due, offset, sink)
 
     def _power_on(self, t: int, offset: float) -> None:
         """§6.5.13: power the switches whose advance window opens at ``t``."""
@@ -220,28 +229,41 @@ class Sampler:
 
     def _sample(self, t: int, due: list[ChannelRun], offset: float, sink: RowSink) -> None:
         outputs = self.outputs
-        switched = False
-        for run in due:
-            if run.cfg.switches:
-                switched = True
-                break
+        switched = self._switching and any(run.cfg.switches for run in due)
         if switched:
             for run in due:
                 for output, _ in run.cfg.switches:
                     outputs.scheduled.setdefault(output, set()).add(run.cfg.number)
             outputs.update(float(t), offset)
-        host_t = t - offset
-        fields: dict[int, str] = {}
-        self.measurer.begin_instant()
-        try:
-            self._measure_due(t, host_t, due, fields)
-        finally:
-            self.measurer.end_instant()
+        self._instant(t, due, offset, sink)
         if switched:
             for run in due:
                 for output, _ in run.cfg.switches:
                     outputs.scheduled.get(output, set()).discard(run.cfg.number)
             outputs.update(float(t), offset)
+
+    def _series(
+        self, t: int, due: list[ChannelRun], target: float, offset: float, sink: RowSink
+    ) -> None:
+        """Every channel samples at ``t`` and nothing is switched or held: when they share
+        one period, the instants ``t``, ``t + period``, ... up to ``target`` one after the
+        other, without looking for the next event in between (issue 11)."""
+        period = due[0].cfg.period
+        if any(run.cfg.period != period for run in due):
+            self._sample(t, due, offset, sink)
+            return
+        while t <= target:
+            self._instant(t, due, offset, sink)
+            t += period
+
+    def _instant(self, t: int, due: list[ChannelRun], offset: float, sink: RowSink) -> None:
+        """One sampling instant: measure the channels due, store the row, tell the observer."""
+        fields: dict[int, str] = {}
+        self.measurer.begin_instant()
+        try:
+            self._measure_due(t, t - offset, due, fields)
+        finally:
+            self.measurer.end_instant()
         if fields:
             sink(t, [fields.get(n, "") for n in range(1, self.max_number + 1)])
         if self.observer is not None:
@@ -255,15 +277,21 @@ class Sampler:
         for run in due:
             cfg = run.cfg
             last = run.last_t
-            window = float(t - last) if last is not None else float(cfg.period)
             run.last_t = t
             run.next_t = t + cfg.period
             try:
                 measure = run.measure
                 if measure is None:
                     measure = run.measure = self.measurer.compiled(cfg)
-                value = measure(host_t, window)
+                # the window (for pulses): whole seconds since the last sample
+                value = measure(host_t, t - last if last is not None else cfg.period)
                 run.sample, run.sampled = value, True
+                if value is not None and run.avg_n + 1 < cfg.average:
+                    # What :meth:`_decide` does with a sample that does not complete the
+                    # average (§6.5.15), without the call: most samples of an average.
+                    run.avg_sum += value
+                    run.avg_n += 1
+                    continue
                 written = decide(run, value)
             except Exception as exc:
                 # Defence in depth (issue 9): one channel's failure is that channel's "no

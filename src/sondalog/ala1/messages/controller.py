@@ -76,6 +76,8 @@ class Messages:
         outbox.on_done(self._done)
         #: No message is scheduled, waiting or on its way: a command's step costs nothing.
         self._idle = False
+        #: The messages a sampling instant concerns: of the record, or watching a channel.
+        self._watching: list[tuple[int, _Message]] = []
         state.sampler.observer = self._sampled
         self._refresh(host_now)
 
@@ -105,6 +107,11 @@ class Messages:
             message.config = config
             message.due = next_due(config.period, config.start, after)
         self._idle = self._nothing_to_do()
+        self._watching = [
+            (number, message)
+            for number, message in self._messages.items()
+            if message.config.of_record or message.crossing is not None
+        ]
 
     def _nothing_to_do(self) -> bool:
         return all(
@@ -122,9 +129,11 @@ class Messages:
 
     def _sampled(self, t: int, runs: list[ChannelRun], wrote: bool) -> None:
         """The sampler's observer: one sampling instant (module second ``t``)."""
+        if not self._watching:
+            return
         host_t = t - self.state.clock_offset
         sampled = {run.cfg.number: run for run in runs}
-        for number, message in self._messages.items():
+        for number, message in self._watching:
             if wrote and message.config.of_record:
                 self.trigger(number, host_t)
             crossing = message.crossing

@@ -164,12 +164,16 @@ class SimHardware:
 
     # -- Hardware ---------------------------------------------------------------------------
     def adc(self, device: int, address: int, t: float) -> float | None:
-        source = self.analog.get(address - 16 if address >= 32 else address)
-        if source is None or (source.power is not None and not self.outputs.get(source.power)):
+        if address >= 32:  # the same pins against the external reference
+            source, reference = self.analog.get(address - 16), self.external_reference
+        else:
+            source, reference = self.analog.get(address), INTERNAL_REFERENCE
+        if source is None:
             return None
-        fraction = source.signal(t) / (
-            self.external_reference if address >= 32 else INTERNAL_REFERENCE
-        )
+        power = source.power
+        if power is not None and not self.outputs.get(power):
+            return None
+        fraction = source.signal(t) / reference
         if fraction <= 0.0:
             return 0.0
         return 1.0 if fraction >= 1.0 else round(fraction * ADC_LEVELS) / ADC_LEVELS

@@ -98,12 +98,17 @@ def constant(value: float) -> Signal:
 
 def sine(mean: float, amplitude: float, period: float, phase: float, origin: float) -> Signal:
     """``mean + amplitude * sin(2π (t - origin - phase) / period)``."""
-    return lambda t: mean + amplitude * math.sin(2 * math.pi * (t - origin - phase) / period)
+    sin, two_pi = math.sin, 2 * math.pi  # (the same floats as computed in place)
+    return lambda t: mean + amplitude * sin(two_pi * (t - origin - phase) / period)
 
 
 def ramp(start: float, rate: float, origin: float, clamp: Callable[[float], float]) -> Signal:
     """``start + rate * (t - origin)``, clamped."""
     return lambda t: clamp(start + rate * (t - origin))
+
+
+#: Steps of a random walk made ahead of need.
+_BATCH = 1024
 
 
 class RandomWalk:
@@ -126,10 +131,20 @@ class RandomWalk:
         self._values = [clamp(start)]
 
     def __call__(self, t: float) -> float:
-        index = max(0, int((t - self._origin) // self._interval))
-        while len(self._values) <= index:
-            self._values.append(self._clamp(self._values[-1] + self._rng.gauss(0, self._step)))
-        return self._values[index]
+        index = int((t - self._origin) // self._interval)
+        values = self._values
+        if index >= len(values):
+            self._extend(index)
+        return values[index] if index > 0 else values[0]
+
+    def _extend(self, index: int) -> None:
+        """Steps up to ``index`` and a batch beyond (the same values in the same order as one
+        at a time: the sequence depends only on the seed; issue 11)."""
+        values, gauss, clamp, step = self._values, self._rng.gauss, self._clamp, self._step
+        last = values[-1]
+        for _ in range(index + _BATCH - len(values) + 1):
+            last = clamp(last + gauss(0, step))
+            values.append(last)
 
 
 class Schedule:

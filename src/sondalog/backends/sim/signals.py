@@ -109,6 +109,7 @@ def ramp(start: float, rate: float, origin: float, clamp: Callable[[float], floa
 
 #: Steps of a random walk made ahead of need.
 _BATCH = 1024
+_TWO_PI = 2.0 * math.pi  # (as :mod:`random`'s TWOPI)
 
 
 class RandomWalk:
@@ -129,6 +130,7 @@ class RandomWalk:
         self._origin = origin
         self._clamp = clamp
         self._values = [clamp(start)]
+        self._spare: float | None = None  # the second of a Box-Muller pair, not used yet
 
     def __call__(self, t: float) -> float:
         index = int((t - self._origin) // self._interval)
@@ -138,13 +140,24 @@ class RandomWalk:
         return values[index] if index > 0 else values[0]
 
     def _extend(self, index: int) -> None:
-        """Steps up to ``index`` and a batch beyond (the same values in the same order as one
-        at a time: the sequence depends only on the seed; issue 11)."""
-        values, gauss, clamp, step = self._values, self._rng.gauss, self._clamp, self._step
+        """Steps up to ``index`` and a batch beyond. Each step is ``random.Random(seed)``'s
+        next ``gauss(0, step)``: its Box-Muller pairs are made here, in the same order
+        (issue 11: without a method call per step)."""
+        values, clamp, step = self._values, self._clamp, self._step
+        uniform, spare = self._rng.random, self._spare
+        cos, sin, log, sqrt = math.cos, math.sin, math.log, math.sqrt
         last = values[-1]
         for _ in range(index + _BATCH - len(values) + 1):
-            last = clamp(last + gauss(0, step))
+            if spare is None:
+                x2pi = uniform() * _TWO_PI
+                g2rad = sqrt(-2.0 * log(1.0 - uniform()))
+                z = cos(x2pi) * g2rad
+                spare = sin(x2pi) * g2rad
+            else:
+                z, spare = spare, None
+            last = clamp(last + (0.0 + z * step))
             values.append(last)
+        self._spare = spare
 
 
 class Schedule:

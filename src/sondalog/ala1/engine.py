@@ -143,8 +143,9 @@ class Engine:
     def _messages(self, now: float) -> None:
         """§6.14: messages that may go now; with ``com device local`` this is their carrier:
         the body goes on every line as plain text, and that counts as delivered."""
-        self._sync_modem()
-        ready = self._local_ready()
+        if self.modem is not None:
+            self._sync_modem()
+        ready = bool(self._lines) and not self._blocking  # (:meth:`_local_ready`)
         self.messages.step(now, local_ready=ready)
         while ready and (outgoing := self.outbox.take("local")) is not None:
             data = outgoing.body.encode("latin-1", "replace")
@@ -241,10 +242,11 @@ class Engine:
         """Clock time at which :meth:`advance` must be called next (None: only on input)."""
         sampling = self.state.next_event_host()
         deadlines = [] if sampling is None else [sampling]
-        if self.modem is not None and (modem := self.modem.next_deadline()) is not None:
-            deadlines.append(modem)
-        self._sync_modem()  # a modem no longer busy wakes the messages that waited for it
-        message = self.messages.next_deadline(local_ready=self._local_ready())
+        if self.modem is not None:
+            if (modem := self.modem.next_deadline()) is not None:
+                deadlines.append(modem)
+            self._sync_modem()  # a modem no longer busy wakes the messages that waited for it
+        message = self.messages.next_deadline(local_ready=bool(self._lines) and not self._blocking)
         if message is not None:
             deadlines.append(message)
         idle: list[int] = []

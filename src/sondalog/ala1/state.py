@@ -246,6 +246,8 @@ class ModuleState:
     # -- sampling ----------------------------------------------------------------------------
     def run_sampling(self, host_now: float) -> None:
         """Take every scheduled sample up to ``host_now`` and store the rows (§6.5.14)."""
+        if self._event is not None and self._event[0] is None:
+            return  # nothing is scheduled (and nothing changed since that was found)
         target = self.module_seconds(host_now)
         event = self._next_event()
         if event is None or event > target:

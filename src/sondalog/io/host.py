@@ -21,6 +21,7 @@ import asyncio
 import collections
 import contextlib
 import logging
+import re
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
@@ -59,12 +60,8 @@ def _slice_end(pending: bytearray) -> int:
     return min(ends) + 1 if ends else window
 
 
-def _one_line(data: bytes) -> bool:
-    """True when ``data`` ends with its only line end (CR or LF)."""
-    last = len(data) - 1
-    return (
-        data[last] in (13, 10) and data.find(b"\r", 0, last) < 0 and data.find(b"\n", 0, last) < 0
-    )
+#: One line: no line end (CR or LF) but the last byte.
+_ONE_LINE = re.compile(rb"[^\r\n]*[\r\n]")
 
 
 class DeviceHost:
@@ -75,6 +72,7 @@ class DeviceHost:
         self.clock = clock
         self._handlers: dict[type[Effect], EffectHandler] = {}
         self._sinks: dict[int, OutputSink] = {}
+        self._byte_sinks: dict[int, Sink] = {}  # the sinks that take bytes only
         self._armed: float | None = None
         self._rearm = asyncio.Event()
         self._timer: asyncio.Task[None] | None = None
@@ -106,7 +104,9 @@ class DeviceHost:
         ``paced``: the engine releases the output at ``com speed`` (serial and pty lines, TCP
         with ``--line-rate``); the sink just writes what it gets.
         """
-        return self.attach_output(lambda output: sink(output.data), paced=paced, flow=flow)
+        line_id = self.attach_output(lambda output: sink(output.data), paced=paced, flow=flow)
+        self._byte_sinks[line_id] = sink  # (what the lambda does, one call less per answer)
+        return line_id
 
     def attach_output(
         self, sink: OutputSink, *, paced: bool = False, flow: FlowControl | None = None
@@ -127,6 +127,7 @@ class DeviceHost:
     def detach(self, line_id: int) -> None:
         """The connection is gone: its partial command and pending output are dropped."""
         self._sinks.pop(line_id, None)
+        self._byte_sinks.pop(line_id, None)
         self._pending.pop(line_id, None)
         self._flows.pop(line_id, None)
         try:
@@ -144,8 +145,8 @@ class DeviceHost:
         if (
             pending is None
             and line_id in self._flows
-            and 0 < len(data) <= SLICE
-            and _one_line(data)
+            and len(data) <= SLICE
+            and _ONE_LINE.fullmatch(data) is not None
         ):
             # Fast path (issue 11): a transport's one whole command line while that line
             # has nothing queued is its slice of this turn: run it now, as the pump would.
@@ -236,11 +237,13 @@ class DeviceHost:
                 except Exception:
                     log.exception("handler of %r failed", output)
                 continue
-            sink = self._sinks.get(output.line)
-            if sink is None:
-                continue  # the line went away while its answer was pending
             try:
-                sink(output)
+                byte_sink = self._byte_sinks.get(output.line)
+                if byte_sink is not None:
+                    byte_sink(output.data)
+                elif (sink := self._sinks.get(output.line)) is not None:
+                    sink(output)
+                # (else the line went away while its answer was pending)
             except Exception:
                 log.exception("cannot send %r to line %d", output.data, output.line)
 

@@ -196,16 +196,12 @@ class Engine:
         and the transmitter's queue (nothing waits in it)."""
         self.state.run_sampling(now)
         out: list[LineSend] = []
-        if text.strip(" "):
-            line.blocks_messages = True  # §6.14.9.2: the first command blocks messages
-            self._blocking.add(line_id)
-            speed = self.com_speed
-            answer = self._answer(line_id, line, text, now, speed)
-            if answer is not None and answer.transfer is None:
-                if answer.data:
-                    out.append(LineSend(line_id, answer.data, answer.baud or speed))
-            elif answer is not None:
-                self._deliver(line, text, answer, now, speed)
+        answer, speed = self._command(line_id, line, text, False, now)
+        if answer is not None and answer.transfer is None:
+            if answer.data:
+                out.append(LineSend(line_id, answer.data, answer.baud or speed))
+        elif answer is not None:
+            self._deliver(line, text, answer, now, speed)
         self._messages(now)
         if self._busy:
             out += self._drain(now)
@@ -309,7 +305,9 @@ class Engine:
             transfers.expire(self, line, now)
         if line.pending is not None and now >= line.run_at:
             command, line.pending = line.pending, None
-            self._run(line_id, line, command, now, line.speed, paused=True)
+            answer = self._answer(line_id, line, command, now, line.speed, paused=True)
+            if answer is not None:
+                self._deliver(line, command, answer, now, line.speed)
             if line.pending is None:
                 backlog, line.backlog = bytes(line.backlog), bytearray()
                 if backlog:
@@ -391,27 +389,21 @@ class Engine:
             self.send(line, bytes(echo), now)
 
     def _complete(self, line_id: int, line: _Line, text: str, overflow: bool, now: float) -> None:
+        answer, speed = self._command(line_id, line, text, overflow, now)
+        if answer is not None:
+            self._deliver(line, text, answer, now, speed)
+
+    def _command(
+        self, line_id: int, line: _Line, text: str, overflow: bool, now: float
+    ) -> tuple[Answer | None, int | None]:
+        """A completed command line runs: its answer (None: silence, an empty line, or the
+        line waits) and the rate it goes at."""
         if not text.strip(" "):
-            return  # an empty line gets no answer
+            return None, None  # an empty line gets no answer
         line.blocks_messages = True  # §6.14.9.2: the first command blocks messages
         self._blocking.add(line_id)
         speed = self.com_speed  # `write com speed` takes effect after its own OK (§6.11.2)
-        self._run(line_id, line, text, now, speed, overflow=overflow)
-
-    def _run(
-        self,
-        line_id: int,
-        line: _Line,
-        text: str,
-        now: float,
-        speed: int | None,
-        *,
-        overflow: bool = False,
-        paused: bool = False,
-    ) -> None:
-        answer = self._answer(line_id, line, text, now, speed, overflow=overflow, paused=paused)
-        if answer is not None:
-            self._deliver(line, text, answer, now, speed)
+        return self._answer(line_id, line, text, now, speed, overflow=overflow), speed
 
     def _answer(
         self,

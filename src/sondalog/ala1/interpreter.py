@@ -22,6 +22,7 @@ from sondalog.protocol.cksum import cksum
 #: Keyword sets matched on every line (one-word keywords: :meth:`Cursor.choose_word`).
 _SWITCH_WORDS = ("read", "write")
 _HEADER_OR_SWITCH = (*HEADER_WORDS, *_SWITCH_WORDS)
+_OK = b"OK\r\n"
 #: The most parsed lines kept (:class:`Plan`).
 MAX_PLANS = 256
 
@@ -308,6 +309,8 @@ class Interpreter:
     # -- answers ---------------------------------------------------------------------------
     def _render(self, lines: list[str], headers: Headers, view: Transaction) -> bytes:
         """Decorate every line (spec notes §3 order), add crcsum and OK."""
+        if not headers.seen:  # no header: the lines as they are (what decorate does then)
+            return "".join(f"{line}\r\n" for line in lines).encode("latin-1", "replace") + _OK
         prefix = headers.startline
         if headers.iname:
             prefix += view.get("i name") + ","

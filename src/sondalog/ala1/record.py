@@ -33,7 +33,9 @@ class RecordChanges:
 
 
 @dataclass(frozen=True, slots=True)
-class _Mark:
+class RecordMark:
+    """What :meth:`RecordMemory.rollback` goes back to (:meth:`RecordMemory.mark`)."""
+
     length: int
     head: int
     chars: int
@@ -164,12 +166,12 @@ class RecordMemory:
         self.cyclic = cyclic
 
     # -- transactions ------------------------------------------------------------------------
-    def mark(self) -> _Mark:
-        return _Mark(
+    def mark(self) -> RecordMark:
+        return RecordMark(
             len(self._rows), self._head, self.chars, self.wrapped, self.refused, self._staged
         )
 
-    def rollback(self, mark: _Mark) -> None:
+    def rollback(self, mark: RecordMark) -> None:
         del self._rows[mark.length :]
         self._head, self.chars = mark.head, mark.chars
         self.wrapped, self.refused, self._staged = mark.wrapped, mark.refused, mark.staged

@@ -28,7 +28,7 @@ from sondalog.ala1.moduleclock import (
 from sondalog.ala1.ondemand import OnDemand, measure_now
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.parser import Plan
-from sondalog.ala1.record import RecordChanges, RecordMemory
+from sondalog.ala1.record import RecordChanges, RecordMark, RecordMemory
 from sondalog.ala1.sampling import Outputs, Sampler
 from sondalog.ala1.tokens import format_stamp
 from sondalog.protocol.tables import TableSet
@@ -321,7 +321,8 @@ class Transaction:
         self.runs: list[int] = []  # messages started by this line (§6.14.8)
         #: last-read points a `shift` moves only after a delivery (§6.8.4.1); None: at once
         self.deferred: dict[str, str] | None = None
-        self._mark = state.record.mark()
+        #: The record as it was before this line changed it (None: unchanged so far).
+        self._mark: RecordMark | None = None
 
     def default(self, key: str) -> str:
         info = self.state.keys[key]
@@ -366,6 +367,7 @@ class Transaction:
         self.clock = moment
 
     def clear_record(self) -> None:
+        self._keep_mark()
         self.record.clear()
 
     def release_line(self) -> None:
@@ -398,11 +400,18 @@ class Transaction:
 
     def append_row(self, row_type: int, body: str) -> None:
         """Store a row of type ``row_type`` written now (§9)."""
+        self._keep_mark()
         self.record.append(format_stamp(self.now()), f"{row_type},{body}")
+
+    def _keep_mark(self) -> None:
+        """Before the line's first change of the record: what a rollback goes back to."""
+        if self._mark is None:
+            self._mark = self.record.mark()
 
     # -- end of the line -----------------------------------------------------------------------
     def rollback(self) -> None:
-        self.record.rollback(self._mark)
+        if self._mark is not None:
+            self.record.rollback(self._mark)
 
     def commit(self) -> None:
         """Make the line's effects durable, then visible."""

@@ -138,14 +138,14 @@ class Engine:
 
     def _local_ready(self) -> bool:
         """A cable line is attached and none blocks messages (§6.14.9.2)."""
-        return bool(self._lines) and not self.messages_blocked
+        return bool(self._lines) and not self._blocking
 
     def _messages(self, now: float) -> None:
         """§6.14: messages that may go now; with ``com device local`` this is their carrier:
         the body goes on every line as plain text, and that counts as delivered."""
         if self.modem is not None:
             self._sync_modem()
-        ready = bool(self._lines) and not self._blocking  # (:meth:`_local_ready`)
+        ready = self._local_ready()
         self.messages.step(now, local_ready=ready)
         while ready and (outgoing := self.outbox.take("local")) is not None:
             data = outgoing.body.encode("latin-1", "replace")
@@ -197,11 +197,10 @@ class Engine:
         self.state.run_sampling(now)
         out: list[LineSend] = []
         answer, speed = self._command(line_id, line, text, False, now)
-        if answer is not None and answer.transfer is None:
-            if answer.data:
-                out.append(LineSend(line_id, answer.data, answer.baud or speed))
-        elif answer is not None:
-            self._deliver(line, text, answer, now, speed)
+        if answer is not None and answer.transfer is not None:
+            self._deliver(line, text, answer, now, speed)  # XMODEM goes through the queue
+        elif answer is not None and answer.data:
+            out.append(LineSend(line_id, answer.data, answer.baud or speed))
         self._messages(now)
         if self._busy:
             out += self._drain(now)
@@ -242,7 +241,7 @@ class Engine:
             if (modem := self.modem.next_deadline()) is not None:
                 deadlines.append(modem)
             self._sync_modem()  # a modem no longer busy wakes the messages that waited for it
-        message = self.messages.next_deadline(local_ready=bool(self._lines) and not self._blocking)
+        message = self.messages.next_deadline(local_ready=self._local_ready())
         if message is not None:
             deadlines.append(message)
         idle: list[int] = []

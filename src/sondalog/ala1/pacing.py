@@ -63,7 +63,7 @@ class Pacer:
 
     def quiet(self) -> bool:
         """Unpaced and :meth:`idle`: what is sent now leaves at once, nothing before it."""
-        return not self.paced and not self._queue and self._stopped_at is None
+        return not self.paced and self.idle()
 
     def pending(self) -> int:
         return sum(len(d) for d, _ in self._queue) - self._offset

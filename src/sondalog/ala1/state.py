@@ -416,11 +416,6 @@ class Transaction:
     def commit(self) -> None:
         """Make the line's effects durable, then visible."""
         state = self.state
-        if not self.changes and not self.reset_all and self.clock is None and not self.runs:
-            record = self.record.take_changes()  # a line of reads, or of rows only
-            if record is not None:
-                state.store.commit({}, None, record, seen=self.host_now)
-            return
         changes = dict(self.changes)
         for key in self.deferred or ():
             del changes[key]  # committed after the delivery (§6.8.4.1)
@@ -434,19 +429,19 @@ class Transaction:
         record = self.record.take_changes()
         if changes or offset is not None or record is not None:
             state.store.commit(changes, offset, record, seen=self.host_now)
-        for key, value in changes.items():
-            if value is None:
-                state.values.pop(key, None)
-            else:
-                state.values[key] = value
-        if changes:
+        if changes:  # (a line of reads changes nothing: none of this runs)
+            for key, value in changes.items():
+                if value is None:
+                    state.values.pop(key, None)
+                else:
+                    state.values[key] = value
             state.forget_values()
-        if offset is not None or any(key.startswith("message ") for key in changes):
+        if offset is not None or (changes and any(key.startswith("message ") for key in changes)):
             state.generation += 1
         state.message_runs.extend(self.runs)
         if offset is not None:
             state.clock_offset = offset
-        if any(key.startswith(_LIVE_PREFIXES) for key in changes) or self.reset_all:
+        if self.reset_all or (changes and any(key.startswith(_LIVE_PREFIXES) for key in changes)):
             state.configure(self.host_now)
         if offset is not None:
             state.sampler.reschedule(math.floor(state.module_seconds(self.host_now)))

@@ -71,8 +71,9 @@ class DeviceHost:
         self.device = device
         self.clock = clock
         self._handlers: dict[type[Effect], EffectHandler] = {}
-        self._sinks: dict[int, OutputSink] = {}
-        self._byte_sinks: dict[int, Sink] = {}  # the sinks that take bytes only
+        # Every attached line has one sink: bytes only (transports), or each LineSend.
+        self._byte_sinks: dict[int, Sink] = {}
+        self._output_sinks: dict[int, OutputSink] = {}
         self._armed: float | None = None
         self._rearm = asyncio.Event()
         self._timer: asyncio.Task[None] | None = None
@@ -94,7 +95,7 @@ class DeviceHost:
             with contextlib.suppress(asyncio.CancelledError):
                 await self._timer
             self._timer = None
-        for line_id in list(self._sinks):
+        for line_id in [*self._byte_sinks, *self._output_sinks]:
             self.detach(line_id)
 
     # -- lines -------------------------------------------------------------------------------
@@ -104,8 +105,8 @@ class DeviceHost:
         ``paced``: the engine releases the output at ``com speed`` (serial and pty lines, TCP
         with ``--line-rate``); the sink just writes what it gets.
         """
-        line_id = self.attach_output(lambda output: sink(output.data), paced=paced, flow=flow)
-        self._byte_sinks[line_id] = sink  # (what the lambda does, one call less per answer)
+        line_id = self._open(paced, flow)
+        self._byte_sinks[line_id] = sink
         return line_id
 
     def attach_output(
@@ -114,20 +115,27 @@ class DeviceHost:
         """Like :meth:`attach`, for a sink that needs each :class:`Output`'s baud rate.
 
         ``flow``: the transport to pause while this line's unprocessed input piles up."""
+        line_id = self._open(paced, flow)
+        self._output_sinks[line_id] = sink
+        return line_id
+
+    def _open(self, paced: bool, flow: FlowControl | None) -> int:
         line_id = self.device.open_line(paced=paced)
-        self._sinks[line_id] = sink
         if flow is not None:
             self._flows[line_id] = flow
         return line_id
 
+    def _attached(self, line_id: int) -> bool:
+        return line_id in self._byte_sinks or line_id in self._output_sinks
+
     def adopt(self, line_id: int, sink: OutputSink) -> None:
         """Route a line the device opened itself (the ALA1's modem line) to ``sink``."""
-        self._sinks[line_id] = sink
+        self._output_sinks[line_id] = sink
 
     def detach(self, line_id: int) -> None:
         """The connection is gone: its partial command and pending output are dropped."""
-        self._sinks.pop(line_id, None)
         self._byte_sinks.pop(line_id, None)
+        self._output_sinks.pop(line_id, None)
         self._pending.pop(line_id, None)
         self._flows.pop(line_id, None)
         try:
@@ -139,7 +147,7 @@ class DeviceHost:
     def feed(self, line_id: int, data: bytes) -> None:
         """Bytes received on a line: queued, then run through the engine one command line
         per line and turn of the event loop, round-robin (issue 9: fair service)."""
-        if line_id not in self._sinks:
+        if not self._attached(line_id):
             return
         pending = self._pending.get(line_id)
         if (
@@ -193,7 +201,7 @@ class DeviceHost:
         """Bytes from a device's own peer (the ALA1's modem) run at once and whole: they are
         not a person's command lines to share out fairly, and their result codes must not be
         cut apart (``\r\nSHUTDOWN\r\n``)."""
-        if line_id in self._sinks:
+        if self._attached(line_id):
             self._receive(line_id, data)
             self._check_deadline()
 
@@ -241,7 +249,7 @@ class DeviceHost:
                 byte_sink = self._byte_sinks.get(output.line)
                 if byte_sink is not None:
                     byte_sink(output.data)
-                elif (sink := self._sinks.get(output.line)) is not None:
+                elif (sink := self._output_sinks.get(output.line)) is not None:
                     sink(output)
                 # (else the line went away while its answer was pending)
             except Exception:

@@ -209,8 +209,8 @@ def read_values(view: View, targets: list[Indices], arg: str | None) -> list[str
 def write_values(view: View, targets: list[Indices], values: list[str]) -> None:
     """§6.5.8: measure the channels now and store them as one row of type t (default 2)."""
     count = int(view.get("channel max number"))
-    fields = [""] * max(count, max(t["ch"] for t in targets))
     channels = [t["ch"] for t in targets]
+    fields = [""] * max(count, *channels)
     for ch, value in zip(channels, view.measure_many(channels), strict=True):
         fields[ch - 1] = value
     view.append_row(int(values[0]) if values else 2, ",".join(fields[:count]))

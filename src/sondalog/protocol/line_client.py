@@ -5,18 +5,22 @@ means the peer closed the connection), sends whatever :meth:`LineClient.data_to_
 returns, reads results with :meth:`LineClient.next_event`, and calls
 :meth:`LineClient.handle_timeout` once the time passes :attr:`LineClient.deadline`. Time is
 always given by the caller (any monotonic clock, in seconds); the core never reads a clock.
-When :attr:`LineClient.wants_close` is true the caller closes the connection.
+When :attr:`LineClient.wants_close` is true the caller closes the connection. The end of the
+conversation is :attr:`LineClient.result` (also the last event).
 """
 
 from __future__ import annotations
 
 from collections import deque
+from typing import Generic, TypeVar
 
 MAX_LINE = 4096  # longest server line accepted (RFC 5321 allows 512, RFC 2449 512)
 
+R = TypeVar("R")
 
-class LineClient:
-    """Buffers, line splitting, one deadline, an event queue and the closing flag."""
+
+class LineClient(Generic[R]):
+    """Buffers, line splitting, one deadline, an event queue, the closing flag, the result."""
 
     def __init__(self, timeout: float) -> None:
         if timeout <= 0:
@@ -29,6 +33,7 @@ class LineClient:
         self._started = False
         self.wants_close = False
         self.max_line = MAX_LINE
+        self.result: R | None = None
 
     # -- the caller's side -------------------------------------------------------------
     def start(self, now: float) -> None:
@@ -70,6 +75,10 @@ class LineClient:
         if self._deadline is not None and now >= self._deadline and not self.wants_close:
             self._timed_out(now)
 
+    def connection_failed(self, why: str) -> None:
+        """The transport could not connect (or broke): the result is ``broken``."""
+        self._broken(why)
+
     # -- for subclasses ----------------------------------------------------------------
     def _lines(self, now: float) -> None:
         while not self.wants_close:
@@ -90,6 +99,11 @@ class LineClient:
 
     def _emit(self, event: object) -> None:
         self._events.append(event)
+
+    def _finish(self, result: R) -> None:
+        if self.result is None:
+            self.result = result
+            self._emit(result)
 
     def _line(self, line: bytes, now: float) -> None:
         raise NotImplementedError

@@ -94,12 +94,17 @@ def check_address(text: str) -> str:
     return addr
 
 
-def parse_email_value(text: str) -> tuple[str, MailServer | None]:
-    """An ``email`` address value (§6.10.3): the address and its own SMTP server, if any."""
-    value = text.strip()
+def split_email_value(value: str) -> tuple[str, str | None]:
+    """``addr@domain[@server]`` cut after its second ``@``, unchecked; ``None``: no server."""
     local, at1, rest = value.partition("@")
     domain, at2, server = rest.partition("@")
-    address = check_address(f"{local}{at1}{domain}")
-    if not at2:
+    return f"{local}{at1}{domain}", server if at2 else None
+
+
+def parse_email_value(text: str) -> tuple[str, MailServer | None]:
+    """An ``email`` address value (§6.10.3): the address and its own SMTP server, if any."""
+    address, server = split_email_value(text.strip())
+    address = check_address(address)
+    if server is None:
         return address, None
     return address, parse_smtp_server(server)

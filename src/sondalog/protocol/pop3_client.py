@@ -51,7 +51,7 @@ class Pop3Result:
         return f"{self.outcome} at {self.stage}{size}: {self.detail}".rstrip(": ")
 
 
-class Pop3Check(LineClient):
+class Pop3Check(LineClient[Pop3Result]):
     """One check of the command mailbox ``user``/``password`` (§6.11.6.4)."""
 
     def __init__(
@@ -77,7 +77,6 @@ class Pop3Check(LineClient):
         self._size: int | None = None
         self._pending: Pop3Result | None = None  # decided, waiting for QUIT's +OK
         self._body: bytearray | None = None  # while RETR's lines arrive
-        self.result: Pop3Result | None = None
 
     # -- input -------------------------------------------------------------------------
     def _line(self, line: bytes, now: float) -> None:
@@ -191,11 +190,6 @@ class Pop3Check(LineClient):
         self._send(b"QUIT\r\n", now)
 
     # -- endings -----------------------------------------------------------------------
-    def _finish(self, result: Pop3Result) -> None:
-        if self.result is None:
-            self.result = result
-            self._emit(result)
-
     def _fail(self, ok: bool, text: str, now: float) -> None:
         why = f"-ERR {text}" if not ok else f"unexpected answer {text!r}"
         self._finish(Pop3Result("failed", self._stage, None, self._size, why))
@@ -216,7 +210,3 @@ class Pop3Check(LineClient):
     def _broken(self, why: str) -> None:
         self._finish(Pop3Result("broken", self._stage, None, self._size, why))
         self._close()
-
-    def connection_failed(self, why: str) -> None:
-        """The transport could not connect (or broke): the result is ``broken``."""
-        self._broken(why)

@@ -17,10 +17,12 @@ message with CRLF line ends, as RETR sends it before byte-stuffing.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
+
+from .mail_text import byte_stuff, crlf_lines
+from .mail_text import crlf as crlf
 
 MAX_COMMAND = 1024  # RFC 2449: 255 octets; generous to clients, still bounded
 
@@ -59,21 +61,6 @@ class Pop3Store(Protocol):
     def open(self, user: str, password: str) -> Maildrop | None:
         """The user's maildrop, ``None`` for a bad user or password; may raise MaildropBusy."""
         ...
-
-
-_LINE_ENDS = re.compile(rb"\r\n|\r|\n")
-
-
-def crlf(message: bytes) -> bytes:
-    """``message`` with CRLF line ends, ending with CRLF (as POP3 carries it)."""
-    text = _LINE_ENDS.sub(b"\r\n", message)
-    return text if not text or text.endswith(b"\r\n") else text + b"\r\n"
-
-
-def byte_stuff(lines: Sequence[bytes]) -> bytes:
-    """Multi-line body: dots doubled at line starts, each line ended by CRLF, then ``.``."""
-    out = [b"." + ln if ln.startswith(b".") else ln for ln in lines]
-    return b"".join(ln + b"\r\n" for ln in out) + b".\r\n"
 
 
 CAPABILITIES = ("USER", "UIDL", "TOP", "RESP-CODES", "PIPELINING", "IMPLEMENTATION sondalog")
@@ -187,8 +174,8 @@ class Pop3Session:
         elif keyword == "RETR" and len(args) == 1:
             index = self._message(args[0], now)
             if index is not None:
-                content = crlf(drop.content(index))
-                self._multi(f"{len(content)} octets", content.split(b"\r\n")[:-1], now)
+                lines = crlf_lines(drop.content(index))
+                self._multi(f"{sum(len(ln) + 2 for ln in lines)} octets", lines, now)
         elif keyword == "TOP" and len(args) == 2:
             index = self._message(args[0], now)
             if index is not None:
@@ -225,7 +212,7 @@ class Pop3Session:
 
     def _top(self, index: int, n: int) -> list[bytes]:
         assert self._drop is not None
-        lines = crlf(self._drop.content(index)).split(b"\r\n")[:-1]
+        lines = crlf_lines(self._drop.content(index))
         try:
             blank = lines.index(b"")
         except ValueError:

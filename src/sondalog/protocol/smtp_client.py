@@ -21,12 +21,12 @@ reply is also an event (:class:`SmtpReply`), for tracing.
 from __future__ import annotations
 
 import base64
-import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
 from .line_client import LineClient
+from .mail_text import dot_stuff as dot_stuff
 
 SmtpOutcome = Literal["sent", "refused", "timeout", "broken"]
 
@@ -61,19 +61,6 @@ class SmtpResult:
         return f"{self.outcome} at {self.stage}: {why}" if why else f"{self.outcome}"
 
 
-_LINE_ENDS = re.compile(rb"\r\n|\r|\n")
-
-
-def dot_stuff(message: bytes) -> bytes:
-    """The DATA payload: CRLF line ends, leading dots doubled, the final ``.`` line."""
-    text = _LINE_ENDS.sub(b"\r\n", message)
-    if text and not text.endswith(b"\r\n"):
-        text += b"\r\n"
-    lines = text.split(b"\r\n")
-    stuffed = b"\r\n".join(b"." + ln if ln.startswith(b".") else ln for ln in lines)
-    return stuffed + b".\r\n"
-
-
 def _b64(data: bytes) -> bytes:
     return base64.b64encode(data)
 
@@ -84,7 +71,7 @@ def _envelope_address(addr: str) -> str:
     return addr
 
 
-class SmtpClient(LineClient):
+class SmtpClient(LineClient[SmtpResult]):
     """Sends ``message`` from ``sender`` to ``recipients`` through one SMTP conversation."""
 
     def __init__(
@@ -111,7 +98,6 @@ class SmtpClient(LineClient):
         self._rcpt_index = 0
         self._reply_lines: list[str] = []
         self._mechanisms: list[str] | None = None  # None: EHLO listed no AUTH
-        self.result: SmtpResult | None = None
 
     # -- replies -----------------------------------------------------------------------
     def _line(self, line: bytes, now: float) -> None:
@@ -221,11 +207,6 @@ class SmtpClient(LineClient):
         self._send(self._payload, now)
 
     # -- endings -----------------------------------------------------------------------
-    def _finish(self, result: SmtpResult) -> None:
-        if self.result is None:
-            self.result = result
-            self._emit(result)
-
     def _refuse(self, reply: SmtpReply, now: float) -> None:
         self._finish(SmtpResult("refused", self._stage, reply))
         self._command("quit", "QUIT", now)
@@ -241,7 +222,3 @@ class SmtpClient(LineClient):
     def _broken(self, why: str) -> None:
         self._finish(SmtpResult("broken", self._stage, detail=why))
         self._close()
-
-    def connection_failed(self, why: str) -> None:
-        """The transport could not connect (or broke): the result is ``broken``."""
-        self._broken(why)

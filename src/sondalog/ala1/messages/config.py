@@ -16,6 +16,7 @@ from typing import Protocol
 from sondalog.ala1.moduleclock import to_seconds
 from sondalog.ala1.outbox import Destination
 from sondalog.ala1.tokens import parse_stamp
+from sondalog.protocol.mail_address import split_email_value
 
 
 class Settings(Protocol):
@@ -94,9 +95,5 @@ def destinations(settings: Module, config: MessageConfig) -> tuple[Destination, 
         if kind == "SMS":
             found.append(Destination("sms", value))
         elif kind == "EMAIL":
-            parts = value.split("@", 2)
-            if len(parts) == 3:
-                found.append(Destination("email", f"{parts[0]}@{parts[1]}", parts[2]))
-            else:
-                found.append(Destination("email", value))
+            found.append(Destination("email", *split_email_value(value)))
     return tuple(found)

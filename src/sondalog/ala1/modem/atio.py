@@ -103,6 +103,15 @@ Request = At | Send | Await | Urc | Sleep | Write | Recv | CommandMode
 Job = Generator[Request, object, None]
 
 
+def as_reply(value: object) -> Reply:
+    """The answer to an :class:`At` or :class:`Send` (anything else: no answer in time)."""
+    return value if isinstance(value, Reply) else Reply("")
+
+
+def at(line: str, timeout: float = 10.0) -> Generator[At, object, Reply]:
+    return as_reply((yield At(line, timeout)))
+
+
 @dataclass
 class ModemReader:
     """The modem's output cut into lines, the prompt, and raw data in data mode."""

@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import logging
 from collections import deque
+from collections.abc import Generator
 from typing import Protocol
 
-from sondalog.ala1.modem import jobs
+from sondalog.ala1.modem import jobs, mailjobs
 from sondalog.ala1.modem.atio import (
     At,
     Await,
@@ -51,6 +52,8 @@ LOCAL = "LOCAL"
 #: wavecom42: how often a lost GPRS attachment (and the port 10001 server) is tried again.
 GPRS_RETRY = 60.0
 _BUSY_URCS = ("+CMTI:", "RING", "+CRING:", "+WIPACCEPT:")
+#: A running job: a :data:`Job`, or ``mailjobs.gprs_up`` (its result is not used).
+_Running = Generator[Request, object, object]
 
 
 class Host(Protocol):
@@ -100,7 +103,7 @@ class ModemDriver:
         self.replies: deque[MailReply] = deque()
         self._out = bytearray()
         self._urcs: deque[str] = deque()
-        self._job: Job | None = None
+        self._job: _Running | None = None
         self._kind = ""
         self._wait: Request | None = None
         self._lines: list[str] = []
@@ -181,7 +184,7 @@ class ModemDriver:
         return None
 
     # -- running jobs --------------------------------------------------------------------
-    def _start(self, kind: str, job: Job) -> None:
+    def _start(self, kind: str, job: _Running) -> None:
         self._job, self._kind = job, kind
         self._resume(None)
 
@@ -296,7 +299,7 @@ class ModemDriver:
                 return
             self._start(*job)
 
-    def _next_job(self) -> tuple[str, Job] | None:
+    def _next_job(self) -> tuple[str, _Running] | None:
         device = self.device
         if device == LOCAL:
             self.present, self.applied = None, None
@@ -318,9 +321,9 @@ class ModemDriver:
             return "send", jobs.deliver(self, item)
         if self._wants_attach() and self.now >= self._gprs_retry:
             self._gprs_retry = self.now + GPRS_RETRY
-            return "idle", jobs.attach(self)
+            return "idle", mailjobs.gprs_up(self)
         if device != "WAVECOM42" and self.gprs:
-            return "idle", jobs.gprs_down(self)
+            return "idle", mailjobs.gprs_down(self)
         if device == "WAVECOM40" and self.radio:
             return "idle", jobs.radio(self, False)
         return None

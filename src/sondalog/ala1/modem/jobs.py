@@ -10,7 +10,18 @@ from collections.abc import Generator
 from typing import TYPE_CHECKING
 
 from sondalog.ala1.modem import mailjobs
-from sondalog.ala1.modem.atio import CTRL_Z, At, Job, MailReply, Reply, Request, Send, Sleep, Urc
+from sondalog.ala1.modem.atio import (
+    CTRL_Z,
+    At,
+    Job,
+    MailReply,
+    Request,
+    Send,
+    Sleep,
+    Urc,
+    as_reply,
+    at,
+)
 from sondalog.ala1.modem.credit import credit_from_answer, parse_credit_code, rssi_from_csq
 from sondalog.ala1.modem.session import data_session
 from sondalog.ala1.modem.text import gsm7_text, split_sms
@@ -27,19 +38,11 @@ SETUP = ("ATE0", "AT+CMEE=1", "AT+CMGF=1", "AT+CLIP=1", "AT+CRC=1", "AT+CNMI=2,1
          "AT+CREG=1")  # fmt: skip
 
 
-def _reply(value: object) -> Reply:
-    return value if isinstance(value, Reply) else Reply("")
-
-
-def at(line: str, timeout: float = 10.0) -> Generator[At, object, Reply]:
-    return _reply((yield At(line, timeout)))
-
-
 def probe(d: ModemDriver) -> Job:
     """§6.11.5.2.1: is a modem there? ``AT`` answered within 1 s."""
     from sondalog.ala1.modem.driver import PROBE_TIMEOUT
 
-    reply = _reply((yield At("AT", PROBE_TIMEOUT)))
+    reply = yield from at("AT", PROBE_TIMEOUT)
     d.found(reply.final != "")
 
 
@@ -57,7 +60,7 @@ def init(d: ModemDriver, device: str) -> Job:
     if device == "WAVECOM42":
         yield from mailjobs.gprs_up(d)
     elif d.gprs:
-        yield from gprs_down(d)
+        yield from mailjobs.gprs_down(d)
     d.applied = device
 
 
@@ -68,15 +71,6 @@ def radio(d: ModemDriver, on: bool) -> Job:
         if not on:
             d.registered_since = None
             d.gprs = d.listening = False
-
-
-def attach(d: ModemDriver) -> Job:
-    """wavecom42 in idle: attached to GPRS, listening on port 10001 (§6.11.5.2.4)."""
-    yield from mailjobs.gprs_up(d)
-
-
-def gprs_down(d: ModemDriver) -> Job:
-    yield from mailjobs.gprs_down(d)
 
 
 def registered(d: ModemDriver) -> Generator[Request, object, bool]:
@@ -99,6 +93,14 @@ def registered(d: ModemDriver) -> Generator[Request, object, bool]:
         if reply.final == "" or d.now >= end:
             return False
         yield Sleep(REGISTRATION_POLL)
+
+
+def ready(d: ModemDriver) -> Generator[Request, object, bool]:
+    """:func:`registered`, then the :func:`readings` taken: whether the modem can send."""
+    ok = yield from registered(d)
+    if ok:
+        yield from readings(d)
+    return ok
 
 
 def readings(d: ModemDriver) -> Generator[Request, object, None]:
@@ -124,20 +126,18 @@ def send_sms(d: ModemDriver, number: str, text: str) -> Generator[Request, objec
     if not number or any(c in number for c in '"\r\n'):
         return False
     for part in split_sms(gsm7_text(text)):
-        prompt = _reply((yield At(f'AT+CMGS="{number}"', 10.0, prompt=True)))
+        prompt = as_reply((yield At(f'AT+CMGS="{number}"', 10.0, prompt=True)))
         if prompt.final != ">":
             return False
         data = part.encode("latin-1", "replace") + CTRL_Z
-        if not _reply((yield Send(data, 60.0))).ok:
+        if not as_reply((yield Send(data, 60.0))).ok:
             return False
     return True
 
 
 def deliver(d: ModemDriver, item: Outgoing) -> Job:
     """One Outbox sending: every ``sms`` and ``email`` destination; then ``done``."""
-    ok = yield from registered(d)
-    if ok:
-        yield from readings(d)
+    ok = yield from ready(d)
     subject = item.subject if item.subject is not None else d.host.setting("email send subject")
     for dest in item.destinations:
         if not ok:
@@ -186,15 +186,12 @@ def read_sms(d: ModemDriver, index: int) -> Job:
     if found.return_address is not None:
         d.replies.append(MailReply(found.return_address, answer))
         return
-    if (yield from registered(d)):
-        yield from readings(d)
+    if (yield from ready(d)):
         yield from send_sms(d, sender, answer)
 
 
 def mail_reply(d: ModemDriver, reply: MailReply) -> Job:
-    ok = yield from registered(d)
-    if ok:
-        yield from readings(d)
+    if (yield from ready(d)):
         subject = d.host.setting("email send subject")
         yield from mailjobs.send_mail(d, reply.address, None, subject, reply.body)
 

@@ -14,7 +14,7 @@ from collections.abc import Generator
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
-from sondalog.ala1.modem.atio import At, MailReply, Recv, Reply, Request, Urc, Write
+from sondalog.ala1.modem.atio import At, MailReply, Recv, Request, Urc, Write, at
 from sondalog.ala1.modem.session import SHUTDOWN, leave_data_mode
 from sondalog.protocol.mail_address import MailAddressError, parse_pop3_server, parse_smtp_server
 from sondalog.protocol.mail_command import MailCommand, build_mail, parse_command_mail
@@ -33,12 +33,8 @@ MAIL_TIMEOUT = 60.0
 DEFAULT_FROM = "ala1@localhost"
 
 
-def _ok(value: object) -> bool:
-    return isinstance(value, Reply) and value.ok
-
-
 def gprs_up(d: ModemDriver) -> Generator[Request, object, bool]:
-    """Attach to GPRS (and listen on port 10001 in ``wavecom42``)."""
+    """Attach to GPRS (and listen on port 10001 in ``wavecom42``, §6.11.5.2.4)."""
     from sondalog.ala1.modem.jobs import registered
 
     if not d.gprs:
@@ -48,11 +44,11 @@ def gprs_up(d: ModemDriver) -> Generator[Request, object, bool]:
         yield At("AT+WIPBR=1,6")
         apn = d.host.setting("com network apn address").replace('"', "")
         yield At(f'AT+WIPBR=2,6,11,"{apn}"')
-        d.gprs = _ok((yield At("AT+WIPBR=4,6,0", 60.0)))
+        d.gprs = (yield from at("AT+WIPBR=4,6,0", 60.0)).ok
         d.listening = False
     if d.gprs and not d.listening and d.host.setting("com device") == "WAVECOM42":
         first, last = SERVER_SOCKETS
-        d.listening = _ok((yield At(f"AT+WIPCREATE=3,{SERVER},{COMMAND_PORT},{first},{last}")))
+        d.listening = (yield from at(f"AT+WIPCREATE=3,{SERVER},{COMMAND_PORT},{first},{last}")).ok
     return d.gprs
 
 
@@ -72,7 +68,7 @@ def tcp(
     if not (yield from gprs_up(d)) or '"' in host:
         client.connection_failed("no GPRS connection")
         return
-    if not _ok((yield At(f'AT+WIPCREATE=2,{SOCKET},"{host}",{port}'))):
+    if not (yield from at(f'AT+WIPCREATE=2,{SOCKET},"{host}",{port}')).ok:
         d.gprs = d.listening = False  # the bearer went down under us: attach again next time
         client.connection_failed("socket refused")
         return
@@ -81,8 +77,8 @@ def tcp(
         client.connection_failed(f"cannot connect to {host}:{port}")
         yield At(f"AT+WIPCLOSE=2,{SOCKET}")
         return
-    connect = yield At(f"AT+WIPDATA=2,{SOCKET},1")
-    if not isinstance(connect, Reply) or not connect.final.startswith("CONNECT"):
+    connect = yield from at(f"AT+WIPDATA=2,{SOCKET},1")
+    if not connect.final.startswith("CONNECT"):
         client.connection_failed("no data mode")
         yield At(f"AT+WIPCLOSE=2,{SOCKET}")
         return

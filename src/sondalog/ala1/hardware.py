@@ -23,6 +23,12 @@ DS18B20_SCALE = 3276.8
 DS18B20_FAMILY = 0x28
 #: A DS18B20 temperature conversion takes 750 ms (spec notes §7).
 DS18B20_CONVERSION = 0.75
+#: The MSP430's internal A/D reference, volts (§6.4.4.1).
+INTERNAL_REFERENCE = 2.5
+#: Full scale of the 12-bit A/D converter.
+ADC_LEVELS = 4095
+#: The MSP430ADC input addresses (§6.5.5); 32..36 are the pins of 16..20 (external reference).
+ANALOG_ADDRESSES = (16, 17, 18, 19, 20, 24, 32, 33, 34, 35, 36)
 
 
 class Hardware(Protocol):
@@ -113,3 +119,18 @@ def rom_code(serial: int) -> int:
 def rom_valid(code: int) -> bool:
     raw = code.to_bytes(8, "little")
     return raw[0] == DS18B20_FAMILY and dallas_crc8(raw[:7]) == raw[7]
+
+
+def pin_of(address: int) -> int:
+    """The physical input of an MSP430ADC address: external-reference addresses (32..36)
+    name the same pins as 16..20 (§6.5.5)."""
+    return address - 16 if address >= 32 else address
+
+
+def normalise(volts: float, reference: float = INTERNAL_REFERENCE) -> float:
+    """Volts on an input -> the 12-bit reading (fraction of ``reference``) that saturates at
+    both ends (spec notes §7); NaN reads as 0."""
+    fraction = volts / reference
+    if fraction >= 1.0:
+        return 1.0
+    return round(fraction * ADC_LEVELS) / ADC_LEVELS if fraction > 0.0 else 0.0

@@ -27,8 +27,8 @@ from typing import Any, Protocol
 
 from sondalog.client.records import COUNTERS, make_key
 from sondalog.collect.model import Reading
+from sondalog.collect.schema import COLUMNS
 
-COLUMNS = ("logger", "time", "counter", "type", "channel", "value", "text", "name", "unit", "utc")
 CSV_HEADER = ",".join(COLUMNS)
 _TAIL = 256 * 1024
 
@@ -90,6 +90,17 @@ def as_record(r: Reading) -> dict[str, Any]:
         "unit": r.unit,
         "utc": iso_utc(r.utc),
     }
+
+
+def note_appended(export: ExportFile, readings: Sequence[Reading]) -> None:
+    """Point ``export``'s logger, cursor and held_last at the last row of ``readings``."""
+    export.logger = readings[-1].logger
+    export.cursor = cursor = make_key(readings[-1].time, readings[-1].counter)
+    export.held_last = frozenset(
+        (make_key(r.time, r.counter), r.channel)
+        for r in readings
+        if make_key(r.time, r.counter) == cursor
+    )
 
 
 def check_logger(export: ExportFile, logger: str) -> None:
@@ -204,13 +215,7 @@ class _LineExport:
             return
         self._write(self._encode(readings))
         self.rows += len(readings)
-        self.logger = readings[-1].logger
-        self.cursor = make_key(readings[-1].time, readings[-1].counter)
-        self.held_last = frozenset(
-            (make_key(r.time, r.counter), r.channel)
-            for r in readings
-            if make_key(r.time, r.counter) == self.cursor
-        )
+        note_appended(self, readings)
 
     def close(self) -> None:
         self._file.close()
@@ -237,22 +242,7 @@ class CsvExport(_LineExport):
 
     def _encode(self, readings: Sequence[Reading]) -> bytes:
         out = io.StringIO()
-        writer = csv.writer(out, lineterminator="\n")
-        for r in readings:
-            writer.writerow(
-                (
-                    r.logger,
-                    r.time.isoformat(timespec="seconds"),
-                    r.counter,
-                    r.type,
-                    r.channel,
-                    "" if r.value is None else repr(r.value),
-                    r.text or "",
-                    r.name or "",
-                    r.unit or "",
-                    iso_utc(r.utc) or "",
-                )
-            )
+        csv.writer(out, lineterminator="\n").writerows(as_record(r).values() for r in readings)
         return out.getvalue().encode("utf-8")
 
 

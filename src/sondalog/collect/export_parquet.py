@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.client.records import make_key
-from sondalog.collect.export import COLUMNS, ExportError, as_record
+from sondalog.collect.export import ExportError, as_record, note_appended
 from sondalog.collect.model import Reading
+from sondalog.collect.schema import COLUMNS
 
 
 def _pyarrow() -> tuple[Any, Any]:
@@ -87,13 +88,7 @@ class ParquetExport:
         self._new.extend(as_record(r) for r in readings)
         self.rows += len(readings)
         if readings:
-            self.logger = readings[-1].logger
-            self.cursor = make_key(readings[-1].time, readings[-1].counter)
-            self.held_last = frozenset(
-                (make_key(r.time, r.counter), r.channel)
-                for r in readings
-                if make_key(r.time, r.counter) == self.cursor
-            )
+            note_appended(self, readings)
 
     def close(self) -> None:
         """Write the file (old rows, then new ones) atomically; nothing new: untouched."""

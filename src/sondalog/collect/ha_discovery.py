@@ -18,6 +18,7 @@ unknown); ``time`` is the logger's own clock (``utc`` is added when known). A te
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -82,11 +83,15 @@ def safe_id(text: str) -> str:
 
 def origin() -> dict[str, str]:
     """The ``o`` mapping: which application sent the discovery."""
+    return {"name": "sondalog", "sw": _version()}
+
+
+@functools.cache
+def _version() -> str:
     try:
-        version = metadata.version("sondalog")
+        return metadata.version("sondalog")
     except metadata.PackageNotFoundError:  # pragma: no cover - running from a bare tree
-        version = "0"
-    return {"name": "sondalog", "sw": version}
+        return "0"
 
 
 @dataclass(frozen=True, slots=True)

@@ -22,6 +22,8 @@ channels (sporadic pulses, §6.5.6.4) as bars.
 from __future__ import annotations
 
 SCHEMA_VERSION = 1
+#: A reading's columns in exports and the dashboard's CSV download (long form), in order.
+COLUMNS = ("logger", "time", "counter", "type", "channel", "value", "text", "name", "unit", "utc")
 
 #: SQLite DDL of schema version 1 (PostgreSQL uses the same columns with its own types).
 SQLITE_DDL = """

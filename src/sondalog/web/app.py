@@ -30,6 +30,8 @@ from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingR
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from sondalog.collect.schema import COLUMNS
+
 from . import overview, pages, series, store
 from .auth import TokenGate
 from .times import BadParameter, parse_time, shift, to_epoch
@@ -247,14 +249,13 @@ class Api:
         lo, hi = _range(request)
         await self._known(logger)
         path = self.settings.store
-        store.connect(path).close()  # a missing store answers 503 before the body starts
 
         def rows() -> Iterator[str]:
             conn = store.connect(path)
             try:
                 buf = io.StringIO()
                 out = csv.writer(buf, lineterminator="\n")
-                out.writerow(store.CSV_COLUMNS)
+                out.writerow(COLUMNS)
                 for n, row in enumerate(store.rows_for_csv(conn, logger, lo, hi)):
                     out.writerow(["" if v is None else v for v in row])
                     if n % 1000 == 999:

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from sondalog.collect.schema import COLUMNS
+
 #: How many of a logger's newest rows are read to find its channels and last values.
 RECENT_ROWS = 4000
 
@@ -200,18 +202,12 @@ def newer(
     )
 
 
-#: The long-form CSV header, the same as the download tool's.
-CSV_COLUMNS = (
-    *("logger", "time", "counter", "type", "channel"),
-    *("value", "text", "name", "unit", "utc"),
-)
-
-
 def rows_for_csv(
     conn: sqlite3.Connection, logger: str, lo: str | None, hi: str | None
 ) -> Iterator[tuple[Any, ...]]:
-    """Every row of ``logger`` in ``[lo, hi]`` (open ends allowed) in :data:`CSV_COLUMNS`."""
-    q = f"SELECT {', '.join(CSV_COLUMNS)} FROM readings WHERE logger = ?"
+    """Every row of ``logger`` in ``[lo, hi]`` (open ends allowed) in the long-form CSV's
+    :data:`~sondalog.collect.schema.COLUMNS`, the same as the download tool's."""
+    q = f"SELECT {', '.join(COLUMNS)} FROM readings WHERE logger = ?"
     params: list[object] = [logger]
     if lo is not None:
         q += " AND time >= ?"

@@ -61,12 +61,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
 
+from sondalog.ala1.hardware import ANALOG_ADDRESSES, pin_of
 from sondalog.backends.linux.gpio import BiasKind, EdgeKind
 from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, check_delays
-from sondalog.backends.sim.logger import pin_of
 from sondalog.sitefile import SiteError, locate, read_site_file
 
-_ANALOG_ADDRESSES = (16, 17, 18, 19, 20, 24, 32, 33, 34, 35, 36)
 _KEYS = {
     "board": {
         "backend",
@@ -265,8 +264,8 @@ def parse_board(
     analog: list[IioWiring] = []
     for where, entry in entries("analog"):
         address = entry.get("address")
-        if isinstance(address, bool) or address not in _ANALOG_ADDRESSES:
-            allowed = ", ".join(map(str, _ANALOG_ADDRESSES))
+        if isinstance(address, bool) or address not in ANALOG_ADDRESSES:
+            allowed = ", ".join(map(str, ANALOG_ADDRESSES))
             raise fail(f"{where}.address", f"must be an ADC input address ({allowed})")
         assert isinstance(address, int)
         if any(a.address is not None and pin_of(a.address) == pin_of(address) for a in analog):

@@ -27,16 +27,17 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.ala1.hardware import DS18B20_CONVERSION, DS18B20_SCALE, SUPPLY_DIVIDER
+from sondalog.ala1.hardware import (
+    DS18B20_CONVERSION,
+    DS18B20_SCALE,
+    INTERNAL_REFERENCE,
+    SUPPLY_DIVIDER,
+    normalise,
+    pin_of,
+)
 from sondalog.backends.linux.board import BoardConfig, IioWiring, PulseWiring
 from sondalog.backends.linux.gpio import EdgeLines, GpioChip, GpiodChip, OutputLines, PulseCounter
-from sondalog.backends.linux.iio import (
-    INTERNAL_REFERENCE,
-    IioChannel,
-    IioError,
-    find_device,
-    normalise,
-)
+from sondalog.backends.linux.iio import IioChannel, IioError, find_device
 from sondalog.backends.linux.w1 import W1Master, find_masters, rom_from_slave
 
 log = logging.getLogger(__name__)
@@ -87,7 +88,7 @@ class LinuxHardware:
                 channel = IioChannel(find_device(root, wiring.iio), wiring.channel)
             except IioError as exc:
                 raise board.error(f"{wiring.where}.iio", str(exc)) from None
-            key = None if wiring.address is None else _pin(wiring.address)
+            key = None if wiring.address is None else pin_of(wiring.address)
             self.channels[key] = (wiring, channel)
         self._chips: dict[str, GpioChip] = dict(chips or {})
         self._own_chips: list[GpioChip] = []
@@ -186,11 +187,11 @@ class LinuxHardware:
         return held.value
 
     def adc(self, device: int, address: int, t: float) -> float | None:
-        found = self.channels.get(_pin(address))
+        found = self.channels.get(pin_of(address))
         if found is None:
             return None
         wiring = found[0]
-        volts = self._valid(self._volts.get(_pin(address)), wiring.power, t)
+        volts = self._valid(self._volts.get(pin_of(address)), wiring.power, t)
         if volts is None:
             return None
         reference = self.board.external_reference if address >= 32 else INTERNAL_REFERENCE
@@ -208,7 +209,7 @@ class LinuxHardware:
         return sum(
             p.counter.count(p.offset, t0, t1)
             for p in self._pulses
-            if p.wiring.timer == timer and (timer or _pin(p.wiring.address) == _pin(address))
+            if p.wiring.timer == timer and (timer or pin_of(p.wiring.address) == pin_of(address))
         )
 
     def ds18b20(self, pin: int, rom: int, t: float) -> tuple[int, float] | None:
@@ -352,8 +353,3 @@ class LinuxHardware:
             volts = channel.volts()
             out[key] = None if volts is None else volts * wiring.gain
         return out
-
-
-def _pin(address: int) -> int:
-    """Addresses 32..36 (external reference) name the pins of 16..20 (§6.5.5)."""
-    return address - 16 if address >= 32 else address

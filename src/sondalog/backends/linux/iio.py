@@ -17,9 +17,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-#: The MSP430's internal A/D reference, volts (§6.4.4.1).
-INTERNAL_REFERENCE = 2.5
-ADC_LEVELS = 4095
+from sondalog.ala1.hardware import INTERNAL_REFERENCE as INTERNAL_REFERENCE
+from sondalog.ala1.hardware import normalise as normalise
 
 
 class IioError(ValueError):
@@ -90,9 +89,3 @@ class IioChannel:
         if scale is None or offset is None:
             return None
         return (raw + offset) * scale / 1000.0
-
-
-def normalise(volts: float, reference: float = INTERNAL_REFERENCE) -> float:
-    """Volts on an input -> the logger's 12-bit reading (fraction of ``reference``)."""
-    fraction = min(1.0, max(0.0, volts / reference))
-    return round(fraction * ADC_LEVELS) / ADC_LEVELS

@@ -42,22 +42,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from sondalog.ala1.hardware import (
+    ADC_LEVELS,
+    ANALOG_ADDRESSES,
     DS18B20_SCALE,
+    INTERNAL_REFERENCE,
     SUPPLY_DIVIDER,
+    normalise,
+    pin_of,
     rom_code,
     rom_valid,
 )
 from sondalog.backends.sim.signals import Signal, SignalError, build_signal, constant
 from sondalog.sitefile import SiteError, locate, read_site_file
-
-INTERNAL_REFERENCE = 2.5
-ADC_LEVELS = 4095
-
-
-def pin_of(address: int) -> int:
-    """The physical input of an MSP430ADC address: external-reference addresses (32..36)
-    name the same pins as 16..20 (§6.5.5)."""
-    return address - 16 if address >= 32 else address
 
 
 @dataclass
@@ -173,6 +169,7 @@ class SimHardware:
         power = source.power
         if power is not None and not self.outputs.get(power):
             return None
+        # normalise() written out on this hot path; unlike it, a NaN signal raises here
         fraction = source.signal(t) / reference
         if fraction <= 0.0:
             return 0.0
@@ -181,7 +178,7 @@ class SimHardware:
     def supply(self, t: float) -> float | None:
         if self.supply_signal is None or not self.powered(self.supply_power):
             return None
-        return _quantise(self.supply_signal(t) / SUPPLY_DIVIDER / INTERNAL_REFERENCE)
+        return normalise(self.supply_signal(t) / SUPPLY_DIVIDER)
 
     def pulses(self, device: int, address: int, timer: bool, t0: float, t1: float) -> int:
         return sum(
@@ -216,11 +213,6 @@ class SimHardware:
         self.outputs[output] = on
 
 
-def _quantise(fraction: float) -> float:
-    """12-bit A/D conversion that saturates at the reference (spec notes §7)."""
-    return round(min(1.0, max(0.0, fraction)) * ADC_LEVELS) / ADC_LEVELS
-
-
 # -- site file -------------------------------------------------------------------------------
 
 _LOGGER_KEYS = {
@@ -238,7 +230,6 @@ _LOGGER_KEYS = {
 _ANALOG_KEYS = {"address", "signal", "power"}
 _PULSE_KEYS = {"timer", "address", "rate", "poisson"}
 _DS_KEYS = {"pin", "rom", "signal", "power"}
-_ANALOG_ADDRESSES = {16, 17, 18, 19, 20, 24, 32, 33, 34, 35, 36}
 
 
 def default_hardware(start: float) -> SimHardware:
@@ -311,8 +302,8 @@ def parse_logger_site(
     for where, entry in entries("analog"):
         _known(entry, _ANALOG_KEYS, where, fail)
         address = entry.get("address")
-        if address not in _ANALOG_ADDRESSES or isinstance(address, bool):
-            allowed = ", ".join(map(str, sorted(_ANALOG_ADDRESSES)))
+        if address not in ANALOG_ADDRESSES or isinstance(address, bool):
+            allowed = ", ".join(map(str, ANALOG_ADDRESSES))
             raise fail(f"{where}.address", f"must be an ADC input address ({allowed})")
         assert isinstance(address, int)
         if any(pin_of(a.address) == pin_of(address) for a in analog):

@@ -27,7 +27,6 @@ import asyncio
 import contextlib
 import logging
 import shutil
-import signal
 import socket
 import sys
 from collections.abc import Awaitable, Callable
@@ -58,6 +57,7 @@ from sondalog.app.site import load_site
 from sondalog.client import Ala1Client
 from sondalog.io.address import format_address, parse_listen
 from sondalog.io.clock import AcceleratedClock, RealClock
+from sondalog.io.loop import stop_on_signals
 
 STATE_DIR = Path("state/demo")
 HOST = "127.0.0.1"
@@ -315,10 +315,7 @@ def _arguments(argv: list[str] | None) -> tuple[tuple[str, int] | None, float]:
 
 
 async def main(listen: tuple[str, int] | None = None, speed: float = SPEED) -> None:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
+    stop = stop_on_signals()
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if STATE_DIR.exists():
         shutil.rmtree(STATE_DIR)

@@ -163,7 +163,15 @@ def logger_hardware(site: Path | None, start: float) -> Hardware:
     data, text = read_site_file(site)
     table = data.get("logger")
     backend = table.get("backend", "sim") if isinstance(table, dict) else "sim"
+    return create_hardware(str(backend), BackendContext(data, site, text, start))
+
+
+def create_hardware(backend: str, context: BackendContext) -> Hardware:
+    """Backend ``backend`` built for ``context``; an unknown one is a
+    :class:`~sondalog.sitefile.SiteError` at ``logger.backend`` of the site file ``context``
+    was read from."""
     try:
-        return registry.create(str(backend), BackendContext(data, site, text, start))
+        return registry.create(backend, context)
     except registry.UnknownBackend as exc:
-        raise SiteError(site, "logger.backend", str(exc), locate(text, "logger.backend")) from exc
+        where = locate(context.text, "logger.backend")
+        raise SiteError(context.path, "logger.backend", str(exc), where) from exc

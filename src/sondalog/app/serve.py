@@ -22,11 +22,11 @@ from sondalog.app.fleet import RunningFleet, start_fleet
 from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
 from sondalog.app.gsm_site import parse_gsm_site, traced
-from sondalog.app.logger import Logger, start_logger
+from sondalog.app.logger import Logger, create_hardware, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
 from sondalog.backends.linux.rs485 import Rs485Error
-from sondalog.backends.registry import Acquiring, BackendContext, create
+from sondalog.backends.registry import Acquiring, BackendContext
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock, RealClock
 from sondalog.sitefile import SiteError, locate
@@ -88,12 +88,7 @@ async def start_site(
         if plan.logger is not None:
             logger = plan.logger
             context = BackendContext(plan.data, plan.path, plan.text, clock.now(), root)
-            try:
-                hardware = create(logger.backend, context)
-            except LookupError as exc:
-                raise SiteError(
-                    plan.path, "logger.backend", str(exc), locate(plan.text, "logger.backend")
-                ) from exc
+            hardware = create_hardware(logger.backend, context)
             if isinstance(hardware, Acquiring):  # a real board: its acquisition task runs here
                 running.acquisition = asyncio.create_task(hardware.run(), name="acquisition")
             running.logger = await start_logger(

@@ -11,7 +11,6 @@ import asyncio
 import contextlib
 import functools
 import logging
-import signal
 import sys
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -20,8 +19,14 @@ from typing import TypeVar, cast
 import click
 
 from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
-from sondalog.backends.linux.rs485 import Mode, Rs485Error, Rs485Settings
-from sondalog.cli.common import allow_remote_option, format_address, listen_option, speed_option
+from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, Rs485Settings
+from sondalog.cli.common import (
+    Refused,
+    allow_remote_option,
+    format_address,
+    listen_option,
+    speed_option,
+)
 from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster
 from sondalog.client.bus_actions import (
     ConnectRefused,
@@ -40,12 +45,6 @@ from sondalog.sitefile import SiteError
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)
-
-
-class _Refused(click.ClickException):
-    """Bad input found after parsing: exit code 2, like click's usage errors."""
-
-    exit_code = 2
 
 
 def _url(ctx: click.Context, param: click.Parameter, value: str) -> str:
@@ -89,7 +88,7 @@ def bus() -> None:
 @click.option("--serial", "serial_device", metavar="DEVICE", help="Attach a real serial port.")
 @click.option(
     "--rs485",
-    type=click.Choice(["kernel", "rts", "auto"]),
+    type=click.Choice(MODES),
     help="The serial port is an RS-485 adapter: how its driver is switched (docs/linux-board.md).",
 )
 @click.option(
@@ -147,16 +146,13 @@ def serve(
     try:
         serve_loop.run(_serve(start))
     except (SiteError, FileExistsError, Rs485Error) as exc:
-        raise _Refused(str(exc)) from exc
+        raise Refused(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve the bus: {exc}") from exc
 
 
 async def _serve(start: Callable[[], Awaitable[BusServer]]) -> None:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
+    stop = serve_loop.stop_on_signals()
     running = await start()
     try:
         sys.stdout.write(f"listening on {format_address(*running.address)}\n")
@@ -293,12 +289,12 @@ def ask(
     need CONNECT first, from the same --host-id.
     """
     if module_id != BROADCAST and not is_valid_id(module_id):
-        raise _Refused(f"ID {module_id!r}: 1 to 8 of A-Z a-z 0-9 _ -, or * for broadcast")
+        raise Refused(f"ID {module_id!r}: 1 to 8 of A-Z a-z 0-9 _ -, or * for broadcast")
     body = command if param is None else f"{command}.{param}"
     if not command or "." in command or not body.isascii() or "|" in body:
-        raise _Refused(f"bad command {body!r}: printable ASCII without '|'")
+        raise Refused(f"bad command {body!r}: printable ASCII without '|'")
     if command != command.upper() and command.upper() in COMMAND_NAMES:
-        raise _Refused(
+        raise Refused(
             f"{command!r}: HCTMPS1 commands are upper case, and a module ignores anything"
             f" else: {command.upper()}"
         )
@@ -326,7 +322,7 @@ def ask(
     try:
         lines = _run_master(url, host_id, timeout, work)
     except FrameError as exc:
-        raise _Refused(str(exc)) from exc
+        raise Refused(str(exc)) from exc
     for line in lines:
         click.echo(line)
     if not lines:

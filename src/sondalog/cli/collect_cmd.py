@@ -9,19 +9,16 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import signal
 from pathlib import Path
 
 import click
 
 from sondalog.app.collector import WebUnavailable, run_collector
+from sondalog.cli.common import Refused
 from sondalog.collect.config import ConfigError, load_config
 from sondalog.collect.runner import Collector
 from sondalog.collect.store_sqlite import StoreError
-
-
-class _Refused(click.ClickException):
-    exit_code = 2
+from sondalog.io.loop import stop_on_signals
 
 
 @click.command()
@@ -37,7 +34,7 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     try:
         config = load_config(config_file)
     except ConfigError as exc:
-        raise _Refused(str(exc)) from None
+        raise Refused(str(exc)) from None
     if check:
         click.echo(f"{config_file}: {len(config.sources)} sources, store {config.store}")
         return
@@ -48,24 +45,21 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     try:
         collector.open()
     except StoreError as exc:
-        raise _Refused(str(exc)) from None
+        raise Refused(str(exc)) from None
     except ConfigError as exc:
         collector.store.close_sync()
-        raise _Refused(str(exc)) from None
+        raise Refused(str(exc)) from None
     try:
         asyncio.run(_run(collector, once))
     except WebUnavailable as exc:
         collector.store.close_sync()
-        raise _Refused(f"{config_file}: web.listen: {exc}") from None
+        raise Refused(f"{config_file}: web.listen: {exc}") from None
     if once and collector.failing:
         raise click.ClickException(f"sources failed: {', '.join(sorted(collector.failing))}")
 
 
 async def _run(collector: Collector, once: bool) -> None:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
+    stop = stop_on_signals()
 
     def listening(host: str, port: int) -> None:
         click.echo(f"dashboard on http://{host}:{port}/", err=True)

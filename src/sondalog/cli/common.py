@@ -18,6 +18,7 @@ __all__ = [
     "is_loopback",
     "listen_option",
     "parse_listen",
+    "refuses_remote",
     "speed_option",
 ]
 
@@ -30,7 +31,7 @@ def listen_option(ctx: click.Context, param: click.Parameter, value: str) -> tup
         host, port = parse_listen(value)
     except ValueError as exc:
         raise click.BadParameter(str(exc), ctx, param) from exc
-    if not is_loopback(host) and not ctx.meta.get(_ALLOW_REMOTE, False):
+    if refuses_remote(ctx, host):
         raise click.BadParameter(
             f"{host} is reachable from other machines, and the ALA1 and HCTMPS1 protocols have "
             "no authentication (docs/security.md); add --allow-remote to listen there anyway",
@@ -38,6 +39,11 @@ def listen_option(ctx: click.Context, param: click.Parameter, value: str) -> tup
             param,
         )
     return host, port
+
+
+def refuses_remote(ctx: click.Context, host: str) -> bool:
+    """True if ``host`` is beyond loopback and the command was not given ``--allow-remote``."""
+    return not is_loopback(host) and not ctx.meta.get(_ALLOW_REMOTE, False)
 
 
 def _remember_allow_remote(ctx: click.Context, param: click.Parameter, value: bool) -> None:

@@ -8,6 +8,7 @@ usage or a file that is not ours, 130 interrupted (the file is valid; run again 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import sys
 from pathlib import Path
 from typing import Any
@@ -15,18 +16,11 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 import click
 
+from sondalog.cli.common import Refused
 from sondalog.client import ClientError, parse_url
 from sondalog.client.download import Chunk, DownloadError, Gap
 from sondalog.collect.export import ExportError
 from sondalog.collect.to_file import FileDownload, download_to_file
-
-
-class _Refused(click.ClickException):
-    exit_code = 2
-
-
-class _Failed(click.ClickException):
-    exit_code = 1
 
 
 def _zone(ctx: click.Context, param: click.Parameter, value: str | None) -> ZoneInfo | None:
@@ -89,22 +83,21 @@ def download(url: str, output: Path, zone: ZoneInfo | None, timeout: float) -> N
         click.echo(f"warning: {gap.describe()}", err=True)
 
     try:
-        if progress is not None:
-            progress.start()
-            task = progress.add_task(f"downloading {url}", total=None)
-        asyncio.run(
-            download_to_file(
-                url,
-                output,
-                zone=zone,
-                timeout=timeout,
-                state=state,
-                on_chunk=on_chunk,
-                on_gap=on_gap,
+        with contextlib.nullcontext() if progress is None else progress:  # stops the progress
+            if progress is not None:
+                task = progress.add_task(f"downloading {url}", total=None)
+            asyncio.run(
+                download_to_file(
+                    url,
+                    output,
+                    zone=zone,
+                    timeout=timeout,
+                    state=state,
+                    on_chunk=on_chunk,
+                    on_gap=on_gap,
+                )
             )
-        )
     except KeyboardInterrupt:
-        _stop(progress)
         click.echo(
             f"interrupted: {state.rows} rows appended to {output}, which is valid; "
             "run again to resume",
@@ -112,15 +105,13 @@ def download(url: str, output: Path, zone: ZoneInfo | None, timeout: float) -> N
         )
         sys.exit(130)
     except ExportError as exc:
-        _stop(progress)
-        raise _Refused(str(exc)) from None
+        raise Refused(str(exc)) from None
     except (DownloadError, ClientError) as exc:
-        _stop(progress)
-        raise _Failed(f"{url}: {exc} ({state.rows} rows appended before)") from None
+        raise click.ClickException(f"{url}: {exc} ({state.rows} rows appended before)") from None
     except OSError as exc:
-        _stop(progress)
-        raise _Failed(f"cannot reach the logger at {url}: {exc.strerror or exc}") from None
-    _stop(progress)
+        raise click.ClickException(
+            f"cannot reach the logger at {url}: {exc.strerror or exc}"
+        ) from None
     if state.repaired:
         click.echo(f"{output}: repaired {state.repaired}", err=True)
     if state.record_empty and state.resumed_after is not None:
@@ -140,11 +131,6 @@ def _progress() -> Any:
         console=Console(stderr=True),
         transient=True,
     )
-
-
-def _stop(progress: Any) -> None:
-    if progress is not None:
-        progress.stop()
 
 
 def _summary(state: FileDownload) -> str:

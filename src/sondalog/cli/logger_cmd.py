@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import asyncio
-import signal
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,17 +19,17 @@ from sondalog.app.logger import (
     start_logger,
     valid_serial_number,
 )
-from sondalog.cli.common import allow_remote_option, format_address, listen_option, speed_option
+from sondalog.cli.common import (
+    Refused,
+    allow_remote_option,
+    format_address,
+    listen_option,
+    speed_option,
+)
 from sondalog.io import loop as serve_loop
 from sondalog.io.clock import Clock, make_clock
 from sondalog.io.tcp import DEFAULT_PORT
 from sondalog.sitefile import SiteError
-
-
-class _Refused(click.ClickException):
-    """A usage problem found after parsing (exit code 2, like click's own usage errors)."""
-
-    exit_code = 2
 
 
 @click.group()
@@ -122,7 +120,7 @@ def serve(
     try:
         hardware = logger_hardware(site, clock.now())
     except SiteError as exc:
-        raise _Refused(str(exc)) from exc
+        raise Refused(str(exc)) from exc
     try:
         serve_loop.run(
             _serve(
@@ -136,7 +134,7 @@ def serve(
             )
         )
     except IdentityConflict as exc:
-        raise _Refused(str(exc)) from exc
+        raise Refused(str(exc)) from exc
     except _LineError as exc:
         raise click.ClickException(str(exc)) from exc
     except OSError as exc:
@@ -163,10 +161,7 @@ async def _serve(
     hardware: Hardware,
     lines: _Lines,
 ) -> None:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
+    stop = serve_loop.stop_on_signals()
 
     def announce(host: str, port: int) -> None:
         sys.stdout.write(f"listening on {format_address(host, port)}\n")

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import asyncio
-import signal
 import sys
 from pathlib import Path
 
 import click
 
-from sondalog.cli.common import Refused, allow_remote_option, is_loopback, speed_option
+from sondalog.cli.common import Refused, allow_remote_option, refuses_remote, speed_option
 from sondalog.io import loop as serve_loop
 
 
@@ -47,13 +45,12 @@ def serve(
         plan = load_site(site)
     except SiteError as exc:
         raise Refused(str(exc)) from exc
-    if not ctx.meta.get("sondalog.allow_remote", False):
-        for field, (host, _port) in plan.listens:
-            if not is_loopback(host):
-                raise Refused(
-                    f"{site}: {field}: {host} is reachable from other machines and the protocol "
-                    "has no authentication (docs/security.md); add --allow-remote to serve there"
-                )
+    for field, (host, _port) in plan.listens:
+        if refuses_remote(ctx, host):
+            raise Refused(
+                f"{site}: {field}: {host} is reachable from other machines and the protocol "
+                "has no authentication (docs/security.md); add --allow-remote to serve there"
+            )
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
         serve_loop.run(_serve(plan, state, speed, trace))
@@ -69,10 +66,7 @@ async def _serve(plan: object, state: Path, speed: float, trace: Path | None = N
     from sondalog.io.clock import make_clock
 
     assert isinstance(plan, SitePlan)
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
+    stop = serve_loop.stop_on_signals()
 
     def announce(line: str) -> None:
         sys.stdout.write(line + "\n")

@@ -11,53 +11,20 @@ from types import TracebackType
 from sondalog.client.ala1_codec import (
     DEFAULT_QUIET_PERIOD,
     DEFAULT_TIMEOUT,
-    MAX_LINE,
-    ChecksumError,
     ClientError,
-    CommandFailed,
     ConnectionLost,
-    CrcMismatch,
     IncompleteAnswer,
     NoAnswer,
     Request,
     Response,
     Status,
-    SumMismatch,
-    edited,
     ends_final,
-    line_sum,
     parse_answer,
     strip_sum,
-    verify_crc,
-    with_check,
 )
 from sondalog.client.endpoints import Endpoint, parse_url
 
-__all__ = [
-    "DEFAULT_QUIET_PERIOD",
-    "DEFAULT_TIMEOUT",
-    "MAX_LINE",
-    "Ala1Client",
-    "ChecksumError",
-    "Client",
-    "ClientError",
-    "CommandFailed",
-    "ConnectionLost",
-    "CrcMismatch",
-    "IncompleteAnswer",
-    "NoAnswer",
-    "Request",
-    "Response",
-    "Status",
-    "SumMismatch",
-    "edited",
-    "ends_final",
-    "line_sum",
-    "parse_answer",
-    "strip_sum",
-    "verify_crc",
-    "with_check",
-]
+__all__ = ["Ala1Client", "Client"]
 
 
 class _Stream(asyncio.Protocol):

@@ -23,6 +23,7 @@ from typing import TypeVar
 from sondalog.client.bus_commands import BusCommands
 from sondalog.client.bus_errors import ForeignPeer, NoReply
 from sondalog.client.bus_links import (
+    DEFAULT_BAUD,
     BusLink,
     BusUrl,
     open_link,
@@ -45,7 +46,6 @@ ScanProgress = Callable[[int, int, dict[str, str]], None]
 T = TypeVar("T")
 
 DEFAULT_HOST_ID = "PC"
-DEFAULT_BAUD = 9600
 #: Longest frame the master expects, for timeouts (a full LISTSUP reply is about 110 bytes).
 LONGEST_FRAME = 128
 

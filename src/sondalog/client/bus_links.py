@@ -11,11 +11,9 @@ from typing import Protocol
 from urllib.parse import parse_qs, urlsplit
 
 from sondalog.io.rs485 import MODES, AsyncPort, Mode, Rs485Error, open_port
+from sondalog.protocol.hctmps1_frames import inter_frame_gap
 
 DEFAULT_BAUD = 9600
-#: A module starts its answer this long after the end of a request (docs/hctmps1.md timing;
-#: ``world.bus.DEFAULT_TURNAROUND``, ``backends.linux.rs485.BusTiming.turnaround``).
-TURNAROUND = 0.002
 
 
 class BusUrlError(ValueError):
@@ -101,12 +99,6 @@ class StreamLink:
         self._writer.close()
         with contextlib.suppress(ConnectionError, OSError):
             await self._writer.wait_closed()
-
-
-def inter_frame_gap(baud: int) -> float:
-    """Idle line the master leaves after the end of an answer (or of its own frame) before its
-    next request: the module turnaround plus 3.5 byte times (``BusTiming.inter_frame_gap``)."""
-    return TURNAROUND + 3.5 * 10 / baud
 
 
 class Rs485Link:

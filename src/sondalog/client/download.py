@@ -32,7 +32,6 @@ from zoneinfo import ZoneInfo
 from sondalog.client.ala1 import Ala1Client
 from sondalog.client.ala1_codec import (
     ChecksumError,
-    CommandFailed,
     IncompleteAnswer,
     NoAnswer,
     Response,
@@ -259,10 +258,8 @@ def _estimate(after: str, oldest: Row, rows: list[Row]) -> int | None:
 
 
 __all__ = [
-    "ChecksumError",
     "Chunk",
     "ClockReading",
-    "CommandFailed",
     "Download",
     "DownloadError",
     "Gap",

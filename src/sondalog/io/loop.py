@@ -4,7 +4,8 @@
 ``fast``), else on the standard loop. ``SONDALOG_LOOP=asyncio`` forces the standard loop,
 ``SONDALOG_LOOP=uvloop`` insists on uvloop (an error when it is absent). Every transport of
 :mod:`sondalog.io` works on both (uvloop's transports are not :class:`asyncio.Transport`
-subclasses: the TCP transport takes their interface).
+subclasses: the TCP transport takes their interface). :func:`stop_on_signals` is the event
+that SIGINT and SIGTERM set, on which the serving commands stop cleanly.
 """
 
 from __future__ import annotations
@@ -13,7 +14,10 @@ import importlib
 import logging
 import os
 from collections.abc import Coroutine
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    import asyncio
 
 log = logging.getLogger(__name__)
 
@@ -55,3 +59,15 @@ def run(main: Coroutine[Any, Any, T]) -> T:
         with asyncio.Runner(loop_factory=uvloop.new_event_loop) as runner:
             return runner.run(main)
     return asyncio.run(main)
+
+
+def stop_on_signals() -> asyncio.Event:
+    """An event that SIGINT and SIGTERM set, on the running loop (serve until it is set)."""
+    import asyncio
+    import signal
+
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+    return stop

@@ -146,3 +146,15 @@ SLOT_BYTES = 80
 def slot_time(baud: int) -> float:
     """Seconds of one broadcast reply slot: an 80-byte frame of 10-bit bytes (§2)."""
     return SLOT_BYTES * 10 / baud
+
+
+#: A module starts its answer this long after the end of a request, seconds (docs/hctmps1.md
+#: "Decisions": its firmware needs a moment to switch its RS-485 driver on).
+TURNAROUND = 0.002
+
+
+def inter_frame_gap(baud: int) -> float:
+    """Idle line the master leaves after the end of an answer (or of its own frame) before its
+    next request: the module turnaround plus 3.5 byte times, so a late answer is never overrun
+    (sondalog decision, modelled on Modbus RTU's 3.5 characters)."""
+    return TURNAROUND + 3.5 * 10 / baud

@@ -19,10 +19,11 @@ from dataclasses import dataclass
 
 from sondalog.hctmps1.module import Hctmps1Module
 from sondalog.protocol.device import Event, LineSend
+from sondalog.protocol.hctmps1_frames import TURNAROUND
 from sondalog.world.medium import Medium
 
 #: Module reply turnaround, seconds (docs/hctmps1.md "Decisions").
-DEFAULT_TURNAROUND = 0.002
+DEFAULT_TURNAROUND = TURNAROUND
 
 
 @dataclass

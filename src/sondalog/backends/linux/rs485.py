@@ -14,7 +14,7 @@ the UART's RTS) for exactly as long as its frame lasts. Three ways to get that o
   plain 8N1 port.
 
 Bus timing (sondalog's HCTMPS1 decisions): a byte is 10 bit times; a module answers
-:data:`~sondalog.world.bus.DEFAULT_TURNAROUND` (2 ms) after the end of a request, so the
+:data:`~sondalog.protocol.hctmps1_frames.TURNAROUND` (2 ms) after the end of a request, so the
 master must release the driver sooner than that; a broadcast is answered within 16 slots of
 an 80-byte frame each.
 """
@@ -26,11 +26,8 @@ from typing import Any
 
 from sondalog.hctmps1.module import BROADCAST_SLOTS
 from sondalog.io.rs485 import MODES, Mode, Rs485Error, open_port
-from sondalog.protocol.hctmps1_frames import slot_time
-from sondalog.world.bus import DEFAULT_TURNAROUND
-
-#: Bits per byte on the line: start, 8 data, stop (8N1).
-BITS_PER_BYTE = 10
+from sondalog.protocol.hctmps1_frames import TURNAROUND, inter_frame_gap, slot_time
+from sondalog.world import medium
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,7 +38,7 @@ class BusTiming:
 
     @property
     def byte_time(self) -> float:
-        return BITS_PER_BYTE / self.baud
+        return medium.byte_time(self.baud)
 
     def frame_time(self, nbytes: int) -> float:
         """Seconds a frame of ``nbytes`` bytes occupies the line."""
@@ -50,14 +47,14 @@ class BusTiming:
     @property
     def turnaround(self) -> float:
         """A module starts its answer this long after the end of a request."""
-        return DEFAULT_TURNAROUND
+        return TURNAROUND
 
     @property
     def inter_frame_gap(self) -> float:
         """Idle line the master leaves between the end of an answer (or of a silent request)
         and its next request: the module turnaround plus 3.5 byte times, so a late answer
-        is never overrun (sondalog decision, modelled on Modbus RTU's 3.5 characters)."""
-        return self.turnaround + 3.5 * self.byte_time
+        is never overrun (:func:`~sondalog.protocol.hctmps1_frames.inter_frame_gap`)."""
+        return inter_frame_gap(self.baud)
 
     @property
     def broadcast_window(self) -> float:

@@ -10,6 +10,7 @@ different ones is refused (:class:`IdentityConflict`), so a 1.16 database is nev
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 from collections.abc import Callable, Sequence
@@ -19,7 +20,7 @@ from pathlib import Path
 from sondalog.ala1 import Engine, Identity, Version
 from sondalog.ala1.hardware import Hardware
 from sondalog.backends import registry
-from sondalog.backends.registry import BackendContext
+from sondalog.backends.registry import Acquiring, BackendContext
 from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
@@ -30,6 +31,8 @@ from sondalog.sitefile import SiteError, locate, read_site_file
 
 IDENTITY_FILE = "identity.json"
 DATABASE_FILE = "ala1.sqlite"
+#: Prefixes every sysfs and ``/dev`` path real sensors are read from (:func:`sensor_root`).
+ROOT_VARIABLE = "SONDALOG_ROOT"
 
 
 class IdentityConflict(Exception):
@@ -87,8 +90,14 @@ class Logger:
     servers: list[TcpServer]
     ptys: list[PtyLine] = field(default_factory=list)
     serials: list[SerialLine] = field(default_factory=list)
+    #: The hardware's sample-and-hold task, for a backend that acquires (a real board).
+    acquisition: asyncio.Task[None] | None = None
 
     async def close(self) -> None:
+        if self.acquisition is not None:
+            self.acquisition.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await self.acquisition
         for server in self.servers:
             await server.close()
         for pty in self.ptys:
@@ -126,6 +135,8 @@ async def start_logger(
         engine = Engine(identity, store, clock.now(), hardware, line_time_scale=clock.speed)
         host = DeviceHost(engine, clock)
         logger = Logger(identity, store, host, [])
+        if isinstance(hardware, Acquiring):  # a real board: its acquisition task runs here
+            logger.acquisition = asyncio.create_task(hardware.run(), name="acquisition")
         logger.servers.append(await serve_tcp(host, *listen, paced=line_rate))
         for path in ptys:
             logger.ptys.append(PtyLine(host, path))
@@ -163,7 +174,13 @@ def logger_hardware(site: Path | None, start: float) -> Hardware:
     data, text = read_site_file(site)
     table = data.get("logger")
     backend = table.get("backend", "sim") if isinstance(table, dict) else "sim"
-    return create_hardware(str(backend), BackendContext(data, site, text, start))
+    return create_hardware(str(backend), BackendContext(data, site, text, start, sensor_root()))
+
+
+def sensor_root() -> Path:
+    """Where sysfs and ``/dev`` are: ``SONDALOG_ROOT`` (a fake kernel tree in tests, a
+    chroot), else ``/``."""
+    return Path(os.environ.get(ROOT_VARIABLE) or "/")
 
 
 def create_hardware(backend: str, context: BackendContext) -> Hardware:

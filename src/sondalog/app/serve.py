@@ -8,9 +8,7 @@ the one runtime on one clock. Later issues add fleets of loggers here, not in th
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,17 +20,15 @@ from sondalog.app.fleet import RunningFleet, start_fleet
 from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
 from sondalog.app.gsm_site import parse_gsm_site, traced
-from sondalog.app.logger import Logger, create_hardware, start_logger
+from sondalog.app.logger import Logger, create_hardware, sensor_root, start_logger
 from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
 from sondalog.backends.linux.rs485 import Rs485Error
-from sondalog.backends.registry import Acquiring, BackendContext
+from sondalog.backends.registry import BackendContext
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock, RealClock
 from sondalog.sitefile import SiteError, locate
 
-#: The environment variable naming the root of sysfs and /dev (default "/").
-ROOT_VARIABLE = "SONDALOG_ROOT"
 #: Called with a line to show the user once each part is ready.
 Announce = Callable[[str], None]
 
@@ -44,7 +40,6 @@ class RunningSite:
     logger: Logger | None = None
     bus: BusServer | None = None
     mail: MailHub | None = None
-    acquisition: asyncio.Task[None] | None = None
     gsm: GsmRuntime | None = None
     gsm_api: ApiServer | None = None
     fleet: RunningFleet | None = None
@@ -56,10 +51,6 @@ class RunningSite:
             await self.gsm_api.stop()
         if self.gsm is not None:
             await self.gsm.close()
-        if self.acquisition is not None:
-            self.acquisition.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await self.acquisition
         if self.mail is not None:
             with contextlib.suppress(Exception):
                 await self.mail.stop()
@@ -82,15 +73,13 @@ async def start_site(
     real sensors are read from (a fake kernel tree in tests, a chroot). ``trace``
     (``--trace FILE``): record the line of the logger's modem (``[gsm] logger_modem``, else the
     first modem) in FILE."""
-    root = Path(os.environ.get(ROOT_VARIABLE) or "/")
+    root = sensor_root()
     running = RunningSite()
     try:
         if plan.logger is not None:
             logger = plan.logger
             context = BackendContext(plan.data, plan.path, plan.text, clock.now(), root)
             hardware = create_hardware(logger.backend, context)
-            if isinstance(hardware, Acquiring):  # a real board: its acquisition task runs here
-                running.acquisition = asyncio.create_task(hardware.run(), name="acquisition")
             running.logger = await start_logger(
                 state / "logger",
                 clock,

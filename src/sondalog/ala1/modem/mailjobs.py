@@ -15,7 +15,7 @@ from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
 from sondalog.ala1.modem.atio import At, MailReply, Recv, Request, Urc, Write, at
-from sondalog.ala1.modem.session import SHUTDOWN, leave_data_mode
+from sondalog.ala1.modem.session import SHUTDOWN, EndMarker, leave_data_mode
 from sondalog.protocol.mail_address import MailAddressError, parse_pop3_server, parse_smtp_server
 from sondalog.protocol.mail_command import MailCommand, build_mail, parse_command_mail
 from sondalog.protocol.pop3_client import Pop3Check
@@ -83,6 +83,7 @@ def tcp(
         yield At(f"AT+WIPCLOSE=2,{SOCKET}")
         return
     client.start(d.now)
+    end = EndMarker(SHUTDOWN)
     while not client.wants_close:
         out = client.data_to_send()
         if out:
@@ -90,9 +91,9 @@ def tcp(
         if client.wants_close:
             break
         data = yield Recv(client.deadline)
-        data = data if isinstance(data, bytes) else b""
-        if SHUTDOWN in data:
-            client.receive_data(data.split(SHUTDOWN, 1)[0], d.now)
+        data, ended = end.cut(data if isinstance(data, bytes) else b"")
+        if ended:  # the server closed the connection
+            client.receive_data(data, d.now)
             client.receive_data(b"", d.now)
         elif data:
             client.receive_data(data, d.now)

@@ -26,6 +26,23 @@ NO_CARRIER = b"\r\nNO CARRIER\r\n"
 SHUTDOWN = b"\r\nSHUTDOWN\r\n"
 
 
+class EndMarker:
+    """Finds the far end's hang-up (``marker``) in data read in pieces, where it may come
+    cut across two reads."""
+
+    def __init__(self, marker: bytes) -> None:
+        self.marker = marker
+        self._tail = b""  # the last bytes seen, too few to hold the whole marker
+
+    def cut(self, data: bytes) -> tuple[bytes, bool]:
+        """``data`` up to the marker, and whether the marker has come (with these bytes)."""
+        seen = self._tail + data
+        if self.marker in seen:
+            return data[: max(seen.index(self.marker) - len(self._tail), 0)], True
+        self._tail = seen[-(len(self.marker) - 1) :]
+        return data, False
+
+
 def leave_data_mode(d: ModemDriver) -> Generator[Request, object, None]:
     """``+++`` between two guard times: back to command mode (the connection stays)."""
     yield Sleep(GUARD)
@@ -39,18 +56,12 @@ def data_session(d: ModemDriver, socket: int | None) -> Generator[Request, objec
     session = d.host.open_session(d.now)
     d.session = session
     last = d.now
+    end = EndMarker(marker)
     ended = False
-    tail = b""  # the last bytes seen: the end marker may come cut across reads
     try:
         while True:
             data = yield Recv(last + IDLE_HANGUP)
-            if not isinstance(data, bytes):
-                data = b""
-            seen = tail + data
-            if marker in seen:
-                data = data[: max(seen.index(marker) - len(tail), 0)]
-                ended = True
-            tail = seen[-(len(marker) - 1) :]
+            data, ended = end.cut(data if isinstance(data, bytes) else b"")
             if data:
                 d.host.session_input(session, data, d.now)
                 if b"\r" in data or b"\n" in data:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 import tomllib
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 
@@ -22,6 +23,23 @@ class SiteError(ValueError):
         self.path = path
         self.field = field
         self.line = line
+
+
+#: ``fail(field, message)``: the :class:`SiteError` to raise for a field of the file.
+Fail = Callable[[str, str], SiteError]
+
+
+def serve_table(
+    table: Mapping[str, object], where: str, keys: set[str], fail: Fail
+) -> dict[str, object]:
+    """``table``'s ``serve`` table (empty if absent), checked to hold only ``keys``."""
+    serve = table.get("serve", {})
+    if not isinstance(serve, Mapping):
+        raise fail(f"{where}.serve", "must be a table")
+    for key in serve:
+        if key not in keys:
+            raise fail(f"{where}.serve.{key}", f"unknown key (known: {', '.join(sorted(keys))})")
+    return dict(serve)
 
 
 def read_site_file(path: Path) -> tuple[dict[str, object], str]:

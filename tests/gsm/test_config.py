@@ -32,7 +32,7 @@ number = "+420700000002"
 
 def test_example_world_builds() -> None:
     config = parse(tomllib.loads(WORLD)["gsm"])
-    system, _ = build(config, 0.0)
+    system = build(config, 0.0)
     net = system.network
     assert set(net.subscribers) == {"+420600000001", "+420700000001", "+420700000002"}
     assert net.gateway.resolve("SMTP.example.net") == "127.0.0.1"

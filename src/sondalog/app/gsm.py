@@ -102,7 +102,7 @@ class GsmRuntime:
     async def start(self) -> None:
         self.state.mkdir(parents=True, exist_ok=True)
         now = self.clock.now()
-        system, first = build(self.plan.config, now, trace=self._tracer)
+        system = build(self.plan.config, now, trace=self._tracer)
         self.network = system.network
         restored: list[object] = []
         path = self.state / STATE_FILE
@@ -123,7 +123,6 @@ class GsmRuntime:
             host.start()
         self.net_host.start()
         self.route(wrap(restored))
-        del first  # power-up output: no line is attached yet
         for serve in self.plan.modems:
             host = self.modem_hosts[serve.number]
             if serve.pty is not None:

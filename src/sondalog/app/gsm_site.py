@@ -32,7 +32,7 @@ from sondalog.backends.sim.signals import Signal, SignalError, build_signal
 from sondalog.gsm.config import GsmConfig, GsmConfigError, parse
 from sondalog.gsm.sms import normalize
 from sondalog.io.address import parse_listen
-from sondalog.sitefile import SiteError, locate
+from sondalog.sitefile import Fail, SiteError, locate, serve_table
 
 DEFAULT_API = ("127.0.0.1", 8025)
 _SERVE = {"api"}
@@ -69,13 +69,8 @@ def parse_gsm_site(
     if not isinstance(table, Mapping):
         raise fail("gsm", "must be a table")
     core: dict[str, Any] = {k: v for k, v in table.items() if k not in ("serve", "logger_modem")}
-    serve = table.get("serve", {})
-    if not isinstance(serve, Mapping):
-        raise fail("gsm.serve", "must be a table")
-    for key in serve:
-        if key not in _SERVE:
-            raise fail(f"gsm.serve.{key}", f"unknown key (known: {', '.join(sorted(_SERVE))})")
-    api = _listen(serve["api"], "gsm.serve.api", fail) if "api" in serve else DEFAULT_API
+    serve = serve_table(table, "gsm", _SERVE, fail)
+    api = listen_address(serve["api"], "gsm.serve.api", fail) if "api" in serve else DEFAULT_API
 
     def model(value: object, where: str) -> Signal:
         assert isinstance(value, Mapping)
@@ -101,7 +96,8 @@ def parse_gsm_site(
                 if isinstance(entry.get(key), Mapping):
                     models[number] = model(entry[key], f"{where}.{key}")
                     entry[key] = round(models[number](start)) if key == "signal" else 0.0
-            modems.append(_modem_serve(number, entry.pop("serve", {}), where, path, fail))
+            modems.append(_modem_serve(number, entry, where, fail))
+            entry.pop("serve", None)
             stripped.append(entry)
         core["modem"] = stripped
     try:
@@ -138,15 +134,9 @@ def _logger_models(
         credits[number] = model(gsm["credit"], "logger.gsm.credit")
 
 
-def _modem_serve(
-    number: str, serve: object, where: str, path: Path, fail: Callable[[str, str], SiteError]
-) -> ModemServe:
-    if not isinstance(serve, Mapping):
-        raise fail(f"{where}.serve", "must be a table")
-    for key in serve:
-        if key not in _MODEM_SERVE:
-            known = ", ".join(sorted(_MODEM_SERVE))
-            raise fail(f"{where}.serve.{key}", f"unknown key (known: {known})")
+def _modem_serve(number: str, entry: Mapping[str, object], where: str, fail: Fail) -> ModemServe:
+    """How a ``[[gsm.modem]]`` entry is served (its ``serve`` table)."""
+    serve = serve_table(entry, where, _MODEM_SERVE, fail)
 
     def a_path(key: str) -> Path | None:
         value = serve.get(key)
@@ -156,11 +146,16 @@ def _modem_serve(
             raise fail(f"{where}.serve.{key}", "must be a path in quotes")
         return Path(value)
 
-    listen = _listen(serve["listen"], f"{where}.serve.listen", fail) if "listen" in serve else None
+    listen = (
+        listen_address(serve["listen"], f"{where}.serve.listen", fail)
+        if "listen" in serve
+        else None
+    )
     return ModemServe(number, a_path("pty"), listen, a_path("trace"))
 
 
-def _listen(value: object, where: str, fail: Callable[[str, str], SiteError]) -> tuple[str, int]:
+def listen_address(value: object, where: str, fail: Fail) -> tuple[str, int]:
+    """A ``listen = "HOST:PORT"`` field of a ``serve`` table (``site.py`` uses it too)."""
     if not isinstance(value, str):
         raise fail(where, 'must be "HOST:PORT"')
     try:

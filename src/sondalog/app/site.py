@@ -32,20 +32,17 @@ Errors name the file, line and field (:class:`SiteError`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from sondalog.app.fleet_site import FleetLogger, parse_fleet
-from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
+from sondalog.app.gsm_site import GsmPlan, listen_address, parse_gsm_site
 from sondalog.backends.linux.board import board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
-from sondalog.io.address import parse_listen
-from sondalog.sitefile import SiteError, locate, read_site_file
-
-_Fail = Callable[[str, str], SiteError]
+from sondalog.sitefile import Fail, SiteError, locate, read_site_file, serve_table
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
@@ -137,41 +134,20 @@ def load_site(path: Path) -> SitePlan:
     return SitePlan(path, data, text, logger, bus, mail, listens, gsm, fleet)
 
 
-def _serve_table(
-    table: Mapping[str, object], where: str, keys: set[str], fail: _Fail
-) -> dict[str, object]:
-    serve = table.get("serve", {})
-    if not isinstance(serve, Mapping):
-        raise fail(f"{where}.serve", "must be a table")
-    for key in serve:
-        if key not in keys:
-            raise fail(f"{where}.serve.{key}", f"unknown key (known: {', '.join(sorted(keys))})")
-    return dict(serve)
-
-
-def _listen(value: object, where: str, fail: _Fail) -> tuple[str, int]:
-    if not isinstance(value, str):
-        raise fail(where, 'must be "HOST:PORT"')
-    try:
-        return parse_listen(value)
-    except ValueError as exc:
-        raise fail(where, str(exc)) from None
-
-
-def _text(value: object, where: str, fail: _Fail) -> str:
+def _text(value: object, where: str, fail: Fail) -> str:
     if not isinstance(value, str) or not value:
         raise fail(where, "must be a non-empty string")
     return value
 
 
-def _texts(value: object, where: str, fail: _Fail) -> tuple[str, ...]:
+def _texts(value: object, where: str, fail: Fail) -> tuple[str, ...]:
     if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
         raise fail(where, "must be a list of strings")
     return tuple(value)
 
 
-def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
-    serve = _serve_table(table, "logger", _LOGGER_SERVE, fail)
+def _logger_plan(table: Mapping[str, object], fail: Fail) -> LoggerPlan:
+    serve = serve_table(table, "logger", _LOGGER_SERVE, fail)
     backend = table.get("backend", "sim")
     if not isinstance(backend, str):
         raise fail("logger.backend", "must be a backend name")
@@ -186,7 +162,7 @@ def _logger_plan(table: Mapping[str, object], fail: _Fail) -> LoggerPlan:
         raise fail("logger.serve.line_rate", "must be true or false")
     return LoggerPlan(
         backend=backend,
-        listen=_listen(serve["listen"], "logger.serve.listen", fail)
+        listen=listen_address(serve["listen"], "logger.serve.listen", fail)
         if "listen" in serve
         else DEFAULT_LOGGER_LISTEN,
         protocol=str(protocol) if protocol is not None else None,
@@ -212,7 +188,7 @@ def _board_rs485(bus: BusPlan, data: Mapping[str, object], path: Path, text: str
     return replace(bus, serial=wired.port, rs485=how, baud=None if has_baud else wired.baud)
 
 
-def _rs485(table: Mapping[str, object], serve: Mapping[str, object], fail: _Fail) -> Rs485Settings:
+def _rs485(table: Mapping[str, object], serve: Mapping[str, object], fail: Fail) -> Rs485Settings:
     mode = serve["rs485"]
     if mode not in MODES:
         raise fail("bus.serve.rs485", f"must be one of {', '.join(MODES)}, not {mode!r}")
@@ -233,15 +209,15 @@ def _rs485(table: Mapping[str, object], serve: Mapping[str, object], fail: _Fail
     return Rs485Settings(mode, delays[0], delays[1])
 
 
-def _bus_plan(table: Mapping[str, object], fail: _Fail) -> BusPlan:
-    serve = _serve_table(table, "bus", _BUS_SERVE, fail)
+def _bus_plan(table: Mapping[str, object], fail: Fail) -> BusPlan:
+    serve = serve_table(table, "bus", _BUS_SERVE, fail)
     rs485 = _rs485(table, serve, fail) if "rs485" in serve else None
     for key in ("delay_before_tx", "delay_before_rx"):
         if key in serve and rs485 is None:
             raise fail(f"bus.serve.{key}", 'driver delays need an RS-485 mode (rs485 = "...")')
     return BusPlan(
         rs485=rs485,
-        listen=_listen(serve["listen"], "bus.serve.listen", fail)
+        listen=listen_address(serve["listen"], "bus.serve.listen", fail)
         if "listen" in serve
         else DEFAULT_BUS_LISTEN,
         pty=Path(_text(serve["pty"], "bus.serve.pty", fail)) if "pty" in serve else None,

@@ -19,6 +19,32 @@ class AtSyntaxError(ValueError):
     """A command line that cannot be parsed: the modem answers ``ERROR``."""
 
 
+class CmeError(Exception):
+    """Ends a command with ``+CME ERROR: <code>`` (``ERROR`` under ``AT+CMEE=0``)."""
+
+    def __init__(self, code: int) -> None:
+        super().__init__(code)
+        self.code = code
+
+
+class CmsError(CmeError):
+    """Ends an SMS command with ``+CMS ERROR: <code>``."""
+
+
+#: :class:`Finish` with this: the line ends without a final result code (``AT+CPIN?``).
+NO_FINAL = ""
+
+
+class Finish(Exception):
+    """Ends the command line with ``final`` (``None``: the answer comes later;
+    :data:`NO_FINAL`: there is none)."""
+
+    def __init__(self, final: str | None, lines: tuple[str, ...] = ()) -> None:
+        super().__init__(final)
+        self.final = final
+        self.lines = lines
+
+
 @dataclass(frozen=True, slots=True)
 class AtCommand:
     """One command of a line: ``name`` upper case (``E``, ``&F``, ``+CMGS``), ``kind`` one of

@@ -32,8 +32,8 @@ from typing import Any
 
 from sondalog.gsm.modem import Modem, ModemConfig
 from sondalog.gsm.network import DEFAULT_USSD, Network
-from sondalog.gsm.sms import normalize
-from sondalog.gsm.system import GsmSystem, SystemOutput
+from sondalog.gsm.sms import DEFAULT_SMSC, normalize
+from sondalog.gsm.system import GsmSystem
 
 
 class GsmConfigError(ValueError):
@@ -56,7 +56,7 @@ class ModemSpec:
 
 @dataclass(frozen=True, slots=True)
 class GsmConfig:
-    smsc: str = "+420603052000"
+    smsc: str = DEFAULT_SMSC
     sms_price: float = 0.0
     hosts: dict[str, str] = field(default_factory=dict)
     modems: tuple[ModemSpec, ...] = ()
@@ -121,6 +121,13 @@ def parse(table: Mapping[str, Any], where: str = "gsm") -> GsmConfig:
         if not isinstance(ip, str) or len(ip.split(".")) != 4:
             raise GsmConfigError(f"{where}.hosts.{name}", "must be an IPv4 address in quotes")
         hosts[str(name).lower()] = ip
+    parsed_smsc: list[str] = []  # parsed once, where it is first needed (the errors' order)
+
+    def smsc() -> str:
+        if not parsed_smsc:
+            parsed_smsc.append(_number(table.get("smsc", DEFAULT_SMSC), f"{where}.smsc"))
+        return parsed_smsc[0]
+
     seen: set[str] = set()
 
     def unique(number: str, at: str) -> str:
@@ -158,7 +165,7 @@ def parse(table: Mapping[str, Any], where: str = "gsm") -> GsmConfig:
             store_size=size,
             imei=_get(m, "imei", str, defaults.imei, at),
             imsi=_get(m, "imsi", str, defaults.imsi, at),
-            smsc=_number(table.get("smsc", "+420603052000"), f"{where}.smsc"),
+            smsc=smsc(),
         )
         credit = _get(m, "credit", float, 0.0, at)
         modems.append(ModemSpec(number, credit, signal, publish, ussd, modem_config))
@@ -180,7 +187,7 @@ def parse(table: Mapping[str, Any], where: str = "gsm") -> GsmConfig:
             raise GsmConfigError(f"{at}.number", f"{target} is not a subscriber")
         outages.append((start, end, target))
     return GsmConfig(
-        smsc=_number(table.get("smsc", "+420603052000"), f"{where}.smsc"),
+        smsc=smsc(),
         sms_price=_get(table, "sms_price", float, 0.0, where),
         hosts=hosts,
         modems=tuple(modems),
@@ -193,23 +200,21 @@ def build(
     config: GsmConfig,
     now: float,
     trace: Callable[[str], Callable[[str, bytes, float], None] | None] | None = None,
-) -> tuple[GsmSystem, SystemOutput]:
-    """The world ``config`` describes; ``trace(number)`` may give each modem a trace hook."""
+) -> GsmSystem:
+    """The world ``config`` describes; ``trace(number)`` may give each modem a trace hook.
+    The modems' power-up output is dropped (no line is attached yet)."""
     network = Network(smsc=config.smsc, sms_price=config.sms_price)
     network.gateway.hosts.update(config.hosts)
     system = GsmSystem(network)
     for phone in config.phones:
         network.add_phone(phone)
-    out = SystemOutput()
     for spec in config.modems:
         modem = Modem(spec.config, trace=trace(spec.number) if trace else None)
-        step = system.add_modem(
+        system.add_modem(
             spec.number, modem, now, credit=spec.credit, rssi=spec.signal, ussd=dict(spec.ussd)
         )
-        for number, data in step.lines.items():
-            out.lines[number] = out.lines.get(number, b"") + data
         for port, host_port in spec.publish.items():
             network.gateway.publish(spec.number, port, host_port)
     for start, end, target in config.outages:
         network.schedule_outage(start, end, target)
-    return system, out
+    return system

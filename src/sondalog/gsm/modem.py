@@ -20,23 +20,27 @@ from sondalog.gsm import events as ev
 from sondalog.gsm import modem_basic, modem_calls, modem_sms, wip
 from sondalog.gsm.atline import (
     EXEC,
+    NO_FINAL,
     READ,
     SET,
     TEST,
     AtCommand,
     AtSyntaxError,
+    CmeError,
+    CmsError,
+    Finish,
     format_info,
     format_result,
     parse_line,
 )
 from sondalog.gsm.modem_calls import ActiveCall
+from sondalog.gsm.sms import DEFAULT_SMSC
 from sondalog.gsm.smsstore import SmsStore
 
 log = logging.getLogger(__name__)
 
 #: Seconds of silence before and after ``+++`` (V.250 S12 = 50 x 20 ms).
 GUARD_TIME = 1.0
-#: Seconds between two ``RING``.
 #: Longest command line kept (longer: ``ERROR``).
 MAX_LINE = 2048
 #: Data from the far end kept while in online command mode.
@@ -55,32 +59,6 @@ _TCP_EVENTS = (ev.TcpConnected, ev.TcpFailed, ev.TcpIncoming, ev.TcpData, ev.Tcp
 Tracer = Callable[[str, bytes, float], None]
 
 
-class CmeError(Exception):
-    """Ends a command with ``+CME ERROR: <code>`` (``ERROR`` under ``AT+CMEE=0``)."""
-
-    def __init__(self, code: int) -> None:
-        super().__init__(code)
-        self.code = code
-
-
-class CmsError(CmeError):
-    """Ends an SMS command with ``+CMS ERROR: <code>``."""
-
-
-#: :class:`Finish` with this: the line ends without a final result code (``AT+CPIN?``).
-NO_FINAL = ""
-
-
-class Finish(Exception):
-    """Ends the command line with ``final`` (``None``: the answer comes later;
-    :data:`NO_FINAL`: there is none)."""
-
-    def __init__(self, final: str | None, lines: tuple[str, ...] = ()) -> None:
-        super().__init__(final)
-        self.final = final
-        self.lines = lines
-
-
 @dataclass(frozen=True, slots=True)
 class ModemConfig:
     """What the SIM and the firmware say about themselves."""
@@ -90,7 +68,7 @@ class ModemConfig:
     revision: str = "R74_00gg.FXT002 2120060 062411 17:52"
     imei: str = "356938035643809"
     imsi: str = "230011234567890"
-    smsc: str = "+420603052000"
+    smsc: str = DEFAULT_SMSC
     store_size: int = 30
     speed: int = 9600
     #: The CSD rate ``CONNECT`` names.
@@ -416,6 +394,7 @@ class Modem:
 
 __all__ = [
     "EXEC",
+    "NO_FINAL",
     "READ",
     "SET",
     "TEST",

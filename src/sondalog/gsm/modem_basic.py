@@ -2,9 +2,9 @@
 format, errors, registration, signal, radio, calls with caller id, USSD (gsm.md §2).
 
 Each handler takes the modem, the command and ``now``; it returns information lines (the
-line then ends ``OK``) or raises :class:`~sondalog.gsm.modem.CmeError`,
+line then ends ``OK``) or raises :class:`~sondalog.gsm.atline.CmeError`,
 :class:`~sondalog.gsm.atline.AtSyntaxError` (``ERROR``) or
-:class:`~sondalog.gsm.modem.Finish`.
+:class:`~sondalog.gsm.atline.Finish`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,17 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
-from sondalog.gsm.atline import EXEC, READ, SET, TEST, AtCommand, AtSyntaxError
+from sondalog.gsm.atline import (
+    EXEC,
+    NO_FINAL,
+    READ,
+    SET,
+    TEST,
+    AtCommand,
+    AtSyntaxError,
+    CmeError,
+    Finish,
+)
 from sondalog.protocol import gsm7
 
 if TYPE_CHECKING:
@@ -62,8 +72,6 @@ def _flag(modem: Modem, cmd: AtCommand, allowed: tuple[int, ...] = (0, 1)) -> in
 def _setting(cmd: AtCommand, allowed: tuple[int, ...]) -> int:
     values = cmd.ints(1)
     if values[0] is None or values[0] not in allowed:
-        from sondalog.gsm.modem import CmeError
-
         raise CmeError(NOT_ALLOWED)
     return values[0]
 
@@ -154,8 +162,6 @@ def _ipr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 def _cpin(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     """``+CPIN: READY`` without ``OK``: a Wavecom ends ``AT+CPIN?`` there (Multi-Tech's
     WIPsoft guide, "AT Command Syntax"; gammu expects it so)."""
-    from sondalog.gsm.modem import NO_FINAL, Finish
-
     if cmd.kind == READ:
         raise Finish(NO_FINAL, ("+CPIN: READY",))
     return []
@@ -169,8 +175,6 @@ def _cscs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         return ['+CSCS: ("GSM","IRA","UCS2","8859-1")']
     params = cmd.params()
     if len(params) != 1 or params[0].upper() not in ("GSM", "IRA", "UCS2", "8859-1"):
-        from sondalog.gsm.modem import CmeError
-
         raise CmeError(NOT_ALLOWED)
     m.settings.charset = params[0].upper()
     return []
@@ -244,8 +248,6 @@ def _cops(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     if values[0] == 3 and len(values) > 1 and values[1] in (0, 1, 2):
         m.settings.cops_format = values[1]
     elif values[0] not in (0, 1, 2, 4):
-        from sondalog.gsm.modem import CmeError
-
         raise CmeError(NOT_ALLOWED)
     return []
 
@@ -279,8 +281,6 @@ def _set_registered(m: Modem, registered: bool) -> None:
 # -- USSD --------------------------------------------------------------------------------
 @handler("+CUSD")
 def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import CmeError
-
     if cmd.kind == READ:
         return [f"+CUSD: {int(m.settings.cusd)}"]
     if cmd.kind == TEST:

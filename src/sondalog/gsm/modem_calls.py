@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
-from sondalog.gsm.atline import READ, TEST, AtCommand
+from sondalog.gsm.atline import READ, TEST, AtCommand, Finish
 from sondalog.gsm.modem_basic import Handler, _setting, handler_into, number_type
 
 if TYPE_CHECKING:
@@ -56,8 +56,6 @@ def _crc(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 @handler("A")
 def _answer(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
     call = m.call
     if call is None or not call.incoming or call.active:
         raise Finish("NO CARRIER")
@@ -72,6 +70,11 @@ def answer(m: Modem, now: float) -> None:
     call.active = True
     call.next_ring = None
     m.effect(ev.Answer())
+    _connected(m, call, now)
+
+
+def _connected(m: Modem, call: ActiveCall, now: float) -> None:
+    """The call is up: ``CONNECT <rate>`` and data mode for data, ``OK`` for voice."""
     if call.kind == ev.DATA:
         m.final(f"CONNECT {m.config.data_rate}")
         m.enter_data_mode(None, now)
@@ -81,8 +84,6 @@ def answer(m: Modem, now: float) -> None:
 
 @handler("D")
 def _dial(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
     text = cmd.args.strip()
     voice = text.endswith(";")
     number = "".join(ch for ch in text.rstrip(";") if ch.isdigit() or ch in "+*#")
@@ -111,12 +112,9 @@ def _hang_up(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 @handler("O")
 def _online(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
     if m.call is None or not m.call.active or m.call.kind != ev.DATA:
         raise Finish("NO CARRIER")
-    m.final(f"CONNECT {m.config.data_rate}")
-    m.enter_data_mode(None, now)
+    _connected(m, m.call, now)
     raise Finish(None)
 
 
@@ -169,11 +167,7 @@ def call_event(m: Modem, event: ev.Event, now: float) -> None:
         if call is None or call.incoming:
             return
         call.active = True
-        if call.kind == ev.DATA:
-            m.final(f"CONNECT {m.config.data_rate}")
-            m.enter_data_mode(None, now)
-        else:
-            m.final("OK")
+        _connected(m, call, now)
     elif isinstance(event, ev.CallEnded):
         call = m.call
         if call is not None and not call.incoming and not call.active:

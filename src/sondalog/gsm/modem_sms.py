@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
 from sondalog.gsm import pdu
-from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError
+from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError, CmsError, Finish
 from sondalog.gsm.modem_basic import Handler, number_type
 from sondalog.gsm.smsstore import ALL, STAT_NUMBER, STAT_TEXT, STO_SENT, STO_UNSENT, StoredSms
 from sondalog.protocol import gsm7
@@ -31,12 +31,6 @@ MEMORY_FULL = 322
 NO_NETWORK = 331
 
 
-def _cms(code: int) -> Exception:
-    from sondalog.gsm.modem import CmsError
-
-    return CmsError(code)
-
-
 def cmgf(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CMGF: {int(m.settings.text_mode)}"]
@@ -44,7 +38,7 @@ def cmgf(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         return ["+CMGF: (0,1)"]
     values = cmd.ints(1, 1)
     if values[0] not in (0, 1):
-        raise _cms(OPERATION_NOT_ALLOWED)
+        raise CmsError(OPERATION_NOT_ALLOWED)
     m.settings.text_mode = values[0] == 1
     return []
 
@@ -56,7 +50,7 @@ def csca(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         return []
     params = cmd.params()
     if not params or not params[0]:
-        raise _cms(OPERATION_NOT_ALLOWED)
+        raise CmsError(OPERATION_NOT_ALLOWED)
     m.smsc = params[0]
     return []
 
@@ -89,13 +83,11 @@ def cpms(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         return ['+CPMS: (("SM"),("SM"),("SM"))']
     params = cmd.params()
     if not params or any(p.upper() != "SM" for p in params):
-        raise _cms(OPERATION_NOT_ALLOWED)
+        raise CmsError(OPERATION_NOT_ALLOWED)
     return [f"+CPMS: {used},{total},{used},{total},{used},{total}"]
 
 
 def cmgs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
     if cmd.kind == TEST:
         return []
     params = cmd.params()
@@ -105,7 +97,7 @@ def cmgs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         m.sms_destination = params[0]
     else:
         if not params[0].isdigit() or not 1 <= int(params[0]) <= 164:
-            raise _cms(INVALID_PDU)
+            raise CmsError(INVALID_PDU)
         m.sms_length = int(params[0])
     m.start_sms_input()
     raise Finish(None)
@@ -113,12 +105,10 @@ def cmgs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 def submit(m: Modem, body: bytes, now: float) -> None:
     """Ctrl-Z ended the SMS text or PDU: send it, answer ``+CMGS: <mr>`` or the error."""
-    from sondalog.gsm.modem import CmsError
-
     try:
         sms = _text_sms(m, body) if m.settings.text_mode else _pdu_sms(m, body)
         if not m.registered:
-            raise _cms(NO_NETWORK)
+            raise CmsError(NO_NETWORK)
     except CmsError as error:
         m.final(m.error_text(error))
         return
@@ -133,21 +123,21 @@ def _text_sms(m: Modem, body: bytes) -> ev.SendSms:
         try:
             text = gsm7.decode_ucs2(bytes.fromhex(body.decode("ascii")))
         except ValueError as exc:
-            raise _cms(INVALID_TEXT) from exc
+            raise CmsError(INVALID_TEXT) from exc
     else:
         text = body.decode("latin-1")
     try:
         alphabet = pdu.alphabet_of(m.settings.csmp[3])
     except pdu.PduError as exc:
-        raise _cms(INVALID_TEXT) from exc
+        raise CmsError(INVALID_TEXT) from exc
     if alphabet == pdu.UCS2:
         if len(gsm7.encode_ucs2(text)) > pdu.MAX_USER_DATA:
-            raise _cms(INVALID_TEXT)
+            raise CmsError(INVALID_TEXT)
     else:
         alphabet = pdu.GSM7
         text = gsm7.to_gsm7(text)
         if gsm7.septet_length(text) > gsm7.SMS_SEPTETS:
-            raise _cms(INVALID_TEXT)
+            raise CmsError(INVALID_TEXT)
     return ev.SendSms(m.sms_destination, text, 0, alphabet)
 
 
@@ -156,12 +146,12 @@ def _pdu_sms(m: Modem, body: bytes) -> ev.SendSms:
     try:
         raw = pdu.from_hex(hex_text)
         if not raw or pdu.tpdu_length(raw) != m.sms_length:
-            raise _cms(INVALID_PDU)
+            raise CmsError(INVALID_PDU)
         sms = pdu.decode_submit(raw)
     except pdu.PduError as exc:
-        raise _cms(INVALID_PDU) from exc
+        raise CmsError(INVALID_PDU) from exc
     if not sms.destination:
-        raise _cms(INVALID_PDU)
+        raise CmsError(INVALID_PDU)
     return ev.SendSms(sms.destination, sms.text, 0, sms.alphabet, sms.concat)
 
 
@@ -182,7 +172,7 @@ def _index(m: Modem, cmd: AtCommand) -> int:
     values = cmd.ints(1, 2)
     index = values[0]
     if index is None or not m.store.in_range(index):
-        raise _cms(INVALID_INDEX)
+        raise CmsError(INVALID_INDEX)
     return index
 
 
@@ -192,7 +182,7 @@ def cmgr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     index = _index(m, cmd)
     sms = m.store.get(index)
     if sms is None:
-        raise _cms(INVALID_INDEX)
+        raise CmsError(INVALID_INDEX)
     lines = _show(m, sms, None)
     m.store.mark_read(index)
     return lines
@@ -213,7 +203,7 @@ def cmgl(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     else:
         stat = int(which) if which.isdigit() and int(which) in STAT_TEXT else None
     if stat is None:
-        raise _cms(OPERATION_NOT_ALLOWED)
+        raise CmsError(OPERATION_NOT_ALLOWED)
     lines: list[str] = []
     for index, sms in m.store.listing(stat):
         lines += _show(m, sms, index)
@@ -264,7 +254,7 @@ def cmgd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         statuses = {1: {1}, 2: {1, STO_SENT}, 3: {1, STO_SENT, STO_UNSENT}, 4: set(range(ALL))}
         m.store.delete_where(statuses[flag])
     else:
-        raise _cms(OPERATION_NOT_ALLOWED)
+        raise CmsError(OPERATION_NOT_ALLOWED)
     if was_full and not m.store.full:
         m.effect(ev.StoreAvailable())
     return []

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from sondalog.gsm import events as ev
 from sondalog.gsm.gateway import IpEvent, IpGateway, ModemEvent
 from sondalog.gsm.pdu import GSM7, UCS2, Concat
-from sondalog.gsm.sms import Sms, normalize, parts_of
+from sondalog.gsm.sms import DEFAULT_SMSC, Sms, normalize, parts_of
 from sondalog.protocol import gsm7
 
 MODEM = "modem"
@@ -87,7 +87,7 @@ class Outage:
 class Network:
     """Subscribers, the SMS centre, calls, USSD, coverage and the IP gateway."""
 
-    def __init__(self, smsc: str = "+420603052000", sms_price: float = 0.0) -> None:
+    def __init__(self, smsc: str = DEFAULT_SMSC, sms_price: float = 0.0) -> None:
         self.smsc = smsc
         self.sms_price = sms_price
         self.subscribers: dict[str, Subscriber] = {}

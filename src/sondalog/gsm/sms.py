@@ -9,6 +9,9 @@ from dataclasses import dataclass, replace
 from sondalog.gsm.pdu import GSM7, Concat
 from sondalog.protocol import gsm7
 
+#: The SMS centre's number (``AT+CSCA?``) unless a site file's ``[gsm]`` names another.
+DEFAULT_SMSC = "+420603052000"
+
 
 @dataclass(frozen=True, slots=True)
 class Sms:

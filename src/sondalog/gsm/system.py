@@ -61,12 +61,16 @@ class GsmSystem:
         return self._run(self.network.ip_event(event, now), now)
 
     def _modem_output(self, number: str, output: Output, out: SystemOutput, now: float) -> None:
+        self._run(self._take(number, output, out, now), now, out)
+
+    def _take(self, number: str, output: Output, out: SystemOutput, now: float) -> list[object]:
+        """Modem ``number``'s line bytes into ``out``; what its effects make the network do."""
         if output.data:
             out.lines[number] = out.lines.get(number, b"") + output.data
         items: list[object] = []
         for effect in output.effects:
             items += self.network.from_modem(number, effect, now)
-        self._run(items, now, out)
+        return items
 
     def _run(
         self, items: list[object], now: float, out: SystemOutput | None = None
@@ -79,11 +83,7 @@ class GsmSystem:
                 modem = self.modems.get(item.number)
                 if modem is None:
                     continue
-                output = modem.event(item.event, now)
-                if output.data:
-                    out.lines[item.number] = out.lines.get(item.number, b"") + output.data
-                for effect in output.effects:
-                    pending += self.network.from_modem(item.number, effect, now)
+                pending += self._take(item.number, modem.event(item.event, now), out, now)
             elif isinstance(item, PhoneEvent):
                 out.phones.append(item)
             else:

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from sondalog.gsm import events as ev
-from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError
+from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError, CmeError, Finish
 from sondalog.gsm.modem_basic import Handler
 
 if TYPE_CHECKING:
@@ -88,12 +88,6 @@ class WipState:
         return next((s for s in self.sockets.values() if s.handle == handle), None)
 
 
-def _cme(code: int) -> Exception:
-    from sondalog.gsm.modem import CmeError
-
-    return CmeError(code)
-
-
 def _ints(cmd: AtCommand, minimum: int) -> list[int]:
     values = cmd.ints()
     if len(values) < minimum or any(v is None for v in values[:minimum]):
@@ -107,14 +101,14 @@ def wipcfg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     (mode,) = _ints(cmd, 1)[:1]
     if mode == 1:
         if m.wip.stack:
-            raise _cme(STACK_STARTED)
+            raise CmeError(STACK_STARTED)
         m.wip.stack = True
     elif mode == 0:
         drop_all(m)
         m.wip.stack = False
         m.wip.bearer_open = False
     else:
-        raise _cme(BAD_OPTION)
+        raise CmeError(BAD_OPTION)
     return []
 
 
@@ -125,18 +119,18 @@ def wipbr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return []
     if not w.stack:
-        raise _cme(STACK_STATE)
+        raise CmeError(STACK_STATE)
     values = cmd.params()
     if len(values) < 2 or not values[0].isdigit() or not values[1].isdigit():
         raise AtSyntaxError("AT+WIPBR=<cmd>,<bid>")
     action, bid = int(values[0]), int(values[1])
     if bid != GPRS_BEARER:
-        raise _cme(BEARER_NOT_AVAILABLE)
+        raise CmeError(BEARER_NOT_AVAILABLE)
     if action == 1:
         w.bearer_open = True
         return []
     if not w.bearer_open:
-        raise _cme(BAD_STATE)
+        raise CmeError(BAD_STATE)
     if action == 2:
         if len(values) < 4 or not values[2].isdigit():
             raise AtSyntaxError("AT+WIPBR=2,6,<opt>,<value>")
@@ -152,9 +146,9 @@ def wipbr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         return [f'+WIPBR: {GPRS_BEARER},{option},"{value}"']
     if action == 4:
         if w.started:
-            raise _cme(BAD_STATE)
+            raise CmeError(BAD_STATE)
         if not m.registered:
-            raise _cme(GPRS_FAILURE)
+            raise CmeError(GPRS_FAILURE)
         w.started = True
         m.effect(ev.Attach(w.options.get(11, ""), w.options.get(0, "")))
         return []
@@ -163,7 +157,7 @@ def wipbr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         if action == 0:
             w.bearer_open = False
         return []
-    raise _cme(BAD_OPTION)
+    raise CmeError(BAD_OPTION)
 
 
 def _stop_bearer(m: Modem) -> None:
@@ -196,17 +190,17 @@ def wipcreate(m: Modem, cmd: AtCommand, now: float) -> list[str]:
         raise AtSyntaxError("AT+WIPCREATE=<proto>,<idx>,...")
     proto, index = int(params[0]), int(params[1])
     if not w.started:
-        raise _cme(STACK_STATE)
+        raise CmeError(STACK_STATE)
     if proto == TCP_CLIENT:
         if len(params) != 4 or not params[3].isdigit():
             raise AtSyntaxError('AT+WIPCREATE=2,<idx>,"<host>",<port>')
         if not 1 <= index <= MAX_SOCKETS:
-            raise _cme(BAD_INDEX)
+            raise CmeError(BAD_INDEX)
         if index in w.sockets or _reserved(w, index):
-            raise _cme(ALREADY_ACTIVE)
+            raise CmeError(ALREADY_ACTIVE)
         port = int(params[3])
         if not 1 <= port <= 65535:
-            raise _cme(BAD_PORT)
+            raise CmeError(BAD_PORT)
         handle = w.next_handle
         w.next_handle += 1
         w.sockets[index] = Socket(handle, index)
@@ -217,17 +211,17 @@ def wipcreate(m: Modem, cmd: AtCommand, now: float) -> list[str]:
             raise AtSyntaxError("AT+WIPCREATE=3,<idx>,<port>,<from>,<to>")
         port, first, last = (int(p) for p in params[2:])
         if not 1 <= index <= MAX_SERVERS or not 1 <= first <= last <= MAX_SOCKETS:
-            raise _cme(BAD_INDEX)
+            raise CmeError(BAD_INDEX)
         if not 1 <= port <= 65535:
-            raise _cme(BAD_PORT)
+            raise CmeError(BAD_PORT)
         if index in w.servers:
-            raise _cme(ALREADY_ACTIVE)
+            raise CmeError(ALREADY_ACTIVE)
         w.servers[index] = Server(port, first, last)
         m.effect(ev.TcpListen(port))
         return []
     if proto in (1, 4, 5, 6):
-        raise _cme(NOT_IMPLEMENTED)
-    raise _cme(BAD_PROTOCOL)
+        raise CmeError(NOT_IMPLEMENTED)
+    raise CmeError(BAD_PROTOCOL)
 
 
 def _reserved(w: WipState, index: int) -> bool:
@@ -235,19 +229,17 @@ def _reserved(w: WipState, index: int) -> bool:
 
 
 def wipdata(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Finish
-
     if cmd.kind in (READ, TEST):
         return []
     values = _ints(cmd, 3)
     proto, index, mode = values[:3]
     if proto != TCP_CLIENT:
-        raise _cme(NOT_IMPLEMENTED if proto == 1 else BAD_PROTOCOL)
+        raise CmeError(NOT_IMPLEMENTED if proto == 1 else BAD_PROTOCOL)
     socket = m.wip.sockets.get(index)
     if socket is None:
-        raise _cme(BAD_INDEX)
+        raise CmeError(BAD_INDEX)
     if not socket.ready or mode not in (1, 2):
-        raise _cme(BAD_STATE)
+        raise CmeError(BAD_STATE)
     m.final("CONNECT")
     m.enter_data_mode(socket.handle, now)
     m.emit(bytes(socket.held))
@@ -265,17 +257,17 @@ def wipclose(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     if proto == TCP_CLIENT:
         socket = w.sockets.pop(index, None)
         if socket is None:
-            raise _cme(BAD_INDEX)
+            raise CmeError(BAD_INDEX)
         if not socket.peer_closed:
             m.effect(ev.TcpClose(socket.handle))
         return []
     if proto == TCP_SERVER:
         server = w.servers.pop(index, None)
         if server is None:
-            raise _cme(BAD_INDEX)
+            raise CmeError(BAD_INDEX)
         m.effect(ev.TcpUnlisten(server.port))
         return []
-    raise _cme(BAD_PROTOCOL)
+    raise CmeError(BAD_PROTOCOL)
 
 
 def send(m: Modem, handle: int, data: bytes) -> None:

@@ -113,3 +113,19 @@ def test_serving_beyond_loopback_needs_allow_remote(tmp_path: Path) -> None:
         timeout=30,
     )
     assert done.returncode == 2 and "--allow-remote" in done.stderr
+
+
+def test_a_mail_hub_beyond_loopback_needs_allow_remote_too(tmp_path: Path) -> None:
+    site = _site(tmp_path)
+    text = site.read_text()
+    assert 'smtp = "127.0.0.1:0"' in text
+    site.write_text(text.replace('smtp = "127.0.0.1:0"', 'smtp = "0.0.0.0:0"', 1))
+    done = subprocess.run(
+        [sys.executable, "-m", "sondalog", "serve", str(site)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "mail.smtp: 0.0.0.0 is reachable from other machines" in done.stderr
+    assert "--allow-remote" in done.stderr

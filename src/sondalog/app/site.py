@@ -38,6 +38,7 @@ from pathlib import Path
 
 from sondalog.app.fleet_site import FleetLogger, parse_fleet
 from sondalog.app.gsm_site import GsmPlan, listen_address, parse_gsm_site
+from sondalog.app.mailhub import config_from_mapping
 from sondalog.backends.linux.board import board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
@@ -108,6 +109,13 @@ def load_site(path: Path) -> SitePlan:
         bus = _bus_plan(bus_table, fail)
         listens.append(("bus.serve.listen", bus.listen))
     mail = table("mail")
+    if mail is not None:
+        try:
+            hub = config_from_mapping(mail, path.parent)  # (its directory is the state's)
+        except ValueError as exc:
+            raise fail("mail", str(exc)) from exc
+        listens.append(("mail.smtp", (hub.smtp_host, hub.smtp_port)))
+        listens.append(("mail.pop3", (hub.pop3_host, hub.pop3_port)))
     if bus is not None:
         parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
         if bus.serial is None and "board" in data:

@@ -21,6 +21,7 @@ from pathlib import Path
 from sondalog.ala1.model import Version
 from sondalog.app.logger import DATABASE_FILE, load_identity
 from sondalog.app.virtual import VirtualLogger
+from sondalog.io.private import private_dir
 
 #: Days of module time each logger has recorded when the demo starts.
 HISTORY_DAYS = 28
@@ -232,7 +233,7 @@ MAIL_ACCOUNTS = {LOGGER_MAIL: "secret", USER_MAIL: "secret"}
 
 def write_world(state: Path) -> None:
     """The site files of :data:`LOGGERS` and of the bus (``bus.toml``)."""
-    state.mkdir(parents=True, exist_ok=True)
+    private_dir(state)  # the demo's state, private like any (docs/security.md)
     for logger in (*LOGGERS, GSM):
         (state / f"{logger.key}.toml").write_text(
             f"# The demo logger {logger.serial}: {logger.what}.\n{logger.site}", encoding="utf-8"

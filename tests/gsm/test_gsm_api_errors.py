@@ -15,6 +15,10 @@ from gsm_served import MODEM, PHONE, PHONE2, Served, serve, site_file
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from sondalog.app import gsm_api
+from sondalog.client.phone import MAX_BODY as CLIENT_MAX_BODY
+from sondalog.client.phone import PhoneApi, PhoneApiError
+
 #: The API's limits (sondalog.app.gsm_api.MAX_BODY, MAX_DEPTH), as documented.
 MAX_BODY = 64 * 1024
 MAX_DEPTH = 32
@@ -165,6 +169,21 @@ def test_wrong_types_missing_fields_and_unknown_paths_answer_json(world: Served)
     assert_error(world.request("POST", "/health", {}), 405, None)
     assert_error(world.request("GET", "/calls/" + "9" * 5000), 404, None)
     assert_error(world.request("DELETE", "/calls/%ED%A0%80"), 404, None)
+
+
+def test_the_phone_client_reports_the_refusal(world: Served) -> None:
+    assert gsm_api.MAX_BODY == MAX_BODY == CLIENT_MAX_BODY
+    assert gsm_api.MAX_DEPTH == MAX_DEPTH
+    phone = PhoneApi(world.api)
+    with pytest.raises(PhoneApiError) as refused:
+        phone.sms(PHONE, PHONE2, "bad \udc80 byte")  # what a shell's invalid UTF-8 becomes
+    assert refused.value.status == 400 and "'text' has a lone surrogate U+DC80" in str(
+        refused.value
+    )
+    with pytest.raises(PhoneApiError) as refused:  # refused before sending: not "cannot reach"
+        phone.sms(PHONE, PHONE2, "x" * 1_000_000)
+    assert refused.value.status == 413 and str(MAX_BODY) in refused.value.message
+    assert phone.sms(PHONE, PHONE2, "fine")["ids"]
 
 
 # -- random JSON to every endpoint ---------------------------------------------------------

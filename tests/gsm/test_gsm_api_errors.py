@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import socket
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -184,6 +185,13 @@ def test_the_phone_client_reports_the_refusal(world: Served) -> None:
         phone.sms(PHONE, PHONE2, "x" * 1_000_000)
     assert refused.value.status == 413 and str(MAX_BODY) in refused.value.message
     assert phone.sms(PHONE, PHONE2, "fine")["ids"]
+
+
+def test_docs_state_the_limits_and_the_error_format() -> None:
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "gsm.md").read_text(encoding="utf-8")
+    api = doc.split("## The HTTP API", 1)[1].split("\n## ", 1)[0]
+    assert f"64 KiB ({MAX_BODY} bytes)" in api and f"deeper than {MAX_DEPTH} levels" in api
+    assert '{"error": "what is wrong", "field": "text"}' in api
 
 
 # -- random JSON to every endpoint ---------------------------------------------------------

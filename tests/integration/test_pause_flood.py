@@ -1,6 +1,7 @@
-"""Issue 20: a client that floods its line while its command waits in ``pause`` (§8.5.1) does
-not grow the logger's memory: the logger holds a bounded backlog and stops reading that
-connection (the client's sends block), while other clients are served as before."""
+"""Issue 20: a client that floods its line while its command waits in ``pause`` (§8.5.1), or
+that never reads its answers, does not grow the logger's memory: the logger holds a bounded
+backlog and stops reading that connection (the client's sends block), while other clients are
+served as before."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ Serve = Callable[..., ServedLogger]
 
 COMMAND = b"read i version\r"
 CHUNK = COMMAND * 4400  # 66 KB
+UNKNOWN = b"x" * 119 + b"\r"  # answered with itself and ERROR: more out than in
 FLOOD = 40 * 1024 * 1024
 STALLED = 1.0  # seconds without progress: the server no longer reads the flooder
 
@@ -96,3 +98,30 @@ def test_what_waits_behind_a_pause_is_all_answered(serve: Serve) -> None:
             answers += chunk
         sender.join(timeout=30)
     assert answers == b"2.10\r\nOK\r\n" * (count + 1)
+
+
+def test_a_client_that_never_reads_its_answers_is_throttled(serve: Serve) -> None:
+    """Its answers pile up (kernel buffers, then the transport's): reading it stops until it
+    reads, even while the runtime's own queue of its input has room (tcp.py keeps both
+    reasons to stop reading; one alone does not resume what the other stopped)."""
+    served = serve("--protocol", "2.10")
+    client = socket.socket()
+    client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 64 * 1024)  # fills sooner
+    client.settimeout(30)
+    client.connect((served.host, served.port))
+    assert exchange(client, COMMAND, b"OK\r\n") == b"2.10\r\nOK\r\n"
+    before = rss_kib(served.proc.pid)
+    flood = Flooder(client, total=FLOOD // 2, chunk=UNKNOWN * 550)
+    flood.start()
+    try:
+        flood.wait_done_or_stalled()
+        grown = rss_kib(served.proc.pid) - before
+        # bounded by the kernel's socket buffers and the transport's high-water mark
+        assert grown < 50 * 1024, f"RSS grew by {grown} KiB after {flood.sent} bytes"
+        assert flood.sent < flood.total, "the server kept reading a client that reads nothing"
+    finally:
+        flood.stop.set()
+        flood.join(timeout=10)
+        client.close()
+    with served.connect(timeout=30) as other:
+        assert exchange(other, COMMAND, b"OK\r\n", timeout=15) == b"2.10\r\nOK\r\n"

@@ -63,6 +63,9 @@ class NamedDevice:
     def line_speed(self) -> int:
         return self.engine.line_speed()
 
+    def input_room(self, line: int) -> int | None:
+        return self.engine.input_room(line)  # DeviceHost's backpressure (issue 20)
+
     def receive(self, line: int, data: bytes, now: float) -> Sequence[Effect]:
         token = _CURRENT.set(self.name)
         try:

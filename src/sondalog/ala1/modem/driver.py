@@ -26,7 +26,6 @@ import logging
 import re
 from collections import deque
 from collections.abc import Generator
-from typing import Protocol
 
 from sondalog.ala1.modem import jobs, mailjobs
 from sondalog.ala1.modem.atio import (
@@ -47,7 +46,8 @@ from sondalog.ala1.modem.atio import (
     is_urc,
 )
 from sondalog.ala1.modem.credit import GsmReadings
-from sondalog.ala1.outbox import Outbox, Outgoing
+from sondalog.ala1.modem.host import Host
+from sondalog.ala1.outbox import Outgoing
 
 log = logging.getLogger(__name__)
 
@@ -70,32 +70,6 @@ _MODEM_OUTPUT = re.compile(
 )
 #: A running job: a :data:`Job`, or ``mailjobs.gprs_up`` (its result is not used).
 _Running = Generator[Request, object, object]
-
-
-class Host(Protocol):
-    """What the driver needs from the logger (:class:`~sondalog.ala1.modem.link.ModemLink`)."""
-
-    outbox: Outbox
-
-    def setting(self, name: str) -> str: ...
-
-    def execute(self, text: str, now: float, paused: bool) -> bytes | float:
-        """The answer bytes of command line ``text``, or seconds to wait and ask again."""
-        ...
-
-    def open_session(self, now: float) -> int: ...
-
-    def session_input(self, session: int, data: bytes, now: float) -> None: ...
-
-    def close_session(self, session: int) -> None: ...
-
-    def ring_message(self, kind: str, number: str) -> int | None:
-        """The message of a ``ringvoice``/``ringdata`` address with this number (§6.10.2)."""
-        ...
-
-    def run_message(self, message: int, now: float) -> None: ...
-
-    def line_quiet_since(self) -> float: ...
 
 
 _PENDING = object()

@@ -56,11 +56,16 @@ def probe(d: ModemDriver) -> Job:
 
     if d.reader.raw:  # gsm.md §7: data mode first left, never an AT in it
         yield from leave_data_mode(d)
-    if d.resync:  # a command went unanswered: its late answer passes first, unread
-        d.resync = False
+    resync, d.resync = d.resync, False
+    if resync:  # a command went unanswered: its late answer passes first, unread
         yield Sleep(RESYNC_QUIET)
     yield Write(ESC)  # ends a "> " prompt the modem may still wait at (gammu does the same)
     reply = yield from at("AT", PROBE_TIMEOUT)
+    if not reply.final and (resync or d.present is False):
+        # a modem that answered before may be in data mode the driver lost track of (the
+        # first probe stays 1 s: §6.11.5.2.1)
+        yield from leave_data_mode(d)
+        reply = yield from at("AT", PROBE_TIMEOUT)
     if reply.final:
         d.stray_finals = 0
         yield Sleep(PROBE_TIMEOUT)

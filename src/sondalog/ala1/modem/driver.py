@@ -198,6 +198,9 @@ class ModemDriver:
         """A reply to go out (now, or again after a failed try)."""
         self.replies.append(reply)
 
+    def drop_urcs(self, exact: str) -> None:
+        self._urcs = deque(u for u in self._urcs if u != exact)
+
     def _reply_due(self) -> PendingReply | None:
         return next((r for r in self.replies if r.next_try <= self.now), None)
 
@@ -278,6 +281,10 @@ class ModemDriver:
             if self._lines and self._lines[-1].startswith(("+CMGR:", "+CMGL:")):
                 self._lines.append(line)  # an SMS's text, whatever it says ("OK", "RING")
                 return
+            if line.startswith("NO CARRIER") and not (
+                isinstance(wait, Await) or (isinstance(wait, At) and "NO CARRIER" in wait.finals)
+            ):
+                return  # a connection that dropped, not this command's answer (V.250 §5.7)
             if is_final(line):
                 if isinstance(wait, At) and wait.finals and not line.startswith(wait.finals):
                     log.info("late answer %r passed over while waiting for %r", line, wait)
@@ -295,7 +302,7 @@ class ModemDriver:
             self._resolve(line)
         elif is_urc(line):
             self._queue_urc(line)
-        elif is_final(line):
+        elif is_final(line) and not line.startswith("NO CARRIER"):
             self.stray_finals += 1  # an answer nobody waits for: a late one (jobs.probe)
 
     def _queue_urc(self, line: str) -> None:

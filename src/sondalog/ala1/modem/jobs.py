@@ -100,6 +100,7 @@ def init(d: ModemDriver, device: str) -> Job:
         yield from mailjobs.gprs_down(d)
     d.applied = device
     d.listing_due = True  # gsm.md §7: SMS stored before AT+CNMI had no notice
+    d.drop_urcs("RING")  # rang before AT+CRC=1: a ringing call rings again, with its kind
 
 
 def radio(d: ModemDriver, on: bool) -> Job:

@@ -48,12 +48,15 @@ from sondalog.app.demo_world import (
     fast_forward,
     gsm_message_settings,
     gsm_site,
+    history_origin,
+    simulated_sensors,
     write_world,
 )
 from sondalog.app.logger import Logger, start_logger
 from sondalog.app.mailhub import MailHub, MailHubConfig
 from sondalog.app.serve import RunningSite, start_site
 from sondalog.app.site import load_site
+from sondalog.backends.sim.logger import SimHardware
 from sondalog.client import Ala1Client
 from sondalog.io.address import format_address, parse_listen
 from sondalog.io.clock import AcceleratedClock, RealClock
@@ -64,6 +67,8 @@ HOST = "127.0.0.1"
 #: Module seconds per real second while the demo runs live (a 5-minute sample every 5 s).
 SPEED = 60.0
 BUS_PORT, SMTP_PORT, POP3_PORT, WEB_PORT, GSM_API_PORT = 10485, 2525, 1110, 8080, 8025
+#: Real seconds the demo waits for the GSM logger's first readings of signal and credit.
+READINGS_TIMEOUT = 30.0
 T = TypeVar("T")
 
 
@@ -105,11 +110,34 @@ def _free_web_port() -> int:
     return WEB_PORT
 
 
+async def _until_every_channel_reads(client: Ala1Client, serial: str) -> None:
+    """Wait until every channel of the logger reads a value (``read channel value``, §6.5):
+    the GSM logger's signal and credit (types 12, 11) have none before its first
+    communication (§6.11.7), so its live rows would start with empty fields (issue 20).
+    After :data:`READINGS_TIMEOUT` real seconds the demo goes on, saying so."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + READINGS_TIMEOUT
+    while True:
+        answer = await client.command("read channel value")
+        values = answer.lines[0].split(",") if answer.ok and answer.lines else [""]
+        if all(values):
+            return
+        if loop.time() > deadline:
+            print(
+                f"{serial}: no value yet on channel(s) "
+                f"{', '.join(str(n) for n, v in enumerate(values, start=1) if not v)}",
+                file=sys.stderr,
+            )
+            return
+        await asyncio.sleep(0.2)
+
+
 class Demo:
     """Everything the demo started, closed in reverse by :meth:`close`."""
 
-    def __init__(self, clock: AcceleratedClock) -> None:
+    def __init__(self, clock: AcceleratedClock, origin: float) -> None:
         self.clock = clock
+        self.origin = origin  # where the history and the loggers' signals start
         self.loggers: dict[str, Logger] = {}
         self.bus: BusServer | None = None
         self.mail: MailHub | None = None
@@ -122,13 +150,17 @@ class Demo:
     async def start(self, listen: tuple[str, int] | None, stop: asyncio.Event) -> None:
         for number, spec in enumerate(LOGGERS):
             directory = STATE_DIR / spec.key
+            # the sensors of its site file, as its history was recorded with (issue 20)
+            sensors = simulated_sensors(STATE_DIR, spec, self.origin)
 
-            async def serve(port: int, directory: Path = directory) -> Logger:
-                return await start_logger(directory, self.clock, (HOST, port))
+            async def serve(
+                port: int, directory: Path = directory, sensors: SimHardware = sensors
+            ) -> Logger:
+                return await start_logger(directory, self.clock, (HOST, port), hardware=sensors)
 
             if number == 0 and listen is not None:
                 try:
-                    logger = await start_logger(directory, self.clock, listen)
+                    logger = await start_logger(directory, self.clock, listen, hardware=sensors)
                 except OSError as exc:
                     raise Taken(f"{format_address(*listen)}: {exc.strerror or exc}") from exc
             else:
@@ -227,6 +259,7 @@ class Demo:
                 answer = await client.command(line)
                 if not answer.ok:
                     raise RuntimeError(f"{GSM.serial}: {line!r} -> {answer.lines!r}")
+            await _until_every_channel_reads(client, GSM.serial)
         finally:
             await client.close()
         return running
@@ -321,11 +354,12 @@ async def main(listen: tuple[str, int] | None = None, speed: float = SPEED) -> N
         shutil.rmtree(STATE_DIR)
     write_world(STATE_DIR)
     print(f"recording {HISTORY_DAYS} days of history ...", flush=True)
+    origin = history_origin()
     for spec in LOGGERS:
-        await asyncio.to_thread(fast_forward, STATE_DIR, spec)
+        await asyncio.to_thread(fast_forward, STATE_DIR, spec, HISTORY_DAYS, None, origin)
     gsm_logger = STATE_DIR / GSM.key / "logger"  # where start_site keeps the site's logger
     await asyncio.to_thread(fast_forward, STATE_DIR, GSM, GSM_HISTORY_DAYS, gsm_logger)
-    demo = Demo(AcceleratedClock(speed))
+    demo = Demo(AcceleratedClock(speed), origin)
     try:
         if not stop.is_set():
             await demo.start(listen, stop)

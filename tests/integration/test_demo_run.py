@@ -2,7 +2,10 @@
 
 The demo is started as a subprocess in a temporary directory; the test reads the addresses
 it prints, checks the dashboard shows both loggers with their history and the bus modules,
-talks to a logger and to the bus as the printed commands do, and stops it with SIGINT.
+checks the rows every logger samples live carry values on every channel (issue 20), talks to
+a logger and to the bus as the printed commands do, and stops it with SIGINT. Module time
+runs at ``--speed`` :data:`SPEED` (a module hour in 6 s), so the hourly channels are sampled
+live within seconds.
 """
 
 from __future__ import annotations
@@ -19,7 +22,10 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from demo_process import DemoProcess
+from demo_process import DemoProcess, assert_live_rows_carry_values
+
+#: Module seconds per real second (the default, 60, takes a minute to sample hourly channels).
+SPEED = "600"
 
 
 def get_json(url: str) -> Any:
@@ -53,7 +59,7 @@ def closed(port: int) -> bool:
 
 
 def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
-    with DemoProcess(tmp_path) as demo:
+    with DemoProcess(tmp_path, "--speed", SPEED) as demo:
         text = demo.wait_for("Serving until Ctrl-C.")
         web = demo.url("Dashboard:  ", r"http://127\.0\.0\.1:\d+/")
         loggers = re.findall(r"sondalog term (tcp://127\.0\.0\.1:(\d+))", text)
@@ -61,6 +67,11 @@ def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
         assert len(loggers) == 3 and "sondalog bus scan tcp://" in text, text
         sms = re.search(r"sondalog phone ((?:--api \S+ )?)sms (\S+) (\S+) '([^']+)'", text)
         assert sms is not None, text
+
+        # issue 20: the live loggers sample their simulated sensors (the site files), so
+        # every channel has a value at each of its sampling instants
+        for url, _ in loggers:
+            assert assert_live_rows_carry_values(url) > 0
 
         entries = wait_for_data(web, time.monotonic() + 60)
         cable, rain = entries["CABLE-01"], entries["RAIN-02"]

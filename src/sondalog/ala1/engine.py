@@ -153,6 +153,11 @@ class Engine:
                 self.send(line, data, now)
             self.outbox.done(outgoing.ident, True)
 
+    def input_room(self, line_id: int) -> int | None:
+        """Bytes the line takes now without losing any (None: no bound; issue 20)."""
+        line = self._lines.get(line_id)
+        return None if line is None else line.room()
+
     def output_pending(self, line_id: int) -> bool:
         """True while a line still has bytes waiting to be sent (paced or stopped by XOFF)."""
         line = self._lines.get(line_id)
@@ -217,8 +222,7 @@ class Engine:
         if not data:
             pass
         elif line.pending is not None:
-            data = self._flow_control(line, data, now)
-            line.backlog.extend(data)
+            line.hold(self._flow_control(line, data, now))
         else:
             self._feed(line_id, line, data, now)
         self._messages(now)
@@ -309,8 +313,11 @@ class Engine:
                 self._deliver(line, command, answer, now, line.speed)
             if line.pending is None:
                 backlog, line.backlog = bytes(line.backlog), bytearray()
+                overrun, line.overrun = line.overrun, False
                 if backlog:
                     self._feed(line_id, line, backlog, now)
+                if overrun:
+                    line.lost_after_backlog(now)
         if line.started is not None and now - line.started >= ENTRY_TIMEOUT * self.scale:
             self._break(line, now)
 
@@ -354,7 +361,7 @@ class Engine:
                 self._reset(line)
                 self._complete(line_id, line, text, overflow, now)
                 if line.pending is not None:
-                    line.backlog.extend(data[index + 1 :])
+                    line.hold(data[index + 1 :])
                     return
                 if line.transfer is not None:  # the rest belongs to the XMODEM transfer
                     rest = transfers.take_input(self, line, data[index + 1 :], now)

@@ -1,5 +1,6 @@
 """The state of one line of an ALA1 module (§3.4, spec notes §1) and of an XMODEM transfer
-running on it (§6.16): data only; the line discipline is :class:`~sondalog.ala1.engine.Engine`.
+running on it (§6.16), and the bound on what a line holds while a command waits (issue 20);
+the line discipline is :class:`~sondalog.ala1.engine.Engine`.
 """
 
 from __future__ import annotations
@@ -8,6 +9,10 @@ from dataclasses import dataclass, field
 
 from sondalog.ala1.pacing import Pacer
 from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
+
+#: The most bytes a line holds while a command waits (§6.11.1 forbids sending then; a real
+#: module's receive FIFO is small): what comes beyond is lost, as in a FIFO overrun (issue 20).
+BACKLOG_MAX = 4096
 
 
 @dataclass
@@ -34,6 +39,33 @@ class Line:
     run_at: float = 0.0
     speed: int | None = None  # the rate the waiting command's answer goes at
     backlog: bytearray = field(default_factory=bytearray)  # received while a command waits
+    overrun: bool = False  # bytes after the backlog were lost (BACKLOG_MAX)
     blocks_messages: bool = False  # §6.14.9.2
     transfer: Transfer | None = None
     ident: int = 0  # the line id
+
+    def hold(self, data: bytes) -> None:
+        """Keep ``data`` received while a command waits, up to :data:`BACKLOG_MAX` bytes."""
+        room = self.room()
+        if room is not None and len(data) > room:
+            data = data[:room]
+            self.overrun = True  # and nothing more is kept: no gap inside the backlog
+        self.backlog += data
+
+    def room(self) -> int | None:
+        """How many more bytes the line can take without losing any (None: no bound, the
+        line discipline bounds what it keeps, §3.4.1)."""
+        if self.pending is None:
+            return None
+        return 0 if self.overrun else max(BACKLOG_MAX - len(self.backlog), 0)
+
+    def lost_after_backlog(self, now: float) -> None:
+        """Bytes were lost after the backlog just run (issue 20): the command line they
+        belonged to gets the error response when it ends, as a line past 120 characters
+        does (§3.4.1); it never runs with a piece missing."""
+        if self.pending is not None:  # the backlog's rest waits again: the loss is after it
+            self.overrun = True
+        elif self.transfer is None:
+            self.overflow = True
+            if self.started is None:
+                self.started = now  # and the entry timeout (§3.4.5) ends it

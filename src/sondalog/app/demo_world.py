@@ -5,6 +5,8 @@ RS-485 bus and the mail hub, and the collector's configuration; :func:`fast_forw
 new logger its channel settings through the protocol (as a user would, §6.5) and steps it
 through :data:`HISTORY_DAYS` days of module time (:class:`~sondalog.app.virtual.VirtualLogger`
 on the logger's own state directory), so the served logger starts with a full record.
+:func:`simulated_sensors` gives the served logger the same simulated sensors, built from the same
+site file with the same signal origin, so its live rows go on where the history ends.
 
 The loggers on cable lines are :data:`LOGGERS`; the logger in the field with a GSM modem
 sending its rows by e-mail is :data:`GSM`, served with the demo's GSM network (``GSM LOGGER``
@@ -21,6 +23,8 @@ from pathlib import Path
 from sondalog.ala1.model import Version
 from sondalog.app.logger import DATABASE_FILE, load_identity
 from sondalog.app.virtual import VirtualLogger
+from sondalog.backends.sim.logger import SimHardware, load_logger_site
+from sondalog.io.private import private_dir
 
 #: Days of module time each logger has recorded when the demo starts.
 HISTORY_DAYS = 28
@@ -158,6 +162,8 @@ credit = { model = "constant", value = 250.0 }
 #: The GSM logger's history is short: its first e-mail carries all of it.
 GSM_HISTORY_DAYS = 2
 GSM_MODEM, GSM_PHONE = "+420600000003", "+420700000001"
+#: The network's USSD code that answers the modem's credit (``gsm_site``).
+GSM_CREDIT_CODE = "*101#"
 LOGGER_MAIL, USER_MAIL = "logger@example.net", "user@example.net"
 
 
@@ -180,7 +186,7 @@ api = "{api[0]}:{api[1]}"
 [[gsm.modem]]
 number = "{GSM_MODEM}"
 credit = 250.0
-ussd = {{ "*101#" = "Your credit is {{credit:.2f}} CZK. Thank you." }}
+ussd = {{ "{GSM_CREDIT_CODE}" = "Your credit is {{credit:.2f}} CZK. Thank you." }}
 
 [[gsm.phone]]
 number = "{GSM_PHONE}"
@@ -188,9 +194,13 @@ number = "{GSM_PHONE}"
 
 
 def gsm_message_settings(smtp_port: int) -> tuple[str, ...]:
-    """What a user types to have the GSM logger e-mail its new rows every hour (§6.14)."""
+    """What a user types to have the GSM logger e-mail its new rows every hour (§6.14), and
+    ask the network its credit (USSD ``*101#``, the number after ``credit is``) at each of
+    its communications, as it reads its signal (§6.11.7): channel types 12 and 11 hold the
+    last values read. The first e-mail goes at once, so they have values from the start."""
     return (
         "write com device wavecom41",
+        f"write com status sim credit code !{GSM_CREDIT_CODE}!credit is",
         f"write com network smtp address {LOGGER_MAIL}:secret@smtp.example.net:{smtp_port}",
         f"write email send from {LOGGER_MAIL}",
         f"write address 1 type email write address 1 value {USER_MAIL}",
@@ -232,7 +242,7 @@ MAIL_ACCOUNTS = {LOGGER_MAIL: "secret", USER_MAIL: "secret"}
 
 def write_world(state: Path) -> None:
     """The site files of :data:`LOGGERS` and of the bus (``bus.toml``)."""
-    state.mkdir(parents=True, exist_ok=True)
+    private_dir(state)  # the demo's state, private like any (docs/security.md)
     for logger in (*LOGGERS, GSM):
         (state / f"{logger.key}.toml").write_text(
             f"# The demo logger {logger.serial}: {logger.what}.\n{logger.site}", encoding="utf-8"
@@ -279,19 +289,38 @@ class SettingRefused(RuntimeError):
     """A demo logger answered a setting with something else than OK."""
 
 
+def history_origin(days: float = HISTORY_DAYS) -> float:
+    """The host time ``days`` before now: where the demo's history and its signals start."""
+    return time.time() - days * 86400
+
+
+def simulated_sensors(state: Path, logger: DemoLogger, origin: float) -> SimHardware:
+    """The simulated sensors of ``logger`` from its site file in ``state`` (the ``sim``
+    backend), the signals starting at ``origin``: what :func:`fast_forward` records the
+    history with, and what the served logger samples live. With the history's origin, a
+    random walk goes on live from its last recorded value instead of starting over.
+    Raises :class:`~sondalog.sitefile.SiteError`."""
+    return load_logger_site(state / f"{logger.key}.toml", origin)
+
+
 def fast_forward(
-    state: Path, logger: DemoLogger, days: float = HISTORY_DAYS, directory: Path | None = None
+    state: Path,
+    logger: DemoLogger,
+    days: float = HISTORY_DAYS,
+    directory: Path | None = None,
+    origin: float | None = None,
 ) -> int:
     """Configure the new logger in ``directory`` (default ``state / logger.key``) and record
-    ``days`` of history ending now; returns the bytes of record it holds then (``record
-    status``). Module time is this computer's local time."""
+    ``days`` of history ending now, its signals starting at ``origin`` (default the
+    history's start; :func:`simulated_sensors`); returns the bytes of record it holds then
+    (``record status``). Module time is this computer's local time."""
     directory = directory if directory is not None else state / logger.key
     load_identity(directory, Version.V2_10, logger.serial)
-    start = time.time() - days * 86400
+    start = history_origin(days)
     virtual = VirtualLogger(
         database=directory / DATABASE_FILE,
         serial_number=logger.serial,
-        site=state / f"{logger.key}.toml",
+        hardware=simulated_sensors(state, logger, start if origin is None else origin),
         start=start,
     )
     # a throw-away history: no fsync per sample (the served logger opens it with FULL again)

@@ -30,6 +30,7 @@ from sondalog.backends.store.fleet import FleetDatabase
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
+from sondalog.io.private import private_dir
 from sondalog.io.tcp import TcpServer, serve_tcp
 from sondalog.protocol.device import Effect, Event
 from sondalog.sitefile import SiteError, read_site_file
@@ -61,6 +62,9 @@ class NamedDevice:
 
     def line_speed(self) -> int:
         return self.engine.line_speed()
+
+    def input_room(self, line: int) -> int | None:
+        return self.engine.input_room(line)  # DeviceHost's backpressure (issue 20)
 
     def receive(self, line: int, data: bytes, now: float) -> Sequence[Effect]:
         token = _CURRENT.set(self.name)
@@ -145,7 +149,7 @@ async def start_fleet(
     install_log_names()
     _raise_open_files(len(loggers) + 1024)
     root = state / "loggers"
-    root.mkdir(parents=True, exist_ok=True)
+    private_dir(root)  # 0700, like every state directory (docs/security.md)
     loop = asyncio.get_running_loop()
 
     def schedule(callback: Callable[[], None]) -> None:

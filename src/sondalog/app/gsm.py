@@ -30,6 +30,7 @@ from sondalog.gsm.network import Network
 from sondalog.gsm.trace import trace_line
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost, LocalLink
+from sondalog.io.private import open_private, private_dir, private_parents
 from sondalog.io.pty import PtyLine
 from sondalog.io.sockets import SocketPool
 from sondalog.io.tcp import TcpServer, serve_tcp
@@ -100,7 +101,7 @@ class GsmRuntime:
 
     # -- start and stop --------------------------------------------------------------------
     async def start(self) -> None:
-        self.state.mkdir(parents=True, exist_ok=True)
+        private_dir(self.state)  # 0700, its files 0600 (docs/security.md)
         now = self.clock.now()
         system = build(self.plan.config, now, trace=self._tracer)
         self.network = system.network
@@ -163,8 +164,9 @@ class GsmRuntime:
         if target is None:
             return None
         target = self.state / target  # a relative path is in the state directory
-        target.parent.mkdir(parents=True, exist_ok=True)
-        file = target.open("a", encoding="utf-8", buffering=1)
+        private_parents(target)
+        # a trace holds the logger's line (mail passwords): private wherever it is written
+        file = open_private(target, "a", buffering=1)
         self._traces.append(file)
 
         def hook(direction: str, data: bytes, now: float) -> None:
@@ -236,7 +238,7 @@ class GsmRuntime:
         self._save_handle = None
         path = self.state / STATE_FILE
         tmp = path.with_suffix(".tmp")
-        with tmp.open("w", encoding="utf-8") as file:
+        with open_private(tmp) as file:
             json.dump(netstate.dump(self.network), file)
             file.flush()
             os.fsync(file.fileno())

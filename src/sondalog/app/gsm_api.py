@@ -19,13 +19,18 @@ Served on loopback by uvicorn inside the ``sondalog serve`` event loop (default
 ``POST /coverage``         ``{"number": N | null, "covered": bool}`` (null: everyone)
 =========================  ===============================================================
 
-Bad input gets 400 with ``{"error": "..."}``, an unknown number 404.
+Every error is JSON, ``{"error": "...", "field": NAME | null}`` (``field``: the body's field at
+fault): a body that is not a JSON object, nests deeper than :data:`MAX_DEPTH`, lacks a field,
+has a field of the wrong type or a string that is not text (a lone surrogate such as
+``"\\ud800"``) gets 400 and changes nothing; an unknown number 404; a body larger than
+:data:`MAX_BODY` bytes 413 (no more than that is read; the connection closes).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import socket
 from collections.abc import Iterator
 from datetime import UTC, datetime
@@ -33,9 +38,13 @@ from typing import Any
 
 import uvicorn
 from starlette.applications import Starlette
+from starlette.datastructures import Headers
+from starlette.exceptions import HTTPException
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse
 from starlette.routing import Route
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from sondalog.app.gsm import GsmRuntime
 from sondalog.gsm.network import MODEM, PHONE
@@ -43,13 +52,73 @@ from sondalog.gsm.sms import Sms, joined, normalize
 
 #: The longest text ``POST /sms`` takes (a concatenated SMS of at most 255 parts is far more).
 MAX_TEXT = 4000
+#: The largest request body read, in bytes; a larger one gets 413.
+MAX_BODY = 64 * 1024
+#: The deepest nesting of a request body (objects and arrays); a request needs 1.
+MAX_DEPTH = 32
 
 
 class ApiError(Exception):
-    def __init__(self, status: int, message: str) -> None:
+    """A refused request: ``status``, a message and the body's ``field`` at fault (or None)."""
+
+    def __init__(self, status: int, message: str, field: str | None = None) -> None:
         super().__init__(message)
         self.status = status
         self.message = message
+        self.field = field
+
+
+def error_response(status: int, message: str, field: str | None = None) -> JSONResponse:
+    """``{"error": message, "field": field}``; a message quoting a lone surrogate still
+    encodes (backslash escapes), so an error never becomes a 500."""
+    safe = message.encode("utf-8", "backslashreplace").decode("utf-8")
+    headers = {"connection": "close"} if status == 413 else None
+    return JSONResponse({"error": safe, "field": field}, status_code=status, headers=headers)
+
+
+class BodyLimit:
+    """ASGI middleware: reads a request's whole body, at most ``limit`` bytes, before the
+    app sees it. A larger body (by its Content-Length or as it arrives) gets 413 at once and
+    the connection closes: the rest is never read."""
+
+    def __init__(self, app: ASGIApp, limit: int = MAX_BODY) -> None:
+        self.app = app
+        self.limit = limit
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        too_large = error_response(413, f"the body is larger than {self.limit} bytes")
+        declared = Headers(scope=scope).get("content-length", "")
+        if declared.isdigit() and int(declared) > self.limit:
+            await too_large(scope, receive, send)
+            return
+        chunks: list[bytes] = []
+        size = 0
+        more = True
+        while more:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return  # the client went away: nobody to answer
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.limit:
+                await too_large(scope, receive, send)
+                return
+            chunks.append(chunk)
+            more = bool(message.get("more_body", False))
+        body = b"".join(chunks)
+        replayed = False
+
+        async def replay() -> Message:
+            nonlocal replayed
+            if replayed:
+                return await receive()
+            replayed = True
+            return {"type": "http.request", "body": body, "more_body": False}
+
+        await self.app(scope, replay, send)
 
 
 def _sms_json(sms: Sms) -> dict[str, Any]:
@@ -65,33 +134,71 @@ def _sms_json(sms: Sms) -> dict[str, Any]:
     return out
 
 
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not JSON")
+
+
+def _depth(value: Any) -> int:
+    """How deep objects and arrays nest in ``value`` (0: a scalar), without recursion."""
+    deepest = 0
+    stack: list[tuple[Any, int]] = [(value, 0)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, dict):
+            item = list(item.values())
+        if isinstance(item, list):
+            deepest = max(deepest, depth + 1)
+            stack += [(x, depth + 1) for x in item if isinstance(x, (dict, list))]
+    return deepest
+
+
 async def _body(request: Request) -> dict[str, Any]:
+    """The request's JSON object (UTF-8, no NaN or Infinity, nesting <= :data:`MAX_DEPTH`)."""
+    raw = await request.body()  # BodyLimit has read it: at most MAX_BODY bytes
+    not_object = ApiError(400, "the body must be a JSON object")
+    too_deep = ApiError(400, f"the body nests deeper than {MAX_DEPTH} levels")
     try:
-        data = await request.json()
-    except ValueError:
-        raise ApiError(400, "the body must be a JSON object") from None
+        data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
+    except RecursionError:  # the parser's own limit, far deeper than MAX_DEPTH
+        raise too_deep from None
+    except ValueError:  # not UTF-8 (UnicodeDecodeError), not JSON, an int too long
+        raise not_object from None
+    if _depth(data) > MAX_DEPTH:
+        raise too_deep
     if not isinstance(data, dict):
-        raise ApiError(400, "the body must be a JSON object")
+        raise not_object
     return data
 
 
-def _text(data: dict[str, Any], key: str) -> str:
-    value = data.get(key)
-    if not isinstance(value, str) or not value:
-        raise ApiError(400, f"{key!r} must be a non-empty string")
+def _string(value: str, key: str) -> str:
+    """``value`` if it is text: a lone surrogate (``"\\ud800"``) cannot be sent or stored."""
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        bad = f"U+{ord(value[exc.start]):04X}"
+        raise ApiError(400, f"{key!r} has a lone surrogate {bad}: not a character", key) from None
     return value
+
+
+def _text(data: dict[str, Any], key: str) -> str:
+    if key not in data:
+        raise ApiError(400, f"{key!r} is missing", key)
+    value = data[key]
+    if not isinstance(value, str) or not value:
+        raise ApiError(400, f"{key!r} must be a non-empty string", key)
+    return _string(value, key)
 
 
 def build_app(runtime: GsmRuntime) -> Starlette:
     """The API over a running :class:`GsmRuntime`."""
 
-    def subscriber(number: str, kinds: tuple[str, ...] = (MODEM, PHONE)) -> str:
+    def subscriber(number: str, field: str | None, kinds: tuple[str, ...] = (MODEM, PHONE)) -> str:
         n = normalize(number)
-        if not (n.startswith("+") and n[1:].isdigit()):
-            raise ApiError(400, f"{number!r} is not a phone number like +420700000001")
+        if not (n.startswith("+") and n[1:].isascii() and n[1:].isdigit()):
+            raise ApiError(400, f"{number!r} is not a phone number like +420700000001", field)
         sub = runtime.network.subscribers.get(n)
         if sub is None or sub.kind not in kinds:
-            raise ApiError(404, f"{n} is not a {' or '.join(kinds)} of this network")
+            raise ApiError(404, f"{n} is not a {' or '.join(kinds)} of this network", field)
         return n
 
     async def health(request: Request) -> JSONResponse:
@@ -125,8 +232,8 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         data = await _body(request)
         sender, to, text = (_text(data, k) for k in ("from", "to", "text"))
         if len(text) > MAX_TEXT:
-            raise ApiError(400, f"'text' is longer than {MAX_TEXT} characters")
-        sender, to = subscriber(sender, (PHONE,)), subscriber(to)
+            raise ApiError(400, f"'text' is longer than {MAX_TEXT} characters", "text")
+        sender, to = subscriber(sender, "from", (PHONE,)), subscriber(to, "to")
         before = runtime.network._next_sms
         runtime.network_call(runtime.network.phone_sms(sender, to, text, runtime.clock.now()))
         ids = list(range(before, runtime.network._next_sms))
@@ -139,7 +246,7 @@ def build_app(runtime: GsmRuntime) -> Starlette:
             raise ApiError(400, "give the number: /sms?to=NUMBER")
         if to.startswith(" "):  # ?to=+420...: the form encoding made the plus a space
             to = "+" + to.lstrip()
-        number = subscriber(to)
+        number = subscriber(to, None)
         if request.query_params.get("queued") in ("1", "true", "yes"):
             messages = runtime.network.queued(number)
         else:
@@ -150,9 +257,9 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         data = await _body(request)
         caller, callee = _text(data, "from"), _text(data, "to")
         kind = data.get("kind", "voice")
-        if kind not in ("voice", "data"):
-            raise ApiError(400, '\'kind\' must be "voice" or "data"')
-        caller, callee = subscriber(caller, (PHONE,)), subscriber(callee)
+        if not isinstance(kind, str) or kind not in ("voice", "data"):
+            raise ApiError(400, '\'kind\' must be "voice" or "data"', "kind")
+        caller, callee = subscriber(caller, "from", (PHONE,)), subscriber(callee, "to")
         info = await runtime.calls.place(caller, callee, kind)
         return JSONResponse(info.as_json(), status_code=201)
 
@@ -161,7 +268,9 @@ def build_app(runtime: GsmRuntime) -> Starlette:
 
     def call_id(request: Request) -> int:
         raw = str(request.path_params["call_id"])
-        if not raw.isdigit() or int(raw) not in runtime.calls.calls:
+        if not (raw.isascii() and raw.isdigit() and len(raw) < 19):  # int() of 5000 digits raises
+            raise ApiError(404, f"no call {raw[:20]!r}")
+        if int(raw) not in runtime.calls.calls:
             raise ApiError(404, f"no call {raw}")
         return int(raw)
 
@@ -175,21 +284,31 @@ def build_app(runtime: GsmRuntime) -> Starlette:
 
     async def coverage(request: Request) -> JSONResponse:
         data = await _body(request)
-        number = data.get("number")
+        if "number" not in data:  # a misspelt key must not cut the whole network
+            raise ApiError(400, "'number' is missing (null: the whole network)", "number")
+        number = data["number"]
         covered = data.get("covered")
         if not isinstance(covered, bool):
-            raise ApiError(400, "'covered' must be true or false")
+            raise ApiError(400, "'covered' must be true or false", "covered")
         if number is not None:
             if not isinstance(number, str):
-                raise ApiError(400, "'number' must be a phone number or null")
-            number = subscriber(number)
+                raise ApiError(400, "'number' must be a phone number or null", "number")
+            number = subscriber(_string(number, "number"), "number")
         now = runtime.clock.now()
         runtime.network_call(runtime.network.set_coverage(number, covered, now))
         return JSONResponse({"number": number, "covered": covered})
 
     async def error(request: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, ApiError)
-        return JSONResponse({"error": exc.message}, status_code=exc.status)
+        return error_response(exc.status, exc.message, exc.field)
+
+    async def http_error(request: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, HTTPException)  # an unknown path (404), a wrong method (405)
+        return error_response(exc.status_code, str(exc.detail))
+
+    async def internal(request: Request, exc: Exception) -> JSONResponse:
+        # a bug: Starlette still raises it after this answer, uvicorn logs the traceback
+        return error_response(500, "internal error (see the server's log)")
 
     routes = [
         Route("/health", health),
@@ -202,7 +321,8 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         Route("/calls/{call_id}", hang_up, methods=["DELETE"]),
         Route("/coverage", coverage, methods=["POST"]),
     ]
-    return Starlette(routes=routes, exception_handlers={ApiError: error})
+    handlers = {ApiError: error, HTTPException: http_error, Exception: internal}
+    return Starlette(routes=routes, middleware=[Middleware(BodyLimit)], exception_handlers=handlers)
 
 
 class _Server(uvicorn.Server):

@@ -24,6 +24,7 @@ from sondalog.backends.registry import Acquiring, BackendContext
 from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
+from sondalog.io.private import open_private, private_dir
 from sondalog.io.pty import PtyLine
 from sondalog.io.serial_line import SerialLine
 from sondalog.io.tcp import TcpServer, serve_tcp
@@ -67,12 +68,12 @@ def load_identity(
             )
         return identity
     identity = Identity(version or Version.V2_10, serial_number or Identity().serial_number)
-    state_dir.mkdir(parents=True, exist_ok=True)
+    private_dir(state_dir)
     text = json.dumps(
         {"protocol": identity.version.value, "serial_number": identity.serial_number}, indent=2
     )
     tmp = path.with_suffix(".tmp")
-    with tmp.open("w", encoding="utf-8") as handle:
+    with open_private(tmp) as handle:
         handle.write(text + "\n")
         handle.flush()
         os.fsync(handle.fileno())
@@ -127,7 +128,7 @@ async def start_logger(
     lines too. Every line has its own line state. ``on_listening`` is called once all of
     them are ready.
     """
-    state_dir.mkdir(parents=True, exist_ok=True)
+    private_dir(state_dir)  # 0700, its files 0600 (docs/security.md)
     identity = load_identity(state_dir, version, serial_number)
     store = SqliteNvStore(state_dir / DATABASE_FILE)
     logger: Logger | None = None

@@ -27,6 +27,7 @@ from sondalog.backends.linux.rs485 import Rs485Error
 from sondalog.backends.registry import BackendContext
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock, RealClock
+from sondalog.io.private import private_dir
 from sondalog.sitefile import SiteError, locate
 
 #: Called with a line to show the user once each part is ready.
@@ -75,6 +76,7 @@ async def start_site(
     first modem) in FILE."""
     root = sensor_root()
     running = RunningSite()
+    private_dir(state)  # 0700 and every file in it 0600, whatever the umask (docs/security.md)
     try:
         if plan.logger is not None:
             logger = plan.logger

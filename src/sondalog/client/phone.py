@@ -19,6 +19,8 @@ from typing import Any, TypeVar
 from urllib.parse import quote, unquote, urlsplit
 
 DEFAULT_API = "http://127.0.0.1:8025"
+#: The largest request body the API reads (``sondalog.app.gsm_api.MAX_BODY``, docs/gsm.md).
+MAX_BODY = 64 * 1024
 #: How long a data call may ring before ``sondalog term`` gives up (the network: 60 s).
 ANSWER_TIMEOUT = 65.0
 
@@ -43,6 +45,8 @@ class PhoneApi:
 
     def request(self, method: str, path: str, body: dict[str, Any] | None = None) -> Any:
         data = None if body is None else json.dumps(body).encode()
+        if data is not None and len(data) > MAX_BODY:  # the API would cut the connection
+            raise PhoneApiError(413, f"the request is larger than the API takes ({MAX_BODY} bytes)")
         req = urllib.request.Request(self.base + path, data=data, method=method)
         req.add_header("Content-Type", "application/json")
         try:

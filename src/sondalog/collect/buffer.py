@@ -13,12 +13,12 @@ when :meth:`DiskBuffer.append` returns (the principle "nothing acknowledged is l
 from __future__ import annotations
 
 import json
-import sqlite3
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
 
 from sondalog.collect.model import Reading, Sink, SinkUnavailable
+from sondalog.io.private import connect_private, private_parents
 
 _DDL = """
 CREATE TABLE IF NOT EXISTS pending (
@@ -77,7 +77,8 @@ class DiskBuffer:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self._db = sqlite3.connect(self.path, isolation_level=None)
+        private_parents(self.path)  # private, 0600, like the store (docs/security.md)
+        self._db = connect_private(self.path)
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=FULL")
         self._db.execute("PRAGMA busy_timeout=5000")

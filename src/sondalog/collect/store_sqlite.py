@@ -23,6 +23,7 @@ from typing import Any
 
 from sondalog.collect.model import Reading, SinkUnavailable
 from sondalog.collect.schema import SCHEMA_VERSION, SQLITE_ADDITIVE_DDL, SQLITE_DDL
+from sondalog.io.private import connect_private, private_parents
 
 _INSERT = (
     "INSERT OR IGNORE INTO readings "
@@ -108,8 +109,8 @@ class SqliteStore:
         if self._db is not None:
             return self
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+            private_parents(self.path)  # the store is private, 0600 (docs/security.md)
+            db = connect_private(self.path, check_same_thread=False)
         except (OSError, sqlite3.Error) as exc:
             raise StoreError(f"{self.path}: cannot open: {exc}") from exc
         try:

@@ -9,7 +9,11 @@ the one timer task: it sleeps until :meth:`Device.next_deadline` and then calls
 
 Transports (:mod:`sondalog.io.tcp`, :mod:`~sondalog.io.pty`, :mod:`~sondalog.io.serial_line`,
 an in-process :class:`LocalLink`) attach lines to a host. Input is served fairly: one command
-line per line and turn of the event loop, round-robin (issue 9).
+line per line and turn of the event loop, round-robin (issue 9). A device that bounds what a
+line holds (the ALA1 while a command waits in ``pause``: ``input_room``, issue 20) is fed no
+more than that on a line whose transport can be paused (TCP): the input waits here and the
+transport stops being read. Other lines (a serial port has no input flow control, §6.11.1)
+are fed, and the device drops what it cannot hold.
 
 No protocol logic lives here: bytes in, bytes out. An internal exception is logged with the
 offending bytes and the loop carries on (DESIGN.md point 6).
@@ -41,6 +45,8 @@ PENDING_HIGH = 64 * 1024
 PENDING_LOW = 16 * 1024
 #: The most bytes of one line run per turn when no line end comes sooner.
 SLICE = 512
+#: How many bytes a device's line takes now without losing any (None: no bound); optional.
+InputRoom = Callable[[int], int | None]
 
 
 class FlowControl(Protocol):
@@ -81,6 +87,8 @@ class DeviceHost:
         self._ready: collections.deque[int] = collections.deque()  # lines with input, in turn
         self._flows: dict[int, FlowControl] = {}
         self._pump_scheduled = False
+        self._room: InputRoom | None = getattr(device, "input_room", None)
+        self._held: set[int] = set()  # lines with input the device cannot take now
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -137,6 +145,7 @@ class DeviceHost:
         self._byte_sinks.pop(line_id, None)
         self._output_sinks.pop(line_id, None)
         self._pending.pop(line_id, None)
+        self._held.discard(line_id)
         self._flows.pop(line_id, None)
         try:
             self.device.close_line(line_id)
@@ -155,6 +164,7 @@ class DeviceHost:
             and line_id in self._flows
             and len(data) <= SLICE
             and _ONE_LINE.fullmatch(data) is not None
+            and self._takes(line_id, len(data))
         ):
             # Fast path (issue 11): a transport's one whole command line while that line
             # has nothing queued is its slice of this turn: run it now, as the pump would.
@@ -182,6 +192,12 @@ class DeviceHost:
             if pending is None:
                 continue
             cut = _slice_end(pending)
+            room = self._room(line_id) if self._room and line_id in self._flows else None
+            if room is not None and room < cut:
+                if room <= 0:  # it waits until the device takes input again (_wake_held)
+                    self._held.add(line_id)
+                    continue
+                cut = room
             chunk = bytes(pending[:cut])
             del pending[:cut]
             if pending:
@@ -194,6 +210,25 @@ class DeviceHost:
             self._receive(line_id, chunk)
         self._check_deadline()
         if self._ready and not self._pump_scheduled:
+            self._pump_scheduled = True
+            asyncio.get_running_loop().call_soon(self._pump)
+
+    def _takes(self, line_id: int, size: int) -> bool:
+        """The device takes ``size`` bytes on the line now without losing any."""
+        if self._room is None:
+            return True
+        room = self._room(line_id)
+        return room is None or room >= size
+
+    def _wake_held(self) -> None:
+        """Lines whose input waited for the device (a ``pause`` ended) take their turn."""
+        woken = [line_id for line_id in self._held if self._takes(line_id, 1)]
+        if not woken:
+            return
+        for line_id in woken:
+            self._held.discard(line_id)
+            self._ready.append(line_id)
+        if not self._pump_scheduled:
             self._pump_scheduled = True
             asyncio.get_running_loop().call_soon(self._pump)
 
@@ -257,6 +292,8 @@ class DeviceHost:
 
     def _check_deadline(self) -> None:
         """Wake the timer task when the engine's next deadline moved."""
+        if self._held:
+            self._wake_held()
         if self.device.next_deadline() != self._armed:
             self._rearm.set()
 
@@ -283,6 +320,8 @@ class DeviceHost:
                     outputs = []
                     await asyncio.sleep(1.0)  # never spin on a timer that keeps failing
                 self._dispatch(outputs)
+                if self._held:
+                    self._wake_held()
 
     async def _sleep_or_rearm(self, deadline: float) -> None:
         sleeper = asyncio.ensure_future(self.clock.sleep_until(deadline))

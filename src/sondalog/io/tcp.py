@@ -33,12 +33,17 @@ class _LineProtocol(asyncio.Protocol):
         self._paced = paced
         self._transport: asyncio.Transport | None = None
         self._line: int | None = None
+        # Reading stops while either holds: the runtime has too much of this line's input
+        # queued (or the logger holds no more of it, issue 20), or the client does not read
+        # its answers. Each reason alone must not resume what the other paused.
+        self._input_full = False
+        self._output_full = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         # uvloop's transports are not asyncio.Transport subclasses: take the interface.
         stream = self._transport = cast(asyncio.Transport, transport)
         stream.set_write_buffer_limits(high=HIGH_WATER)
-        self._line = self._host.attach(self._send, paced=self._paced, flow=stream)
+        self._line = self._host.attach(self._send, paced=self._paced, flow=self)
         self._connections.add(self)
         log.info("line %d: connected from %s", self._line, stream.get_extra_info("peername"))
 
@@ -59,12 +64,30 @@ class _LineProtocol(asyncio.Protocol):
 
     # Flow control: a client that pipelines commands without reading its answers is paused.
     def pause_writing(self) -> None:
-        if self._transport is not None:
-            self._transport.pause_reading()
+        self._output_full = True
+        self._steer()
 
     def resume_writing(self) -> None:
-        if self._transport is not None and not self._transport.is_closing():
-            self._transport.resume_reading()
+        self._output_full = False
+        self._steer()
+
+    # ... and so is one whose input the runtime cannot run yet (host.FlowControl).
+    def pause_reading(self) -> None:
+        self._input_full = True
+        self._steer()
+
+    def resume_reading(self) -> None:
+        self._input_full = False
+        self._steer()
+
+    def _steer(self) -> None:
+        stream = self._transport
+        if stream is None or stream.is_closing():
+            return
+        if self._input_full or self._output_full:
+            stream.pause_reading()
+        else:
+            stream.resume_reading()
 
     def _send(self, data: bytes) -> None:
         if self._transport is not None and not self._transport.is_closing():

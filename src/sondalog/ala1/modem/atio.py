@@ -18,6 +18,12 @@ FINALS = ("OK", "ERROR", "+CME ERROR", "+CMS ERROR", "NO CARRIER", "BUSY", "NO A
 URCS = ("+CMTI:", "RING", "+CRING:", "+CLIP:", "+CUSD:", "+WIPREADY:", "+WIPERROR:",
         "+WIPACCEPT:", "+WIPPEERCLOSE:", "+WIPDATA:")  # fmt: skip
 CTRL_Z = b"\x1a"
+#: What ends ``ATA`` and ``AT+WIPDATA``: any other final is a late answer (gsm.md §7).
+CONNECT_FINALS = ("CONNECT", "NO CARRIER", "ERROR", "+CME ERROR", "BUSY", "NO ANSWER")
+#: Bounds on what the modem's side can make the driver hold (DESIGN.md point 8): a line
+#: without its end, data-mode bytes nobody takes.
+MAX_LINE = 4096
+MAX_DATA = 16384
 
 
 @dataclass(frozen=True)
@@ -35,21 +41,47 @@ class Reply:
         return next((ln for ln in self.lines if ln.startswith(prefix)), None)
 
 
-@dataclass(frozen=True)
-class MailReply:
-    """A command's answer going back by e-mail (SMS return address, e-mail command)."""
+@dataclass
+class PendingReply:
+    """A command's answer on its way back (gsm.md §4, §7): by ``sms`` to the sender, or by
+    ``email`` (an SMS return address, an e-mail command). It is kept until it went out:
+    a failed try is tried again later (:attr:`next_try`, and at once when registration is
+    regained), at most :data:`REPLY_TRIES` times within :data:`REPLY_MAX_AGE` seconds.
+    ``parts_sent``: the SMS of a long reply already sent (a retry goes on from there)."""
 
+    kind: str
     address: str
     body: str
+    first: float
+    tries: int = 0
+    next_try: float = 0.0
+    parts_sent: int = 0
+
+
+#: gsm.md §7: a reply that still fails after this many tries, or this long, is dropped.
+REPLY_TRIES = 12
+REPLY_MAX_AGE = 6 * 3600.0
+#: The wait after the n-th failed try: 30 s doubling, at most 5 minutes.
+REPLY_BACKOFF = (30.0, 300.0)
+
+
+def reply_backoff(tries: int) -> float:
+    first, most = REPLY_BACKOFF
+    return float(min(first * 2 ** max(tries - 1, 0), most))
 
 
 @dataclass(frozen=True)
 class At:
-    """Send ``AT...`` + CR; the answer is a :class:`Reply` (``prompt``: ``> `` ends it)."""
+    """Send ``AT...`` + CR; the answer is a :class:`Reply` (``prompt``: ``> `` ends it).
+
+    ``finals``: the final result codes this command can end with (``ATA``: ``CONNECT``, ``NO
+    CARRIER``...); any other final is a late answer to an earlier command and is passed over
+    (gsm.md §7). Empty: any final ends it."""
 
     line: str
     timeout: float = 10.0
     prompt: bool = False
+    finals: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -124,6 +156,8 @@ class ModemReader:
         """Lines completed by ``chunk`` (a prompt is the line ``"> "``)."""
         if self.raw:
             self.data += chunk
+            if len(self.data) > MAX_DATA:  # nobody reads them: keep the newest, bounded
+                del self.data[:-MAX_DATA]
             return []
         self.buffer += chunk
         lines: list[str] = []
@@ -134,6 +168,8 @@ class ModemReader:
                 continue
             end = self.buffer.find(b"\n")
             if end < 0:
+                if len(self.buffer) > MAX_LINE:  # no line is that long: noise on the line
+                    self.buffer.clear()
                 return lines
             line = bytes(self.buffer[:end]).strip(b"\r").decode("latin-1")
             del self.buffer[: end + 1]
@@ -150,9 +186,11 @@ class ModemReader:
         self.data.clear()
         return out
 
-    def command_mode(self) -> None:
+    def command_mode(self, rest: bytes | None = None) -> None:
+        """Data mode is over: read lines again, from ``rest`` (the bytes after the end
+        marker) when given, else from the data nobody took."""
         self.raw = False
-        self.buffer += self.data
+        self.buffer += self.data if rest is None else rest
         self.data.clear()
 
 

@@ -10,11 +10,20 @@ Presence (§6.11.5.2.1, gsm.md §3): the driver sends ``AT``; no answer within 1
 modem and the line works as ``local`` (its bytes go to the command parser). It asks again
 every :data:`PROBE_INTERVAL` seconds while the line has been quiet for :data:`PROBE_QUIET`
 seconds; when a modem answers, GSM service resumes (the modem is set up again).
+
+Liveness (gsm.md §7, docs/gsm-notes.md "Never miss, never stick"): until a probe has gone
+unanswered the line's bytes are the modem's, never command input (nothing the modem says is
+echoed back to it); bytes that are plainly a modem's result codes on a ``local`` line make
+the driver probe at once. A command the modem does not answer in time makes the driver
+probe and set the modem up again. After every set-up and every data or GPRS session the SIM
+store is listed (``AT+CMGL``) and every SMS in it handled. No AT command goes out in data
+mode. A reply that fails to go out is kept and tried again (:class:`PendingReply`).
 """
 
 from __future__ import annotations
 
 import logging
+import re
 from collections import deque
 from collections.abc import Generator
 from typing import Protocol
@@ -25,8 +34,8 @@ from sondalog.ala1.modem.atio import (
     Await,
     CommandMode,
     Job,
-    MailReply,
     ModemReader,
+    PendingReply,
     Recv,
     Reply,
     Request,
@@ -52,6 +61,13 @@ LOCAL = "LOCAL"
 #: wavecom42: how often a lost GPRS attachment (and the port 10001 server) is tried again.
 GPRS_RETRY = 60.0
 _BUSY_URCS = ("+CMTI:", "RING", "+CRING:", "+WIPACCEPT:")
+#: At most this many unsolicited result codes wait (a flood from the modem side); a ``+CMTI``
+#: dropped here is found by the next listing of the store.
+MAX_URCS = 64
+#: A modem's output on a line that works as ``local``: a result code framed by CR LF.
+_MODEM_OUTPUT = re.compile(
+    rb"\r\n(?:OK|ERROR|RING|NO CARRIER|CONNECT|BUSY|NO ANSWER|\+C[A-Z]{2,5}:|\+WIP[A-Z]+:)"
+)
 #: A running job: a :data:`Job`, or ``mailjobs.gprs_up`` (its result is not used).
 _Running = Generator[Request, object, object]
 
@@ -100,7 +116,10 @@ class ModemDriver:
         self.listening = False
         self.registered_since: float | None = None
         self.session: int | None = None
-        self.replies: deque[MailReply] = deque()
+        #: Replies on their way out, kept until they went (gsm.md §7).
+        self.replies: deque[PendingReply] = deque()
+        #: The SIM store must be listed: after every set-up and data or GPRS session.
+        self.listing_due = False
         self._out = bytearray()
         self._urcs: deque[str] = deque()
         self._job: _Running | None = None
@@ -109,6 +128,8 @@ class ModemDriver:
         self._lines: list[str] = []
         self._deadline: float | None = None
         self._next_probe = now
+        self._probed_at = now - PROBE_QUIET
+        self._heard = False  # modem output seen on the line while it works as local
         self._gprs_retry = now
 
     # -- the line ------------------------------------------------------------------------
@@ -118,28 +139,43 @@ class ModemDriver:
 
     @property
     def local(self) -> bool:
-        """The line works as ``local``: its bytes go to the command parser."""
+        """The line works as ``local``: its bytes go to the command parser. Only once a
+        probe went unanswered (§6.11.5.2.1): until then they are the modem's."""
         probing = self._job is not None and self._kind == "probe"
-        return self.device == LOCAL or (self.present is not True and not probing)
+        return self.device == LOCAL or (self.present is False and not probing)
 
     @property
     def busy(self) -> bool:
         """§6.14.9.1: a command session, SMS being read and answered, replies going out."""
         running = self._job is not None and self._kind in ("session", "sms", "reply")
         waiting = any(u.startswith(_BUSY_URCS) for u in self._urcs)
-        return running or waiting or bool(self.replies)
+        return running or waiting or self.listing_due or self._reply_due() is not None
 
     def receive(self, data: bytes, now: float) -> bool:
         """Bytes from the modem; False when the line works as ``local`` (not taken)."""
         self.now = now
-        if self.local:
+        if self.device == LOCAL:
             return False
+        if self.local:
+            if _MODEM_OUTPUT.search(data) is None:
+                return False
+            # a modem speaks on a line that works as local: never command input; it is
+            # probably back (§6.11.5.2.1): ask soon, however busy the line
+            if not self._heard:
+                log.info("modem output on the local line: looking for the modem")
+            self._heard = True
+            self._next_probe = min(self._next_probe, max(now, self._probed_at + PROBE_QUIET))
         for line in self.reader.feed(data):
             self._line(line)
         if self.reader.raw and isinstance(self._wait, Recv) and self.reader.data:
             self._resolve(self.reader.take_data())
         self._schedule()
         return True
+
+    def take_lines(self) -> None:
+        """Read the lines waiting in the reader (after data mode ended inside a job)."""
+        for line in self.reader.feed(b""):
+            self._line(line)
 
     def advance(self, now: float) -> None:
         self.now = now
@@ -152,10 +188,16 @@ class ModemDriver:
             return self._deadline
         if self.device == LOCAL:
             return None
+        if self.present is None:
+            return self._next_probe
         if self.present is not True:
+            if self._heard:
+                return self._next_probe
             return max(self._next_probe, self.host.line_quiet_since() + PROBE_QUIET)
-        if self._urcs or self.replies or self.applied != self.device:
+        if self._urcs or self.listing_due or self.applied != self.device or self.reader.raw:
             return self.now
+        if self.replies:
+            return max(self.now, min(r.next_try for r in self.replies))
         outbox = self.host.outbox
         if outbox.peek("sms") is not None or outbox.peek("email") is not None:
             return self.now  # a sending was put in the outbox: start it
@@ -175,6 +217,13 @@ class ModemDriver:
         """The answer of a command session's line: to the far end in data mode."""
         if self.session is not None and self.reader.raw:
             self._out += data
+
+    def keep_reply(self, reply: PendingReply) -> None:
+        """A reply to go out (now, or again after a failed try)."""
+        self.replies.append(reply)
+
+    def _reply_due(self) -> PendingReply | None:
+        return next((r for r in self.replies if r.next_try <= self.now), None)
 
     def urc(self, prefixes: tuple[str, ...]) -> str | None:
         for line in self._urcs:
@@ -206,8 +255,12 @@ class ModemDriver:
 
     def _begin(self, request: Request) -> object:
         self._wait, self._deadline, self._lines = request, None, []
-        if isinstance(request, At | Send) and self.present is False and self._kind != "probe":
-            return Reply("")  # the modem went away: every command fails at once
+        if isinstance(request, At | Send):
+            if self.present is not True and self._kind != "probe":
+                return Reply("")  # the modem went away: every command fails at once
+            if self.reader.raw:  # gsm.md §7: no AT command in data mode
+                log.warning("modem in data mode: %r not sent", request)
+                return Reply("")
         if isinstance(request, At):
             self._out += request.line.encode("latin-1", "replace") + b"\r"
         elif isinstance(request, Send):
@@ -247,25 +300,35 @@ class ModemDriver:
                     self._resolve(Reply(">", tuple(self._lines)))
                 return
             if is_final(line):
+                if isinstance(wait, At) and wait.finals and not line.startswith(wait.finals):
+                    log.info("late answer %r passed over while waiting for %r", line, wait)
+                    self._lines.clear()
+                    return
                 self._resolve(Reply(line, tuple(self._lines)))
                 return
-            in_sms = any(ln.startswith("+CMGR:") for ln in self._lines)
+            in_sms = any(ln.startswith(("+CMGR:", "+CMGL:")) for ln in self._lines)
             if is_urc(line) and not in_sms:
-                self._urcs.append(line)
+                self._queue_urc(line)
             else:
                 self._lines.append(line)
             return
         if isinstance(wait, Urc) and line.startswith(wait.prefixes):
             self._resolve(line)
         elif is_urc(line):
-            self._urcs.append(line)
+            self._queue_urc(line)
+
+    def _queue_urc(self, line: str) -> None:
+        if len(self._urcs) >= MAX_URCS:
+            self._urcs.popleft()
+            self.listing_due = True  # a dropped +CMTI is found by the listing
+        self._urcs.append(line)
 
     def _timeout(self) -> None:
         wait = self._wait
         if isinstance(wait, At | Send | Await):
             if isinstance(wait, At | Send) and self._kind != "probe":
-                log.info("no answer from the modem to %r: the line works as local", wait)
-                self._gone()
+                log.warning("no answer from the modem to %r: setting it up again", wait)
+                self._lost()
             self._resolve(Reply("", tuple(self._lines)))
         elif isinstance(wait, Urc):
             self._resolve(None)
@@ -274,15 +337,26 @@ class ModemDriver:
         else:
             self._resolve(None)
 
-    def _gone(self) -> None:
-        self.present = False
+    def _forget_modem(self) -> None:
         self.applied = None
         self.gprs = self.listening = False
         self.registered_since = None
+
+    def _lost(self) -> None:
+        """gsm.md §7: a command went unanswered: the rest of the job fails at once, then a
+        lone ``AT`` until the modem answers, then its set-up again."""
+        self._forget_modem()
+        self.present = None
+        self._next_probe = self.now
+
+    def _gone(self) -> None:
+        self._forget_modem()
+        self.present = False
         self._next_probe = self.now + PROBE_INTERVAL
 
     def found(self, answered: bool) -> None:
         """The result of a probe."""
+        self._heard = False
         if answered:
             self.present = True
         else:
@@ -306,16 +380,25 @@ class ModemDriver:
             return None
         if self.present is not True:
             quiet = self.now >= self.host.line_quiet_since() + PROBE_QUIET
-            if self.now >= self._next_probe and (quiet or self.present is None):
+            if self.now >= self._next_probe and (quiet or self.present is None or self._heard):
                 self._next_probe = self.now + PROBE_INTERVAL
+                self._probed_at = self.now
                 return "probe", jobs.probe(self)
             return None
+        if self.reader.raw:  # data mode with no job of its own: leave it, set up again
+            self.applied = None
+            return "init", jobs.hang_up(self)
         if self.applied != device:
             return "init", jobs.init(self, device)
         if self._urcs:
             return self._dispatch(self._urcs.popleft())
-        if self.replies:
-            return "reply", jobs.mail_reply(self, self.replies.popleft())
+        if self.listing_due:
+            self.listing_due = False
+            return "sms", jobs.list_store(self)
+        reply = self._reply_due()
+        if reply is not None:
+            self.replies.remove(reply)
+            return "reply", jobs.send_reply(self, reply)
         item = self._outgoing()
         if item is not None:
             return "send", jobs.deliver(self, item)
@@ -327,6 +410,12 @@ class ModemDriver:
         if device == "WAVECOM40" and self.radio:
             return "idle", jobs.radio(self, False)
         return None
+
+    def network_back(self) -> None:
+        """Registration (re)gained: list the store, try the waiting replies now (gsm.md §7)."""
+        self.listing_due = True
+        for reply in self.replies:
+            reply.next_try = min(reply.next_try, self.now)
 
     def _wants_attach(self) -> bool:
         """wavecom42 registered but not listening on port 10001 (the bearer was lost)."""
@@ -347,6 +436,7 @@ class ModemDriver:
             if line.split(":", 1)[1].strip() in ("1", "5"):
                 if self.registered_since is None:
                     self.registered_since = self.now
+                    self.network_back()
             else:  # no network: the modem dropped its bearer and sockets
                 self.registered_since = None
                 self.gprs = self.listening = False

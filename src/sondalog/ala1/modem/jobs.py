@@ -6,30 +6,37 @@ Each job is a generator of :mod:`~sondalog.ala1.modem.atio` requests. ``d`` is t
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Generator
 from typing import TYPE_CHECKING
 
 from sondalog.ala1.modem import mailjobs
 from sondalog.ala1.modem.atio import (
+    CONNECT_FINALS,
     CTRL_Z,
+    REPLY_MAX_AGE,
+    REPLY_TRIES,
     At,
     Job,
-    MailReply,
+    PendingReply,
     Request,
     Send,
     Sleep,
     Urc,
     as_reply,
     at,
+    reply_backoff,
 )
 from sondalog.ala1.modem.credit import credit_from_answer, parse_credit_code, rssi_from_csq
-from sondalog.ala1.modem.session import data_session
+from sondalog.ala1.modem.session import data_session, leave_data_mode
 from sondalog.ala1.modem.text import gsm7_text, split_sms
 from sondalog.ala1.outbox import Outgoing
 from sondalog.protocol.mail_command import BoundedCommand, extract_command
 
 if TYPE_CHECKING:
     from sondalog.ala1.modem.driver import ModemDriver
+
+log = logging.getLogger(__name__)
 
 #: How long the driver waits for registration before a sending fails (no coverage).
 REGISTRATION_TIMEOUT = 60.0
@@ -42,8 +49,18 @@ def probe(d: ModemDriver) -> Job:
     """§6.11.5.2.1: is a modem there? ``AT`` answered within 1 s."""
     from sondalog.ala1.modem.driver import PROBE_TIMEOUT
 
+    if d.reader.raw:  # gsm.md §7: data mode first left, never an AT in it
+        yield from leave_data_mode(d)
     reply = yield from at("AT", PROBE_TIMEOUT)
     d.found(reply.final != "")
+
+
+def hang_up(d: ModemDriver) -> Job:
+    """The modem is in data mode with no job of the driver's (a ``CONNECT`` that came late):
+    leave it and hang up; the set-up runs again after (gsm.md §7)."""
+    log.warning("modem in data mode outside a session: leaving it")
+    yield from leave_data_mode(d)
+    yield from at("ATH")
 
 
 def init(d: ModemDriver, device: str) -> Job:
@@ -62,6 +79,7 @@ def init(d: ModemDriver, device: str) -> Job:
     elif d.gprs:
         yield from mailjobs.gprs_down(d)
     d.applied = device
+    d.listing_due = True  # gsm.md §7: SMS stored before AT+CNMI had no notice
 
 
 def radio(d: ModemDriver, on: bool) -> Job:
@@ -71,6 +89,27 @@ def radio(d: ModemDriver, on: bool) -> Job:
         if not on:
             d.registered_since = None
             d.gprs = d.listening = False
+        else:
+            d.listing_due = True  # SMS the centre held while the radio was off
+
+
+def list_store(d: ModemDriver) -> Job:
+    """gsm.md §7: every SMS in the store, oldest first, read, deleted and handled as a
+    ``+CMTI`` would have it (``+CMTI`` is only a hint)."""
+    reply = yield from at('AT+CMGL="ALL"', 30.0)
+    if not reply.ok:
+        return
+    found: list[tuple[str, int]] = []
+    for line in reply.lines:
+        if not line.startswith("+CMGL:"):
+            continue
+        fields = line[6:].split(",")
+        quoted = line.split('"')
+        stamp = quoted[7] if len(quoted) > 7 else ""  # "yy/MM/dd,hh:mm:ss+zz"
+        if fields[0].strip().isdigit():
+            found.append((stamp, int(fields[0])))
+    for _, index in sorted(found):
+        yield from read_sms(d, index)
 
 
 def registered(d: ModemDriver) -> Generator[Request, object, bool]:
@@ -84,6 +123,7 @@ def registered(d: ModemDriver) -> Generator[Request, object, bool]:
         if stat in ("1", "5"):
             if d.registered_since is None:
                 d.registered_since = d.now
+                d.network_back()
             delay = float(d.host.setting("com network delay") or 0)
             wait = d.registered_since + delay - d.now
             if wait > 0:
@@ -121,18 +161,28 @@ def readings(d: ModemDriver) -> Generator[Request, object, None]:
             d.readings.credit = credit
 
 
-def send_sms(d: ModemDriver, number: str, text: str) -> Generator[Request, object, bool]:
-    """gsm.md §4: several SMS of at most 160 GSM-7 characters, in order; others become ``?``."""
-    if not number or any(c in number for c in '"\r\n'):
+def send_sms(
+    d: ModemDriver, number: str, text: str, reply: PendingReply | None = None
+) -> Generator[Request, object, bool]:
+    """gsm.md §4: several SMS of at most 160 GSM-7 characters, in order; others become ``?``.
+    With ``reply``: the parts it already sent are skipped, the ones sent now counted."""
+    if not valid_number(number):
         return False
-    for part in split_sms(gsm7_text(text)):
+    parts = split_sms(gsm7_text(text))
+    for part in parts[reply.parts_sent if reply is not None else 0 :]:
         prompt = as_reply((yield At(f'AT+CMGS="{number}"', 10.0, prompt=True)))
         if prompt.final != ">":
             return False
         data = part.encode("latin-1", "replace") + CTRL_Z
         if not as_reply((yield Send(data, 60.0))).ok:
             return False
+        if reply is not None:
+            reply.parts_sent += 1
     return True
+
+
+def valid_number(number: str) -> bool:
+    return bool(number) and not any(c in number for c in '"\r\n')
 
 
 def deliver(d: ModemDriver, item: Outgoing) -> Job:
@@ -184,16 +234,31 @@ def read_sms(d: ModemDriver, index: int) -> Job:
     if not answer:
         return
     if found.return_address is not None:
-        d.replies.append(MailReply(found.return_address, answer))
+        d.keep_reply(PendingReply("email", found.return_address, answer, d.now))
         return
-    if (yield from ready(d)):
-        yield from send_sms(d, sender, answer)
+    if not valid_number(sender):
+        log.warning("SMS command from %r: no number to answer", sender)
+        return
+    yield from send_reply(d, PendingReply("sms", sender, answer, d.now))
 
 
-def mail_reply(d: ModemDriver, reply: MailReply) -> Job:
+def send_reply(d: ModemDriver, reply: PendingReply) -> Job:
+    """One try at a reply; a failed one is kept for later, within bounds (gsm.md §7)."""
+    reply.tries += 1
+    sent = False
     if (yield from ready(d)):
-        subject = d.host.setting("email send subject")
-        yield from mailjobs.send_mail(d, reply.address, None, subject, reply.body)
+        if reply.kind == "sms":
+            sent = yield from send_sms(d, reply.address, reply.body, reply)
+        else:
+            subject = d.host.setting("email send subject")
+            sent = yield from mailjobs.send_mail(d, reply.address, None, subject, reply.body)
+    if sent:
+        return
+    if reply.tries >= REPLY_TRIES or d.now - reply.first >= REPLY_MAX_AGE:
+        log.warning("reply to %s dropped after %d tries: %r", reply.address, reply.tries, reply)
+        return
+    reply.next_try = d.now + reply_backoff(reply.tries)
+    d.keep_reply(reply)
 
 
 def call(d: ModemDriver, kind: str, number: str) -> Job:
@@ -204,7 +269,7 @@ def call(d: ModemDriver, kind: str, number: str) -> Job:
         if message is not None:
             d.host.run_message(message, d.now)
         return
-    reply = yield from at("ATA", 30.0)
+    reply = as_reply((yield At("ATA", 30.0, finals=CONNECT_FINALS)))
     if reply.final.startswith("CONNECT"):
         yield from data_session(d, socket=None)
     yield from readings(d)
@@ -212,7 +277,7 @@ def call(d: ModemDriver, kind: str, number: str) -> Job:
 
 def socket_session(d: ModemDriver, index: int) -> Job:
     """§3.4.6.4: a connection to port 10001 (``wavecom42``) is a command session."""
-    reply = yield from at(f"AT+WIPDATA=2,{index},1")
+    reply = as_reply((yield At(f"AT+WIPDATA=2,{index},1", finals=CONNECT_FINALS)))
     if reply.final.startswith("CONNECT"):
         yield from data_session(d, socket=index)
     else:

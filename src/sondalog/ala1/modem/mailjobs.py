@@ -14,8 +14,24 @@ from collections.abc import Generator
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
-from sondalog.ala1.modem.atio import At, MailReply, Recv, Request, Urc, Write, at
-from sondalog.ala1.modem.session import SHUTDOWN, EndMarker, leave_data_mode
+from sondalog.ala1.modem.atio import (
+    CONNECT_FINALS,
+    At,
+    PendingReply,
+    Recv,
+    Request,
+    Urc,
+    Write,
+    as_reply,
+    at,
+)
+from sondalog.ala1.modem.session import (
+    NO_CARRIER,
+    SHUTDOWN,
+    EndMarker,
+    back_in_command_mode,
+    leave_data_mode,
+)
 from sondalog.protocol.mail_address import MailAddressError, parse_pop3_server, parse_smtp_server
 from sondalog.protocol.mail_command import MailCommand, build_mail, parse_command_mail
 from sondalog.protocol.pop3_client import Pop3Check
@@ -77,28 +93,37 @@ def tcp(
         client.connection_failed(f"cannot connect to {host}:{port}")
         yield At(f"AT+WIPCLOSE=2,{SOCKET}")
         return
-    connect = yield from at(f"AT+WIPDATA=2,{SOCKET},1")
+    connect = as_reply((yield At(f"AT+WIPDATA=2,{SOCKET},1", finals=CONNECT_FINALS)))
     if not connect.final.startswith("CONNECT"):
         client.connection_failed("no data mode")
         yield At(f"AT+WIPCLOSE=2,{SOCKET}")
         return
     client.start(d.now)
-    end = EndMarker(SHUTDOWN)
+    # SHUTDOWN: the server closed; NO CARRIER: the modem lost its bearer (coverage) and is
+    # back in command mode (gsm.md §7: no +++ then, and what followed is read as lines)
+    end = EndMarker(SHUTDOWN, NO_CARRIER)
     while not client.wants_close:
         out = client.data_to_send()
         if out:
             yield Write(out)
         if client.wants_close:
             break
-        data = yield Recv(client.deadline)
+        data = yield Recv(client.deadline or d.now + MAIL_TIMEOUT)
         data, ended = end.cut(data if isinstance(data, bytes) else b"")
         if ended:  # the server closed the connection
             client.receive_data(data, d.now)
             client.receive_data(b"", d.now)
+            break
         elif data:
             client.receive_data(data, d.now)
         else:
             client.handle_timeout(d.now)
+    d.listing_due = True  # SMS that came during the GPRS session had no notice
+    if end.found == NO_CARRIER:
+        back_in_command_mode(d, end)
+        d.gprs = d.listening = False
+        yield At(f"AT+WIPCLOSE=2,{SOCKET}")
+        return
     out = client.data_to_send()
     if out:
         yield Write(out)
@@ -157,4 +182,4 @@ def check_mailbox(d: ModemDriver) -> Generator[Request, object, None]:
         return
     answer = yield from execute(d, found.command)
     if answer:
-        d.replies.append(MailReply(found.reply_to, answer))
+        d.keep_reply(PendingReply("email", found.reply_to, answer, d.now))

@@ -13,7 +13,16 @@ from __future__ import annotations
 from collections.abc import Generator
 from typing import TYPE_CHECKING
 
-from sondalog.ala1.modem.atio import At, Await, CommandMode, Recv, Request, Sleep, Write
+from sondalog.ala1.modem.atio import (
+    At,
+    Await,
+    CommandMode,
+    Recv,
+    Request,
+    Sleep,
+    Write,
+    as_reply,
+)
 
 if TYPE_CHECKING:
     from sondalog.ala1.modem.driver import ModemDriver
@@ -27,36 +36,56 @@ SHUTDOWN = b"\r\nSHUTDOWN\r\n"
 
 
 class EndMarker:
-    """Finds the far end's hang-up (``marker``) in data read in pieces, where it may come
-    cut across two reads."""
+    """Finds the far end's hang-up (one of ``markers``) in data read in pieces, where it may
+    come cut across two reads. The bytes after it are kept in :attr:`rest` (gsm.md §7: a
+    ``+CMTI`` in the same read as ``NO CARRIER`` is still handled)."""
 
-    def __init__(self, marker: bytes) -> None:
-        self.marker = marker
-        self._tail = b""  # the last bytes seen, too few to hold the whole marker
+    def __init__(self, *markers: bytes) -> None:
+        self.markers = markers
+        self.found: bytes | None = None  # the marker that came
+        self.rest = b""  # what came after it
+        self._keep = max(len(m) for m in markers) - 1
+        self._tail = b""  # the last bytes seen, too few to hold a whole marker
 
     def cut(self, data: bytes) -> tuple[bytes, bool]:
         """``data`` up to the marker, and whether the marker has come (with these bytes)."""
         seen = self._tail + data
-        if self.marker in seen:
-            return data[: max(seen.index(self.marker) - len(self._tail), 0)], True
-        self._tail = seen[-(len(self.marker) - 1) :]
+        hits = [(seen.find(m), m) for m in self.markers if m in seen]
+        if hits:
+            at, marker = min(hits)
+            self.found, self.rest = marker, seen[at + len(marker) :]
+            return data[: max(at - len(self._tail), 0)], True
+        self._tail = seen[-self._keep :]
         return data, False
 
 
 def leave_data_mode(d: ModemDriver) -> Generator[Request, object, None]:
-    """``+++`` between two guard times: back to command mode (the connection stays)."""
+    """``+++`` between two guard times: back to command mode (the connection stays).
+
+    A modem that had already left data mode (coverage lost: ``NO CARRIER`` the logger did
+    not see) takes ``+++`` as the start of a command line; a lone CR clears it."""
     yield Sleep(GUARD)
     yield Write(b"+++")
     yield CommandMode()
-    yield Await(GUARD + 2.0)
+    if not as_reply((yield Await(GUARD + 2.0))).final:
+        yield Write(b"\r")
+        yield Await(GUARD)
+
+
+def back_in_command_mode(d: ModemDriver, end: EndMarker) -> None:
+    """``NO CARRIER`` came in the data: the modem is in command mode; what followed the
+    marker is read as lines (URCs it held during the call)."""
+    d.reader.command_mode(end.rest)
+    d.take_lines()
 
 
 def data_session(d: ModemDriver, socket: int | None) -> Generator[Request, object, None]:
-    marker = NO_CARRIER if socket is None else SHUTDOWN
     session = d.host.open_session(d.now)
     d.session = session
     last = d.now
-    end = EndMarker(marker)
+    # a call ends with NO CARRIER; a socket with SHUTDOWN, or NO CARRIER when the modem
+    # lost its bearer (coverage) and dropped to command mode
+    end = EndMarker(NO_CARRIER) if socket is None else EndMarker(SHUTDOWN, NO_CARRIER)
     ended = False
     try:
         while True:
@@ -71,9 +100,11 @@ def data_session(d: ModemDriver, socket: int | None) -> Generator[Request, objec
     finally:
         d.session = None
         d.host.close_session(session)
-    if ended and socket is None:
-        d.reader.command_mode()  # NO CARRIER: the modem is back in command mode
-        d.reader.data.clear()
+    d.listing_due = True  # SMS that came during the session had no notice (gsm.md §7)
+    if ended and end.found == NO_CARRIER:
+        back_in_command_mode(d, end)
+        if socket is not None:
+            yield At(f"AT+WIPCLOSE=2,{socket}")
         return
     yield from leave_data_mode(d)
     yield At("ATH" if socket is None else f"AT+WIPCLOSE=2,{socket}")

@@ -12,6 +12,7 @@ import sqlite3
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
+from sondalog.io.private import connect_private
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS param (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -27,8 +28,11 @@ _UPSERT_META = (
 
 
 def open_database(path: Path | str) -> sqlite3.Connection:
-    """Open (creating if needed) a state database with the durability settings we rely on."""
-    conn = sqlite3.connect(str(path), isolation_level=None, check_same_thread=False)
+    """Open (creating if needed) a state database with the durability settings we rely on.
+
+    The file (and its ``-wal`` and ``-shm``) is private, 0600 (docs/security.md): it holds
+    the module's ``i address`` and mail ``user:password``."""
+    conn = connect_private(path, check_same_thread=False)
     if str(path) != ":memory:":
         conn.execute("PRAGMA journal_mode=WAL")
     conn.execute("PRAGMA synchronous=FULL")

@@ -11,10 +11,10 @@ leaves either the old or the new image.
 from __future__ import annotations
 
 import json
-import sqlite3
 from pathlib import Path
 
 from sondalog.hctmps1.eeprom import EepromImage
+from sondalog.io.private import connect_private, private_dir, private_parents
 
 #: File name of the bus's EEPROM database inside the state directory.
 FILE_NAME = "hctmps1-eeprom.sqlite3"
@@ -33,15 +33,15 @@ class EepromDatabase:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self._db = sqlite3.connect(path, isolation_level=None)
+        private_parents(path)
+        self._db = connect_private(path)  # 0600, its -wal and -shm too (docs/security.md)
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=FULL")
         self._db.execute(_SCHEMA)
 
     @classmethod
     def in_state_dir(cls, state_dir: Path) -> EepromDatabase:
-        return cls(state_dir / FILE_NAME)
+        return cls(private_dir(state_dir) / FILE_NAME)
 
     def slot(self, name: str) -> SqliteEeprom:
         """The EEPROM of the module configured as ``name``."""

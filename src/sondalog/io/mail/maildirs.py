@@ -4,6 +4,9 @@ Layout: ``ROOT/<address>/{cur,new,tmp}``, one Maildir per account, named by the 
 full address (``ROOT/logger@example.net``). Messages are stored with LF line ends, as
 Maildir readers (dovecot, mutt) expect. POP3 sessions see them oldest first (file time,
 then Maildir key), each with its Maildir key as its stable UIDL.
+
+The Maildirs are private (docs/security.md): ROOT and every Maildir directory 0700, every
+message 0600, whatever the umask.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from ...protocol.pop3_server import DropEntry, Maildrop, MaildropBusy, crlf
+from ..private import PRIVATE_DIR, PRIVATE_FILE, private_dir
 
 
 class MaildirAccounts:
@@ -43,10 +47,18 @@ class MaildirAccounts:
         return self.root / account
 
     def maildir(self, account: str) -> mailbox.Maildir:
-        self.root.mkdir(parents=True, exist_ok=True)
-        return mailbox.Maildir(self.path(account), factory=None, create=True)
+        path = self.path(account)
+        new = not path.is_dir()
+        if new:
+            private_dir(self.root)
+        md = mailbox.Maildir(path, factory=None, create=True)
+        if new:
+            for folder in (path, path / "cur", path / "new", path / "tmp"):
+                os.chmod(folder, PRIVATE_DIR)  # mailbox asks 0700, but through the umask
+        return md
 
     def create_all(self) -> None:
+        private_dir(self.root)  # 0700 even when an older version made it
         for account in self._accounts:
             self.maildir(account).close()
 
@@ -55,7 +67,10 @@ class MaildirAccounts:
         data = re.sub(rb"\r\n|\r", b"\n", message)
         md = self.maildir(account)
         try:
-            return md.add(data)
+            key = md.add(data)
+            # mailbox creates it 0666 minus the umask, in tmp/ then new/ (both 0700)
+            os.chmod(self.path(account) / "new" / key, PRIVATE_FILE)
+            return key
         finally:
             md.close()
 

@@ -27,7 +27,7 @@ from sondalog.protocol.device import LineSend
 LOGGER = "+420600000001"
 T0 = 1_764_464_400.0
 #: An AT command line at the start of a chunk or after a line end (never sent in data mode).
-AT_LINE = re.compile(rb"(?:^|[\r\n])AT[A-Z+&]", re.IGNORECASE)
+AT_LINE = re.compile(rb"(?:^|[\r\n])AT[A-Z+&]")
 
 
 class LiveWorld:
@@ -63,8 +63,13 @@ class LiveWorld:
         self.pop3_delay = 0.0
         self._peers: dict[int, Smtp | Pop3] = {}
         self._later: list[tuple[float, int, bytes]] = []
-        #: What the logger wrote to the modem while the modem was in data mode.
+        #: What the logger wrote to the modem while the modem was in data mode, one stream
+        #: for each time it was.
         self.in_data_mode: list[bytes] = []
+        self._data_stream = False
+        #: Everything the logger wrote on its modem line (messages go there as plain text
+        #: while no modem answers: gsm.md §3).
+        self.logger_wrote = b""
         self._system(self.system.add_modem(LOGGER, self.modem, self.now))
 
     # -- the outside world ---------------------------------------------------------------
@@ -110,8 +115,12 @@ class LiveWorld:
         self.now = now
         while self._to_modem and self._to_modem[0][0] <= now:
             data = self._to_modem.pop(0)[1]
+            self.logger_wrote += data
             if self.modem.mode == "data":
-                self.in_data_mode.append(data)
+                if not self._data_stream:
+                    self.in_data_mode.append(b"")
+                self.in_data_mode[-1] += data
+            self._data_stream = self.modem.mode == "data"
             self._system(self.system.modem_input(LOGGER, data, now))
         while self._to_logger and self._to_logger[0][0] <= now:
             data = self._to_logger.pop(0)[1]

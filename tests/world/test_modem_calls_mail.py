@@ -162,15 +162,17 @@ def test_no_modem_the_line_works_as_local_and_service_resumes() -> None:
     engine = w.engine.__class__(w.engine.identity, w.store, w.now)
     engine.receive(engine.open_line(), b"write com device wavecom41\r", w.now)
     line = engine.attach_modem(w.now)
-    assert _paced(engine, engine.advance(w.now), w.now) == b"AT\r"  # paced at com speed
+    # ESC first: it ends a "> " prompt a modem may still wait at (gsm.md §7)
+    assert _paced(engine, engine.advance(w.now), w.now) == b"\x1bAT\r"  # paced at com speed
     assert not _paced(engine, engine.advance(w.now + 1.0), w.now + 1.0)
     answer = engine.receive(line, b"read com speed\r", w.now + 2)
     assert _paced(engine, answer, w.now + 2) == b"9600\r\nOK\r\n"
     due = engine.next_deadline()
     assert due is not None and due >= w.now + 30
-    assert _paced(engine, engine.advance(due), due) == b"AT\r"
+    assert _paced(engine, engine.advance(due), due) == b"\x1bAT\r"
     back = engine.receive(line, b"\r\nOK\r\n", due + 0.1)
-    assert _paced(engine, back, due + 0.1) == b"ATE0\r"
+    assert not _paced(engine, back, due + 0.1)  # a second answer would show it was late
+    assert _paced(engine, engine.advance(due + 1.2), due + 1.2) == b"ATE0\r"
 
 
 def test_port_10001_connection_is_a_command_session_with_idle_hang_up() -> None:

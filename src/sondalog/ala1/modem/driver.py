@@ -130,6 +130,8 @@ class ModemDriver:
         self._next_probe = now
         self._probed_at = now - PROBE_QUIET
         self._heard = False  # modem output seen on the line while it works as local
+        self.resync = False
+        self.stray_finals = 0
         self._gprs_retry = now
 
     # -- the line ------------------------------------------------------------------------
@@ -299,6 +301,9 @@ class ModemDriver:
                 if isinstance(wait, At) and wait.prompt:
                     self._resolve(Reply(">", tuple(self._lines)))
                 return
+            if self._lines and self._lines[-1].startswith(("+CMGR:", "+CMGL:")):
+                self._lines.append(line)  # an SMS's text, whatever it says ("OK", "RING")
+                return
             if is_final(line):
                 if isinstance(wait, At) and wait.finals and not line.startswith(wait.finals):
                     log.info("late answer %r passed over while waiting for %r", line, wait)
@@ -316,6 +321,8 @@ class ModemDriver:
             self._resolve(line)
         elif is_urc(line):
             self._queue_urc(line)
+        elif is_final(line):
+            self.stray_finals += 1  # an answer nobody waits for: a late one (jobs.probe)
 
     def _queue_urc(self, line: str) -> None:
         if len(self._urcs) >= MAX_URCS:
@@ -348,6 +355,13 @@ class ModemDriver:
         self._forget_modem()
         self.present = None
         self._next_probe = self.now
+        self.resync = True  # late answers must pass before the probe (jobs.probe)
+
+    def out_of_step(self, why: str) -> None:
+        """An answer that cannot be the command's own: answers and commands are out of step
+        (late answers queued up); set the modem up again after a quiet time (gsm.md §7)."""
+        log.warning("modem answers out of step (%s): setting it up again", why)
+        self._lost()
 
     def _gone(self) -> None:
         self._forget_modem()

@@ -23,6 +23,7 @@ from sondalog.ala1.modem.atio import (
     Send,
     Sleep,
     Urc,
+    Write,
     as_reply,
     at,
     reply_backoff,
@@ -38,6 +39,10 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+#: After a command went unanswered: quiet before the probe, so a late answer is not taken
+#: for the probe's (gsm.md §7).
+RESYNC_QUIET = 2.0
+ESC = b"\x1b"
 #: How long the driver waits for registration before a sending fails (no coverage).
 REGISTRATION_TIMEOUT = 60.0
 REGISTRATION_POLL = 2.0
@@ -51,7 +56,17 @@ def probe(d: ModemDriver) -> Job:
 
     if d.reader.raw:  # gsm.md §7: data mode first left, never an AT in it
         yield from leave_data_mode(d)
+    if d.resync:  # a command went unanswered: its late answer passes first, unread
+        d.resync = False
+        yield Sleep(RESYNC_QUIET)
+    yield Write(ESC)  # ends a "> " prompt the modem may still wait at (gammu does the same)
     reply = yield from at("AT", PROBE_TIMEOUT)
+    if reply.final:
+        d.stray_finals = 0
+        yield Sleep(PROBE_TIMEOUT)
+        if d.stray_finals:  # another answer came after: that one was late, so maybe ours
+            d.out_of_step("an answer after the probe's")
+            return
     d.found(reply.final != "")
 
 
@@ -214,8 +229,12 @@ def execute(d: ModemDriver, text: str) -> Generator[Request, object, str]:
 def read_sms(d: ModemDriver, index: int) -> Job:
     """§3.4.6.1: read, delete, run the bounded command, answer by SMS or e-mail."""
     reply = yield from at(f"AT+CMGR={index}")
-    yield from at(f"AT+CMGD={index}")
     header = reply.info("+CMGR:")
+    if reply.ok and header is None:  # an OK without the SMS: a late answer (gsm.md §7)
+        d.listing_due = True
+        d.out_of_step(f"AT+CMGR={index} answered without an SMS")
+        return
+    yield from at(f"AT+CMGD={index}")
     if not reply.ok or header is None:
         return
     fields = header.split('"')

@@ -45,6 +45,7 @@ SOCKET = 1
 SERVER = 1
 SERVER_SOCKETS = (5, 8)
 COMMAND_PORT = 10001
+BAD_STATE = 831  # WIPsoft: the bearer is in the wrong state (here: started already)
 MAIL_TIMEOUT = 60.0
 DEFAULT_FROM = "ala1@localhost"
 
@@ -60,11 +61,18 @@ def gprs_up(d: ModemDriver) -> Generator[Request, object, bool]:
         yield At("AT+WIPBR=1,6")
         apn = d.host.setting("com network apn address").replace('"', "")
         yield At(f'AT+WIPBR=2,6,11,"{apn}"')
-        d.gprs = (yield from at("AT+WIPBR=4,6,0", 60.0)).ok
+        started = yield from at("AT+WIPBR=4,6,0", 60.0)
+        # +CME ERROR: 831 after opening the bearer: it was started already (the driver had
+        # forgotten it after setting the modem up again)
+        d.gprs = started.ok or started.final == f"+CME ERROR: {BAD_STATE}"
         d.listening = False
     if d.gprs and not d.listening and d.host.setting("com device") == "WAVECOM42":
         first, last = SERVER_SOCKETS
-        d.listening = (yield from at(f"AT+WIPCREATE=3,{SERVER},{COMMAND_PORT},{first},{last}")).ok
+        create = f"AT+WIPCREATE=3,{SERVER},{COMMAND_PORT},{first},{last}"
+        d.listening = (yield from at(create)).ok
+        if not d.listening:  # a server left from before: closed, made again
+            yield At(f"AT+WIPCLOSE=3,{SERVER}")
+            d.listening = (yield from at(create)).ok
     return d.gprs
 
 

@@ -6,8 +6,8 @@ random timing (``--seed``): SMS commands from both phones, voice calls, data cal
 commands in them and the caller hanging up at random points, coverage cuts, cable sessions.
 Then it lets the world go quiet (``--quiet`` seconds at most) and checks that every SMS
 command got exactly one reply, that no SMS waits at the network and that the modem's SIM store
-is empty (the API does not list it: SMS delivered to the modem minus the logger's
-``AT+CMGD`` in the trace). Prints a summary; exit 1 on any failure. Not a CI test.
+is empty (the API does not list it: ``AT+CPMS?`` on a second line into the modem, a Y-cable
+the site gets for this). Prints a summary; exit 1 on any failure. Not a CI test.
 
     .venv/bin/python benchmarks/soak_served_gsm.py --minutes 1 --seed 7
 """
@@ -50,6 +50,8 @@ def start(state: Path, speed: float) -> tuple[subprocess.Popen[bytes], dict[str,
     text = EXAMPLE.read_text()
     text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
     text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {free_port()} }}')
+    # a second line into the modem (a Y-cable), only to ask AT+CPMS? at the end
+    text = text.replace('# listen = "127.0.0.1:0"', 'listen = "127.0.0.1:0"')
     site = state.parent / "gsm-site.toml"
     site.write_text(text)
     cmd = [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state)]
@@ -72,7 +74,7 @@ def start(state: Path, speed: float) -> tuple[subprocess.Popen[bytes], dict[str,
     def port(prefix: str) -> int:
         return int(re.findall(r":(\d+)", next(x for x in lines if x.startswith(prefix)))[0])
 
-    return proc, {"cable": port("logger "), "api": port("gsm API")}
+    return proc, {"cable": port("logger "), "api": port("gsm API"), "modem": port("gsm modem +")}
 
 
 def ask(sock: socket.socket, command: str) -> bytes:
@@ -204,12 +206,17 @@ class Soak:
         return got
 
 
-def store_left(api: PhoneApi, trace: str) -> int:
-    """SMS delivered to the modem minus those the logger deleted (``AT+CMGD``)."""
-    delivered = next(s["delivered"] for s in api.subscribers() if s["number"] == MODEM)
-    sent = "".join(x.split("  logger>modem  ", 1)[1] for x in trace.splitlines()
-                   if "  logger>modem  " in x)  # fmt: skip
-    return int(delivered) - len(re.findall(r"AT\+CMGD=\d+", sent))
+def store_used(port: int) -> int:
+    """The modem's SIM store: ``AT+CPMS?`` (read-only) on the modem's second line."""
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        sock.sendall(b"AT+CPMS?\r")
+        data, deadline = b"", time.monotonic() + 10
+        while b"OK\r\n" not in data and time.monotonic() < deadline:
+            data += sock.recv(4096)
+    found = re.search(rb'\+CPMS: "SM",(\d+),', data)
+    if found is None:
+        raise SystemExit(f"AT+CPMS? answered {data!r}")
+    return int(found.group(1))
 
 
 def main() -> int:
@@ -246,8 +253,7 @@ def main() -> int:
                     stable_since = None
                 time.sleep(2)
             got = soak.replies()
-            trace = (state / "gsm" / "modem.trace").read_text()
-            left = store_left(api, trace)
+            left = store_used(ports["modem"])
             queued = next(s["queued"] for s in api.subscribers() if s["number"] == MODEM)
         finally:
             proc.terminate()
@@ -258,15 +264,15 @@ def main() -> int:
     missing = sum(max(0, sent[k] - got[k]) for k in keys)
     twice = sum(max(0, got[k] - sent[k]) for k in keys)
     print(f"seed {args.seed}, {args.minutes} min, speed {args.speed}")
-    print(f"SMS commands sent      {sum(sent.values())}")
-    print(f"  answered once        {once}")
-    print(f"  unanswered           {missing}")
-    print(f"  answered twice+      {twice}")
+    print(f"SMS commands sent         {sum(sent.values())}")
+    print(f"  answered once           {once}")
+    print(f"  unanswered              {missing}")
+    print(f"  answered twice+         {twice}")
     for key, value in sorted(soak.tally.counts.items()):
-        print(f"{key:<23}{value}")
-    print(f"coverage cuts          {soak.cuts}")
-    print(f"SMS left at network    {queued}")
-    print(f"SIM store left (trace) {left}")
+        print(f"{key:<26}{value}")
+    print(f"coverage cuts             {soak.cuts}")
+    print(f"SMS left at network       {queued}")
+    print(f"SIM store left (CPMS)     {left}")
     failed = missing or twice or queued or left
     print("FAIL" if failed else "OK")
     return 1 if failed else 0

@@ -136,6 +136,15 @@ class Engine:
             self.outbox.modem_busy = self.modem.busy
             self.state.modem_absent = self.modem.driver.present is False
 
+    def _modem_owns_line(self) -> None:
+        """gsm notes §7: while the driver has the modem line, no text typed on it while it
+        worked as local is answered there (no BREAK, no echo into the modem)."""
+        if self.modem is not None and not self.modem.driver.local:
+            line = self._lines[self.modem.line]
+            if line.started is not None or line.pending is not None:
+                self._reset(line)
+                line.pending, line.backlog = None, bytearray()
+
     def _local_ready(self) -> bool:
         """A cable line is attached and none blocks messages (§6.14.9.2)."""
         return bool(self._lines) and not self._blocking
@@ -182,6 +191,7 @@ class Engine:
         if self.modem is not None and line_id == self.modem.line:
             self.state.run_sampling(now)
             if self.modem.receive(data, now):
+                self._modem_owns_line()
                 return self._drain(now)
         line = self._lines[line_id]
         if (
@@ -230,6 +240,7 @@ class Engine:
     def advance(self, now: float) -> list[LineSend]:
         """Run what is due at ``now``: samples, waiting commands, timeouts, paced output."""
         self.state.run_sampling(now)
+        self._modem_owns_line()
         for line_id, line in list(self._busy.items()):
             self._expire(line_id, line, now)
         self._messages(now)  # first: a sending it queues is the modem driver's to start now

@@ -46,6 +46,7 @@ SERVER = 1
 SERVER_SOCKETS = (5, 8)
 COMMAND_PORT = 10001
 BAD_STATE = 831  # WIPsoft: the bearer is in the wrong state (here: started already)
+SOCKET_EXISTS = 840  # WIPsoft: the socket index is in use
 MAIL_TIMEOUT = 60.0
 DEFAULT_FROM = "ala1@localhost"
 
@@ -92,7 +93,12 @@ def tcp(
     if not (yield from gprs_up(d)) or '"' in host:
         client.connection_failed("no GPRS connection")
         return
-    if not (yield from at(f'AT+WIPCREATE=2,{SOCKET},"{host}",{port}')).ok:
+    create = f'AT+WIPCREATE=2,{SOCKET},"{host}",{port}'
+    created = yield from at(create)
+    if created.final == f"+CME ERROR: {SOCKET_EXISTS}":  # left from a session cut short
+        yield At(f"AT+WIPCLOSE=2,{SOCKET}")
+        created = yield from at(create)
+    if not created.ok:
         d.gprs = d.listening = False  # the bearer went down under us: attach again next time
         client.connection_failed("socket refused")
         return

@@ -8,6 +8,7 @@ answer. :class:`ModemReader` cuts the modem's output into lines (``CR LF`` frame
 
 from __future__ import annotations
 
+import re
 from collections.abc import Generator
 from dataclasses import dataclass, field
 
@@ -24,6 +25,13 @@ CONNECT_FINALS = ("CONNECT", "NO CARRIER", "ERROR", "+CME ERROR", "BUSY", "NO AN
 #: without its end, data-mode bytes nobody takes.
 MAX_LINE = 4096
 MAX_DATA = 16384
+#: At most this many unsolicited result codes wait (a flood from the modem side); a ``+CMTI``
+#: dropped there is found by the next listing of the store.
+MAX_URCS = 64
+#: A modem's output on a line that works as ``local``: a result code framed by CR LF.
+MODEM_OUTPUT = re.compile(
+    rb"\r\n(?:OK|ERROR|RING|NO CARRIER|CONNECT|BUSY|NO ANSWER|\+C[A-Z]{2,5}:|\+WIP[A-Z]+:)"
+)
 
 
 @dataclass(frozen=True)

@@ -11,24 +11,22 @@ modem and the line works as ``local`` (its bytes go to the command parser). It a
 every :data:`PROBE_INTERVAL` seconds while the line has been quiet for :data:`PROBE_QUIET`
 seconds; when a modem answers, GSM service resumes (the modem is set up again).
 
-Liveness (gsm.md §7, docs/gsm-notes.md "Never miss, never stick"): until a probe has gone
-unanswered the line's bytes are the modem's, never command input (nothing the modem says is
-echoed back to it); bytes that are plainly a modem's result codes on a ``local`` line make
-the driver probe at once. A command the modem does not answer in time makes the driver
-probe and set the modem up again. After every set-up and every data or GPRS session the SIM
-store is listed (``AT+CMGL``) and every SMS in it handled. No AT command goes out in data
-mode. A reply that fails to go out is kept and tried again (:class:`PendingReply`).
+Liveness (gsm.md §7; docs/gsm-notes.md §7 says how): until a probe has gone unanswered the
+line's bytes are the modem's, never command input; a missed command makes the driver set the
+modem up again; the SIM store is listed after every set-up and session; no AT command goes
+out in data mode; a reply that fails is kept and tried again (:class:`PendingReply`).
 """
 
 from __future__ import annotations
 
 import logging
-import re
 from collections import deque
 from collections.abc import Generator
 
 from sondalog.ala1.modem import jobs, mailjobs
 from sondalog.ala1.modem.atio import (
+    MAX_URCS,
+    MODEM_OUTPUT,
     At,
     Await,
     CommandMode,
@@ -61,13 +59,6 @@ LOCAL = "LOCAL"
 #: wavecom42: how often a lost GPRS attachment (and the port 10001 server) is tried again.
 GPRS_RETRY = 60.0
 _BUSY_URCS = ("+CMTI:", "RING", "+CRING:", "+WIPACCEPT:")
-#: At most this many unsolicited result codes wait (a flood from the modem side); a ``+CMTI``
-#: dropped here is found by the next listing of the store.
-MAX_URCS = 64
-#: A modem's output on a line that works as ``local``: a result code framed by CR LF.
-_MODEM_OUTPUT = re.compile(
-    rb"\r\n(?:OK|ERROR|RING|NO CARRIER|CONNECT|BUSY|NO ANSWER|\+C[A-Z]{2,5}:|\+WIP[A-Z]+:)"
-)
 #: A running job: a :data:`Job`, or ``mailjobs.gprs_up`` (its result is not used).
 _Running = Generator[Request, object, object]
 
@@ -104,8 +95,11 @@ class ModemDriver:
         self._next_probe = now
         self._probed_at = now - PROBE_QUIET
         self._heard = False  # modem output seen on the line while it works as local
+        self._recent = b""  # the last bytes of a local line: modem output cut in pieces
         self.resync = False
         self.stray_finals = 0
+        self.outstanding = 0  # commands that timed out and whose answer has not come
+        self.last_timeout = now
         self._gprs_retry = now
 
     # -- the line ------------------------------------------------------------------------
@@ -133,7 +127,8 @@ class ModemDriver:
         if self.device == LOCAL:
             return False
         if self.local:
-            if _MODEM_OUTPUT.search(data) is None:
+            seen, self._recent = self._recent + data, (self._recent + data)[-16:]
+            if MODEM_OUTPUT.search(seen) is None:
                 return False
             # a modem speaks on a line that works as local: never command input; it is
             # probably back (§6.11.5.2.1): ask soon, however busy the line
@@ -197,6 +192,10 @@ class ModemDriver:
     def keep_reply(self, reply: PendingReply) -> None:
         """A reply to go out (now, or again after a failed try)."""
         self.replies.append(reply)
+
+    @property
+    def heard(self) -> bool:
+        return self._heard
 
     def drop_urcs(self, exact: str) -> None:
         self._urcs = deque(u for u in self._urcs if u != exact)
@@ -303,7 +302,9 @@ class ModemDriver:
         elif is_urc(line):
             self._queue_urc(line)
         elif is_final(line) and not line.startswith("NO CARRIER"):
-            self.stray_finals += 1  # an answer nobody waits for: a late one (jobs.probe)
+            # an answer nobody waits for: a late one (jobs.probe)
+            self.stray_finals += 1
+            self.outstanding = max(self.outstanding - 1, 0)
 
     def _queue_urc(self, line: str) -> None:
         if len(self._urcs) >= MAX_URCS:
@@ -313,6 +314,9 @@ class ModemDriver:
 
     def _timeout(self) -> None:
         wait = self._wait
+        if isinstance(wait, At | Send):
+            self.outstanding += 1  # its answer may still come, late (jobs.probe waits)
+            self.last_timeout = self.now
         if isinstance(wait, At | Send | Await):
             if isinstance(wait, At | Send) and self._kind != "probe":
                 log.warning("no answer from the modem to %r: setting it up again", wait)

@@ -42,6 +42,9 @@ log = logging.getLogger(__name__)
 #: After a command went unanswered: quiet before the probe, so a late answer is not taken
 #: for the probe's (gsm.md §7).
 RESYNC_QUIET = 2.0
+#: How long answers to commands that timed out are waited for before a probe (a modem
+#: that stalled answers them all when it comes back; after this they count as lost).
+LATE_ANSWERS = 90.0
 ESC = b"\x1b"
 #: How long the driver waits for registration before a sending fails (no coverage).
 REGISTRATION_TIMEOUT = 60.0
@@ -59,6 +62,10 @@ def probe(d: ModemDriver) -> Job:
     resync, d.resync = d.resync, False
     if resync:  # a command went unanswered: its late answer passes first, unread
         yield Sleep(RESYNC_QUIET)
+    late = resync or d.heard  # a modem is there: answers to commands that timed out
+    while late and d.outstanding and d.now < d.last_timeout + LATE_ANSWERS:
+        yield Sleep(1.0)  # may still come, and are not the probe's
+    d.outstanding = 0
     yield Write(ESC)  # ends a "> " prompt the modem may still wait at (gammu does the same)
     reply = yield from at("AT", PROBE_TIMEOUT)
     if not reply.final and (resync or d.present is False):
@@ -236,13 +243,15 @@ def read_sms(d: ModemDriver, index: int) -> Job:
     """§3.4.6.1: read, delete, run the bounded command, answer by SMS or e-mail."""
     reply = yield from at(f"AT+CMGR={index}")
     header = reply.info("+CMGR:")
-    if reply.ok and header is None:  # an OK without the SMS: a late answer (gsm.md §7)
+    if (reply.ok and header is None) or reply.final == "ERROR":
+        # an OK without the SMS is a late answer; a bare ERROR (the modem gives +CMS ERROR
+        # since AT+CMEE=1) a command line garbled on the way: out of step (gsm.md §7)
         d.listing_due = True
-        d.out_of_step(f"AT+CMGR={index} answered without an SMS")
+        d.out_of_step(f"AT+CMGR={index} answered {reply.final} without an SMS")
         return
-    yield from at(f"AT+CMGD={index}")
     if not reply.ok or header is None:
-        return
+        return  # nothing there (+CMS ERROR: 321): nothing to delete either
+    yield from at(f"AT+CMGD={index}")
     fields = header.split('"')
     sender = fields[3] if len(fields) > 3 else ""
     text = "\n".join(reply.lines[reply.lines.index(header) + 1 :])

@@ -57,8 +57,9 @@ def probe(d: ModemDriver) -> Job:
     """§6.11.5.2.1: is a modem there? ``AT`` answered within 1 s."""
     from sondalog.ala1.modem.driver import PROBE_TIMEOUT
 
-    if d.reader.raw:  # gsm.md §7: data mode first left, never an AT in it
-        yield from leave_data_mode(d)
+    if d.reader.raw and not (yield from leave_data_mode(d)):  # gsm.md §7: no AT in it
+        d.found(False)
+        return
     resync, d.resync = d.resync, False
     if resync:  # a command went unanswered: its late answer passes first, unread
         yield Sleep(RESYNC_QUIET)
@@ -86,8 +87,8 @@ def hang_up(d: ModemDriver) -> Job:
     """The modem is in data mode with no job of the driver's (a ``CONNECT`` that came late):
     leave it and hang up; the set-up runs again after (gsm.md §7)."""
     log.warning("modem in data mode outside a session: leaving it")
-    yield from leave_data_mode(d)
-    yield from at("ATH")
+    if (yield from leave_data_mode(d)):
+        yield from at("ATH")
 
 
 def init(d: ModemDriver, device: str) -> Job:

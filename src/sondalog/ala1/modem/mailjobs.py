@@ -141,8 +141,8 @@ def tcp(
     out = client.data_to_send()
     if out:
         yield Write(out)
-    yield from leave_data_mode(d)
-    yield At(f"AT+WIPCLOSE=2,{SOCKET}")
+    if (yield from leave_data_mode(d)):
+        yield At(f"AT+WIPCLOSE=2,{SOCKET}")
 
 
 def send_mail(

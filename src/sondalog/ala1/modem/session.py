@@ -31,6 +31,8 @@ if TYPE_CHECKING:
 IDLE_HANGUP = 120.0
 #: V.250 guard time around ``+++``.
 GUARD = 1.0
+#: How often ``+++`` is tried before the modem is set up again.
+ESCAPE_TRIES = 2
 NO_CARRIER = b"\r\nNO CARRIER\r\n"
 SHUTDOWN = b"\r\nSHUTDOWN\r\n"
 
@@ -59,17 +61,29 @@ class EndMarker:
         return data, False
 
 
-def leave_data_mode(d: ModemDriver) -> Generator[Request, object, None]:
-    """``+++`` between two guard times: back to command mode (the connection stays).
+def leave_data_mode(d: ModemDriver) -> Generator[Request, object, bool]:
+    """``+++`` between two guard times: back to command mode (the connection stays);
+    whether the modem said so.
 
-    A modem that had already left data mode (coverage lost: ``NO CARRIER`` the logger did
-    not see) takes ``+++`` as the start of a command line; a lone CR clears it."""
-    yield Sleep(GUARD)
-    yield Write(b"+++")
+    The guard times are the modem's to measure: bytes delayed on the way can make it take
+    ``+++`` as data, so it is tried again. A modem that had already left data mode (coverage
+    lost: ``NO CARRIER`` the logger did not see) takes ``+++`` as the start of a command
+    line; a lone CR ends it with an answer. With no answer at all the mode is unknown: the
+    reader stays in data mode (no AT command goes out) and the modem is set up again."""
+    for _ in range(ESCAPE_TRIES):
+        yield Sleep(GUARD)
+        yield Write(b"+++")
+        yield CommandMode()
+        if as_reply((yield Await(GUARD + 2.0))).final:
+            return True
+        d.reader.raw = True
     yield CommandMode()
-    if not as_reply((yield Await(GUARD + 2.0))).final:
-        yield Write(b"\r")
-        yield Await(GUARD)
+    yield Write(b"\r")
+    if as_reply((yield Await(GUARD))).final:
+        return True
+    d.reader.raw = True
+    d.out_of_step("no answer to +++")
+    return False
 
 
 def back_in_command_mode(d: ModemDriver, end: EndMarker) -> None:
@@ -106,5 +120,5 @@ def data_session(d: ModemDriver, socket: int | None) -> Generator[Request, objec
         if socket is not None:
             yield At(f"AT+WIPCLOSE=2,{socket}")
         return
-    yield from leave_data_mode(d)
-    yield At("ATH" if socket is None else f"AT+WIPCLOSE=2,{socket}")
+    if (yield from leave_data_mode(d)):
+        yield At("ATH" if socket is None else f"AT+WIPCLOSE=2,{socket}")

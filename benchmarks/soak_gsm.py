@@ -40,6 +40,8 @@ RULES: dict[str, Any] = {
     },
     "caller_hangs_up": lambda r: {},
     "coverage": lambda r: {"covered": r.random() < 0.5},
+    "network_restarts": lambda r: {},
+    "idle_mode": lambda r: {"device": r.choice(["wavecom40", "wavecom41", "wavecom42"])},
     "mail_servers": lambda r: {
         "refuse": r.random() < 0.5,
         "pop3_delay": r.choice([0.0, 0.0, 20.0, 200.0]),

@@ -6,7 +6,8 @@ engine and modem driver, the modem core, the network core, scripted mail servers
 modem line that cuts its bytes) on a stepped clock. Rules: SMS arriving (bounded commands
 answered by SMS, long replies, replies by e-mail, SMS without a command, non-GSM-7 text),
 voice and data calls (ring triggers and plain sessions, the caller hanging up at any byte),
-coverage lost and regained, the radio switched by the idle mode, messages falling due,
+coverage lost and regained, the network restarting, the radio switched by the idle mode
+(``wavecom40/41/42``), messages falling due (run at once, and a periodic one),
 SMTP refusing and POP3 slow, a modem line that is slow or stalls, and cable sessions. After
 the schedule the world goes quiet for :data:`QUIET` seconds and :meth:`GsmLiveness.teardown`
 asserts: the driver idle, the SIM store empty, every bounded SMS command answered exactly
@@ -50,7 +51,8 @@ SETTINGS = (
 
 class GsmLiveness(RuleBasedStateMachine):
     """Phones: 0 short commands, 1 long ones, 2 e-mail replies, 3 noise and calls,
-    4 messages (``address 1``), 5 ``ringvoice 1`` (runs message 1)."""
+    4 message 1 (``address 1``), 5 ``ringvoice 1`` (runs message 1), 6 the periodic
+    message 2."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -64,11 +66,17 @@ class GsmLiveness(RuleBasedStateMachine):
     @initialize(device=st.sampled_from(["wavecom41", "wavecom42"]))
     def start(self, device: str) -> None:
         self.device = device
-        w = LiveWorld(device, *SETTINGS, phones=6)
+        w = LiveWorld(device, *SETTINGS, phones=7)
         for command in (
             f"write address 1 type sms write address 1 value {w.phones[4]}",
             "write message 1 address 1 write message 1 command 1",
             f"write address 2 type ringvoice 1 write address 2 value {w.phones[5]}",
+            # message 2 falls due every 10 minutes by itself (§6.14.4-5)
+            "write command 2 name /version/ write command 2 value/read i version/",
+            f"write address 3 type sms write address 3 value {w.phones[6]}",
+            "write message 2 address 3 write message 2 command 2",
+            "write message 2 start 20000101000000",
+            "write message 2 period 001000",
             "write com close",
         ):
             w.cable_command(command)
@@ -148,6 +156,21 @@ class GsmLiveness(RuleBasedStateMachine):
     def coverage(self, covered: bool) -> None:
         self.world.coverage(covered)
 
+    @rule()
+    def network_restarts(self) -> None:
+        """Every cell goes down and comes back (the SMS centre keeps what it queued)."""
+        w = self.world
+        w.network_call(w.network.set_coverage(None, False, w.now))
+        w.run(3.0)
+        w.network_call(w.network.set_coverage(None, True, w.now))
+
+    @rule(device=st.sampled_from(["wavecom40", "wavecom41", "wavecom42"]))
+    def idle_mode(self, device: str) -> None:
+        """The idle mode changed over the cable: ``wavecom40`` switches the radio off between
+        communications (SMS wait at the centre), the others on (§6.11.5.2)."""
+        self.world.cable_command(f"write com device {device}")
+        self.world.cable_command("write com close")
+
     @rule(refuse=st.booleans(), pop3_delay=st.sampled_from([0.0, 0.0, 20.0, 200.0]))
     def mail_servers(self, refuse: bool, pop3_delay: float) -> None:
         self.world.smtp_refuse = refuse
@@ -182,6 +205,9 @@ class GsmLiveness(RuleBasedStateMachine):
         w.smtp_refuse = False
         w.pop3_delay = 0.0
         w.coverage(True)
+        w.network_call(w.network.set_coverage(None, True, w.now))
+        w.cable_command(f"write com device {self.device}")  # radio on again (wavecom40)
+        w.cable_command("write com close")
         for call_id in self.calls:
             w.network_call(w.network.phone_hang_up(call_id, w.now))
         w.run(QUIET)

@@ -100,3 +100,42 @@ def test_the_example_file() -> None:
     config = load_config(example)
     assert [s.name for s in config.sources] == ["demo-logger", "demo-bus"]
     assert config.store.name == "collector.sqlite" and not config.sinks
+
+
+@pytest.mark.parametrize(
+    ("sink", "message"),
+    [
+        ("[mqtt]\nurl = 'http://broker'\n", ":16: mqtt: url 'http://broker' is not mqtt://"),
+        ("[mqtt]\nurl = 'mqtt://broker'\nqos = 1\n", ":16: mqtt: unknown key 'qos'"),
+        ("[postgres]\ndsn = 'host=db port'\n", ":16: postgres: dsn is not a valid connection"),
+        ("[postgres]\ndsn = 'postgresql://x'\nbogus = 1\n", ":16: postgres: unknown key 'bogus'"),
+    ],
+)
+def test_check_finds_what_a_start_would(tmp_path: Path, sink: str, message: str) -> None:
+    path = tmp_path / "collector.toml"
+    path.write_text(GOOD + "\n" + sink)
+    for args in (["--check"], []):  # --check says what the real start says, and exits 2 too
+        done = subprocess.run(
+            [*CLI, "collect", *args, str(path)], capture_output=True, text=True, timeout=30
+        )
+        assert done.returncode == 2, (args, done.stdout, done.stderr)
+        assert f"{path}{message}" in done.stderr, done.stderr
+    assert not (tmp_path / "data").exists()  # a bad sink table creates no store
+
+
+def test_check_refuses_a_store_a_start_would_refuse(tmp_path: Path) -> None:
+    path = tmp_path / "collector.toml"
+    path.write_text(GOOD)
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "store.sqlite").write_bytes(b"not a database at all" * 100)
+    done = subprocess.run(
+        [*CLI, "collect", "--check", str(path)], capture_output=True, text=True, timeout=30
+    )
+    assert done.returncode == 2, done.stdout
+    assert "store.sqlite is not a collector store" in done.stderr
+    (tmp_path / "data" / "store.sqlite").unlink()
+    done = subprocess.run(
+        [*CLI, "collect", "--check", str(path)], capture_output=True, text=True, timeout=30
+    )
+    assert done.returncode == 0, done.stderr
+    assert not (tmp_path / "data" / "store.sqlite").exists()  # --check creates nothing

@@ -9,6 +9,8 @@ import os
 import signal
 import subprocess
 import sys
+from dataclasses import replace
+from datetime import UTC, datetime
 from pathlib import Path
 
 import aiomqtt
@@ -28,6 +30,7 @@ from sondalog.collect.ha_discovery import (
     state_payload,
 )
 from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.store_sqlite import row_of
 
 HERE = Path(__file__).parent
 
@@ -80,6 +83,9 @@ def test_device_classes_and_state_messages() -> None:
         "counter": 0,
         "type": 1,
     }
+    prague = replace(r, utc=datetime(2025, 12, 31, 23, tzinfo=UTC))
+    assert json.loads(state_payload(prague))["utc"] == "2025-12-31T23:00:00Z"  # as in SQLite
+    assert json.loads(state_payload(prague))["utc"] == row_of(prague)[-1]
     nan = Reading("1", 1, r.time, 0, 1, float("nan"))
     assert json.loads(state_payload(nan))["value"] is None
     long = text_row("1", 0, "x" * 400)

@@ -56,6 +56,7 @@ def test_collector_feeds_postgres_and_mqtt(
             f'[postgres]\ndsn = "{pg_dsn}"\nconnect_timeout = 2\n\n'
             f'[mqtt]\nurl = "{mosquitto.url}"\nclient_id = "e2e"\n\n'
             f'[[source]]\nurl = "{served.url}"\nname = "station"\ninterval = 1\n'
+            'timezone = "Europe/Prague"\n'
         )
         postgres.stop()
         try:
@@ -87,4 +88,10 @@ def test_collector_feeds_postgres_and_mqtt(
     last_time, last_value = max((r[1], r[4]) for r in stored if r[3] == 2)
     state = json.loads(by_topic[cmps["ch2"]["state_topic"]])  # type: ignore[arg-type]
     assert (state["time"], state["value"]) == (last_time, last_value)
-    assert by_topic[topics.availability] == b"offline"  # the collector said so on exit
+    with contextlib.closing(sqlite3.connect(tmp_path / "store.sqlite")) as db:
+        (utc,) = db.execute(
+            "SELECT utc FROM readings WHERE channel = 2 AND time = ?", (last_time,)
+        ).fetchone()
+    assert state["utc"] == utc and utc.endswith("Z")  # one spelling in SQLite and MQTT
+    # --once is for cron: Home Assistant must not mark every entity unavailable between runs
+    assert by_topic[topics.availability] == b"online"

@@ -17,14 +17,19 @@ from sondalog.app.collector import WebUnavailable, run_collector
 from sondalog.cli.common import Refused
 from sondalog.collect.config import ConfigError, load_config
 from sondalog.collect.runner import Collector
-from sondalog.collect.store_sqlite import StoreError
+from sondalog.collect.sinks import build_sinks
+from sondalog.collect.store_sqlite import SqliteStore, StoreError
 from sondalog.io.loop import stop_on_signals
 
 
 @click.command()
 @click.argument("config_file", metavar="FILE.toml", type=click.Path(path_type=Path))
 @click.option("--once", is_flag=True, help="Contact every source once, then exit.")
-@click.option("--check", is_flag=True, help="Only check the configuration file.")
+@click.option(
+    "--check",
+    is_flag=True,
+    help="Only check the configuration file (and the sink tables and the store, as a start would).",
+)
 def collect(config_file: Path, once: bool, check: bool) -> None:
     """Collect readings from loggers and buses into SQLite (and PostgreSQL, MQTT).
 
@@ -36,6 +41,11 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     except ConfigError as exc:
         raise Refused(str(exc)) from None
     if check:
+        try:
+            build_sinks(config)
+            SqliteStore(config.store).check_sync()
+        except (ConfigError, StoreError) as exc:
+            raise Refused(str(exc)) from None
         click.echo(f"{config_file}: {len(config.sources)} sources, store {config.store}")
         return
     logging.getLogger("sondalog.collect").setLevel(

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from sondalog.client.records import COUNTERS, make_key
-from sondalog.collect.model import Reading
+from sondalog.collect.model import Reading, utc_text
 from sondalog.collect.schema import COLUMNS
 
 CSV_HEADER = ",".join(COLUMNS)
@@ -71,12 +71,6 @@ def open_export(path: Path) -> ExportFile:
     )
 
 
-def iso_utc(value: datetime | None) -> str | None:
-    if value is None:
-        return None
-    return value.strftime("%Y-%m-%dT%H:%M:%SZ")
-
-
 def as_record(r: Reading) -> dict[str, Any]:
     return {
         "logger": r.logger,
@@ -88,7 +82,7 @@ def as_record(r: Reading) -> dict[str, Any]:
         "text": r.text,
         "name": r.name,
         "unit": r.unit,
-        "utc": iso_utc(r.utc),
+        "utc": utc_text(r.utc),
     }
 
 

@@ -12,7 +12,8 @@ State messages are JSON, one per reading, retained, on the component's state top
     {"value": 21.5, "time": "2026-11-30T01:00:00", "counter": 0, "type": 1}
 
 ``value`` is ``null`` for "no valid value" (Home Assistant then shows the sensor as
-unknown); ``time`` is the logger's own clock (``utc`` is added when known). A text row
+unknown); ``time`` is the logger's own clock (``utc``, ``2026-11-30T00:00:00Z`` as in the
+store, is added when known). A text row
 (types 3..9, §6.8.1) goes to the logger's ``text`` component as ``{"text": ...}``.
 """
 
@@ -26,7 +27,7 @@ import re
 from dataclasses import dataclass, field
 from importlib import metadata
 
-from sondalog.collect.model import Reading
+from sondalog.collect.model import Reading, utc_text
 
 _SAFE = re.compile(r"[^A-Za-z0-9_-]")
 
@@ -199,5 +200,5 @@ def state_payload(r: Reading) -> bytes:
         body = {"value": r.value if finite else None}
     body.update(time=r.time.isoformat(timespec="seconds"), counter=r.counter, type=r.type)
     if r.utc is not None:
-        body["utc"] = r.utc.isoformat(timespec="seconds")
+        body["utc"] = utc_text(r.utc)
     return json.dumps(body, ensure_ascii=False, separators=(",", ":")).encode()

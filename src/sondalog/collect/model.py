@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import datetime
-from typing import Protocol
+from datetime import UTC, datetime
+from typing import Protocol, runtime_checkable
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,6 +35,11 @@ class Reading:
         return (self.logger, self.time.isoformat(timespec="seconds"), self.counter, self.channel)
 
 
+def utc_text(utc: datetime | None) -> str | None:
+    """``2007-03-01T11:00:00Z``: the one spelling of ``utc`` in every store, file and message."""
+    return None if utc is None else utc.astimezone(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
 class SinkUnavailable(Exception):
     """The sink cannot take writes now (database or broker down): buffer and retry later."""
 
@@ -53,3 +58,14 @@ class Sink(Protocol):
     async def write(self, batch: Sequence[Reading]) -> None: ...
 
     async def close(self) -> None: ...
+
+
+@runtime_checkable
+class Announcing(Protocol):
+    """A sink that tells its readers whether the collector is running (MQTT availability).
+
+    ``stay_online`` (set by ``collect --once``): a clean close leaves the collector
+    ``online``, as runs from cron come and go; a collector that dies still goes ``offline``.
+    """
+
+    stay_online: bool

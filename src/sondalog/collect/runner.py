@@ -23,8 +23,8 @@ from typing import Any
 
 from sondalog.collect.buffer import DiskBuffer, deliver, drain
 from sondalog.collect.config import CollectorConfig
-from sondalog.collect.model import Reading, Sink, SinkUnavailable
-from sondalog.collect.sinks import load_sink
+from sondalog.collect.model import Announcing, Reading, Sink, SinkUnavailable
+from sondalog.collect.sinks import build_sinks
 from sondalog.collect.sources import Source, make_source
 from sondalog.collect.store_sqlite import SqliteStore, now_text
 
@@ -57,12 +57,8 @@ class Collector:
     def open(self) -> None:
         """Open the store and build the sinks; raises :class:`ConfigError` for a bad sink
         table (or an unknown/missing sink) and ``StoreError``."""
+        self.sinks = build_sinks(self.config)  # before the store: a bad table creates nothing
         self.store.open_sync()
-        for name, table in self.config.sinks.items():
-            try:
-                self.sinks.append(load_sink(name, table))
-            except ValueError as exc:
-                raise self.config.sink_error(name, exc) from None
         if self.sinks:
             self.buffer = DiskBuffer(self.config.buffer)
         for source_config in self.config.sources:
@@ -74,6 +70,8 @@ class Collector:
         if not self.store.is_open:
             self.open()
         for sink in self.sinks:
+            if once and isinstance(sink, Announcing):
+                sink.stay_online = True  # cron runs: online between them (docs/decisions.md)
             await self._open_sink(sink)
         count = len(self.sources)
         spread = 0.0 if once else min([SPREAD, *(s.config.interval for s in self.sources)])

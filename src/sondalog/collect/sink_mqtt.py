@@ -10,9 +10,11 @@ Configured by the ``[mqtt]`` table::
 
 A background task keeps the connection (its own reconnect loop, backoff 0.2 s doubling up
 to 30 s). On every connect it publishes ``online`` (retained) on the availability topic
-(the last will publishes ``offline``), subscribes to ``homeassistant/status`` and sends the
-device discovery of every logger it knows; it sends them again whenever Home Assistant
-says ``online`` there. Payloads: :mod:`sondalog.collect.ha_discovery`.
+(the last will publishes ``offline``, and so does a clean close, except after
+``collect --once``: runs from cron leave ``online`` between them, docs/decisions.md),
+subscribes to ``homeassistant/status`` and sends the device discovery of every logger it
+knows; it sends them again whenever Home Assistant says ``online`` there. Payloads:
+:mod:`sondalog.collect.ha_discovery`.
 
 :meth:`MqttSink.write` raises :class:`SinkUnavailable` while the broker is away. Readings it
 already published (acknowledged by the broker, QoS 1) are remembered by key, so a batch
@@ -101,6 +103,8 @@ class MqttSink:
         self.publish_timeout = publish_timeout
         self.devices: dict[str, Device] = {}
         self.connects = 0
+        #: ``collect --once`` (cron): a clean close leaves the availability ``online``.
+        self.stay_online = False
         self.discoveries_sent = 0
         self._client: aiomqtt.Client | None = None
         self._connected = asyncio.Event()
@@ -128,10 +132,11 @@ class MqttSink:
         await self.wait_connected(2.0)
 
     async def close(self) -> None:
-        """Say ``offline`` (a clean disconnect sends no last will) and stop the loop."""
+        """Say ``offline`` (a clean disconnect sends no last will), unless :attr:`stay_online`,
+        and stop the loop."""
         self._closing = True
         client = self._client
-        if client is not None:
+        if client is not None and not self.stay_online:
             with contextlib.suppress(aiomqtt.MqttError):
                 await client.publish(self.topics.availability, "offline", qos=1, retain=True)
         if self._task is not None:

@@ -12,6 +12,7 @@ import importlib
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from sondalog.collect.config import CollectorConfig
 from sondalog.collect.model import Sink
 
 SinkFactory = Callable[[dict[str, Any]], Sink]
@@ -56,3 +57,17 @@ def load_sink(name: str, table: Mapping[str, Any]) -> Sink:
         if factory is None:
             raise SinkError(f"{module_name} neither registers a sink nor has create()")
     return factory(dict(table))
+
+
+def build_sinks(config: CollectorConfig) -> list[Sink]:
+    """Every sink table of ``config`` built (nothing connects yet); raises
+    :class:`~sondalog.collect.config.ConfigError` with the table's line for a bad table, an
+    unknown sink or a sink whose module is missing. ``collect --check`` calls it too, so it
+    finds whatever a start would."""
+    sinks: list[Sink] = []
+    for name, table in config.sinks.items():
+        try:
+            sinks.append(load_sink(name, table))
+        except ValueError as exc:
+            raise config.sink_error(name, exc) from None
+    return sinks

@@ -21,7 +21,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.model import Reading, SinkUnavailable, utc_text
 from sondalog.collect.schema import SCHEMA_VERSION, SQLITE_ADDITIVE_DDL, SQLITE_DDL
 from sondalog.io.private import connect_private, private_parents
 
@@ -62,7 +62,7 @@ def row_of(r: Reading) -> tuple[Any, ...]:
         r.text,
         r.name,
         r.unit,
-        None if r.utc is None else r.utc.strftime("%Y-%m-%dT%H:%M:%SZ"),
+        utc_text(r.utc),
     )
 
 
@@ -128,7 +128,24 @@ class SqliteStore:
         self._db = db
         return self
 
-    def _migrate(self, db: sqlite3.Connection) -> None:
+    def check_sync(self) -> None:
+        """Raise :class:`StoreError` when an existing file could not be opened as the store
+        (not a collector store, a newer schema); reads only, creates nothing."""
+        if not self.path.exists():
+            return
+        try:
+            db = sqlite3.connect(f"{self.path.resolve().as_uri()}?mode=ro", uri=True)
+        except sqlite3.Error as exc:
+            raise StoreError(f"{self.path}: cannot open: {exc}") from exc
+        try:
+            self._version(db)
+        except sqlite3.DatabaseError as exc:
+            raise StoreError(f"{self.path} is not a collector store: {exc}") from exc
+        finally:
+            db.close()
+
+    def _version(self, db: sqlite3.Connection) -> int:
+        """The file's schema version (0: empty); :class:`StoreError` if it cannot be used."""
         tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
         version = 0
         if "meta" in tables:
@@ -141,6 +158,10 @@ class SqliteStore:
                 f"{self.path} has schema version {version}; this sondalog knows up to "
                 f"{SCHEMA_VERSION}: upgrade sondalog"
             )
+        return version
+
+    def _migrate(self, db: sqlite3.Connection) -> None:
+        version = self._version(db)
         if version == SCHEMA_VERSION:
             db.executescript(SQLITE_ADDITIVE_DDL)
             return

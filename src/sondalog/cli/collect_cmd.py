@@ -8,7 +8,6 @@ failed, 2 a configuration error (``FILE:LINE: field: message``) or a store that 
 from __future__ import annotations
 
 import asyncio
-import logging
 from pathlib import Path
 
 import click
@@ -48,9 +47,6 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
             raise Refused(str(exc)) from None
         click.echo(f"{config_file}: {len(config.sources)} sources, store {config.store}")
         return
-    logging.getLogger("sondalog.collect").setLevel(
-        min(logging.INFO, logging.getLogger().getEffectiveLevel())
-    )
     collector = Collector(config)
     try:
         collector.open()

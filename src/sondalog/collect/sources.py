@@ -17,7 +17,7 @@ from datetime import datetime
 from typing import Any, Protocol
 
 from sondalog.client import Ala1Client, BusMaster
-from sondalog.client.download import Download
+from sondalog.client.download import ClockReading, Download
 from sondalog.client.records import UTC
 from sondalog.collect.config import SourceConfig
 from sondalog.collect.model import Reading
@@ -46,6 +46,7 @@ class LoggerSource:
     def __init__(self, config: SourceConfig, store: SqliteStore) -> None:
         self.config = config
         self.store = store
+        self._hint: str | None = None  # the last idle_hint logged
 
     async def poll(self, deliver: Deliver) -> str:
         cfg, store = self.config, self.store
@@ -93,10 +94,36 @@ class LoggerSource:
         finally:
             await client.close()
         span = f" ({first} .. {last})" if rows else ""
-        return (
+        summary = (
             f"logger {info.snumber}: {rows} new rows, {readings} readings{span}; "
             f"{info.clock.describe()}"
         )
+        hint = idle_hint(rows, state["record_fill"], info.clock)
+        if hint is not None and hint != self._hint:  # said once, not at every contact
+            log.warning("source %s: %s", cfg.name, hint)
+        self._hint = hint
+        return summary if hint is None else f"{summary}; {hint}"
+
+
+#: A logger clock this far from the host's was never set (a fresh logger reads 2000-01-01).
+UNSET_CLOCK = 30 * 86400.0
+
+
+def idle_hint(rows: int, record_fill: str | None, clock: ClockReading) -> str | None:
+    """What the logger shows when a contact brings nothing (or rows on an unset clock): its
+    clock not set (§6.2) and an empty record, as a fresh or reset logger has (§6.6.5
+    ``read record status`` ``0,...``: no channel has a sampling period, §6.5.14)."""
+    says = []
+    if abs(clock.offset) >= UNSET_CLOCK:
+        says.append(
+            f"its clock reads {clock.logger_time.isoformat()}, not set? (write date YYYYMMDDhhmmss)"
+        )
+    if not rows and record_fill is not None and record_fill.split(",")[0].strip() == "0":
+        says.append(
+            "nothing to collect: its record is empty (a channel records only with a sampling "
+            "period: write channel N sampling period hhmmss)"
+        )
+    return "; ".join(says) or None
 
 
 #: ``channel type`` (§6.5.6) -> the ``sources`` column its newest reading fills.

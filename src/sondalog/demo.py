@@ -270,7 +270,8 @@ class Demo:
         bus = f"tcp://{format_address(*self.bus.address)}"
         lines = [
             f"sondalog demo: the whole system, state in {STATE_DIR}/ (written anew at each start)",
-            f"{HISTORY_DAYS} days of history recorded; module time now runs {SPEED:g}x faster.",
+            f"{HISTORY_DAYS} days of history recorded; module time now runs "
+            f"{self.clock.speed:g}x faster.",
             "",
             f"Dashboard:  {self.web}",
             "",

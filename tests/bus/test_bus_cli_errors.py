@@ -3,9 +3,12 @@ item 2): real ``bus serve`` and ``logger serve`` subprocesses over TCP."""
 
 from __future__ import annotations
 
+import os
+import pty
 import select
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -49,6 +52,64 @@ def test_scan_at_a_logger_says_so_after_one_round(logger_url: str) -> None:
     assert f"Is this an ALA1 logger? Talk to it with: sondalog term {logger_url}" in done.stderr
     assert "scan round 1/30" in done.stderr
     assert "scan round 2/" not in done.stderr  # said after the first round, not after 30
+
+
+def test_term_at_the_bus_says_so_and_names_bus_scan(bus_url: str) -> None:
+    """The reverse mistake (issue 26): ``term`` at the bus used to say only "no answer"."""
+    done = subprocess.run(
+        [sys.executable, "-m", "sondalog", "term", bus_url, "--timeout", "0.5"],
+        input="read i version\n",
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert done.returncode == 1 and done.stdout == ""
+    assert "no answer to 'read i version'" in done.stderr
+    assert f"{bus_url} is an HCTMPS1 bus, not an ALA1 logger: modules H1, T1 answered HELLO" in (
+        done.stderr
+    )
+    assert f"Talk to it with: sondalog bus scan {bus_url}" in done.stderr
+
+
+def test_term_at_the_bus_interactive_hints_at_bus_scan(bus_url: str) -> None:
+    controller, terminal = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sondalog", "term", bus_url, "--timeout", "0.5"],
+        stdin=terminal,
+        stdout=terminal,
+        stderr=terminal,
+        env={**os.environ, "TERM": "xterm", "PROMPT_TOOLKIT_NO_CPR": "1"},
+        close_fds=True,
+    )
+    os.close(terminal)
+    seen = b""
+    try:
+        seen += _read_pty(controller, b"ala1>")
+        os.write(controller, b"read i version\r")
+        seen += _read_pty(controller, b"Try: sondalog bus scan")
+        os.write(controller, b":quit\r")
+        assert proc.wait(timeout=10) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(controller)
+    assert b"an ALA1 logger answers every line (OK or ERROR)" in seen
+
+
+def _read_pty(fd: int, until: bytes, timeout: float = 20.0) -> bytes:
+    """What the terminal showed until ``until`` (its line breaks undone)."""
+    deadline = time.monotonic() + timeout
+    buf = b""
+    while until not in buf.replace(b"\r\n", b""):
+        remaining = deadline - time.monotonic()
+        assert remaining > 0, f"timed out waiting for {until!r}; got {buf!r}"
+        if select.select([fd], [], [], remaining)[0]:
+            try:
+                buf += os.read(fd, 65536)
+            except OSError:
+                break
+    return buf.replace(b"\r\n", b"")
 
 
 def test_scan_logs_one_line_per_round(bus_url: str) -> None:

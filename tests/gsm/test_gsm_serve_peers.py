@@ -72,6 +72,11 @@ def test_phone_commands(world: Served) -> None:
     assert sent.stdout == "SMS 1 delivered\n"
     inbox = sondalog("phone", *api, "inbox", MODEM)
     assert inbox.returncode == 0 and f"from {PHONE}\n  ##*#read com speed##*#\n" in inbox.stdout
+    empty = sondalog("phone", *api, "inbox", PHONE2)  # an empty inbox says so
+    assert (empty.returncode, empty.stdout) == (0, f"no SMS delivered to {PHONE2}\n")
+    waiting = sondalog("phone", *api, "inbox", "--queued", PHONE2)
+    assert waiting.stdout == f"no SMS waiting at the SMS centre for {PHONE2}\n"
+    assert sondalog("phone", *api, "inbox", "--json", PHONE2).stdout == "[]\n"
     wrong = sondalog("phone", *api, "sms", PHONE, "+420111", "x")
     assert wrong.returncode == 2 and "+420111 is not a modem or phone" in wrong.stderr
     voice = sondalog("phone", *api, "call", PHONE, MODEM, "--voice")

@@ -65,6 +65,7 @@ def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
         loggers = re.findall(r"sondalog term (tcp://127\.0\.0\.1:(\d+))", text)
         bus = demo.url("sondalog bus ask ", r"tcp://127\.0\.0\.1:\d+")
         assert len(loggers) == 3 and "sondalog bus scan tcp://" in text, text
+        assert f"module time now runs {SPEED}x faster." in text  # what --speed asked for
         sms = re.search(r"sondalog phone ((?:--api \S+ )?)sms (\S+) (\S+) '([^']+)'", text)
         assert sms is not None, text
 

@@ -71,6 +71,7 @@ def test_push_the_manual_tables_and_use_them(serve: Serve, tmp_path: Path) -> No
     done = subprocess.run([*CLI, "push", str(tables_dir(tmp_path)), url], capture_output=True)
     assert done.returncode == 0, done.stderr
     assert b"pushed 2 tables (24 bytes list, 106 bytes data), verified" in done.stdout
+    assert done.stderr == b""  # no progress bar off a terminal, not even a blank line
     x = adc(0.5) * 1000  # channel 1: mV through tabulka1, between its rows 2 and 3
     one = 1000 + (1790.53 - 1000) * (x - 351.65) / (893 - 351.65)
     p = adc(0.8) * 4  # channel 2: parameter 3.2 between the regions 3 and 4 of tabulka2
@@ -89,7 +90,8 @@ def test_pull_round_trip_and_check_explains_a_bad_channel(serve: Serve, tmp_path
     url = f"tcp://127.0.0.1:{served.port}"
     assert subprocess.run([*CLI, "push", str(tables_dir(tmp_path)), url]).returncode == 0
     out = tmp_path / "pulled"
-    assert subprocess.run([*CLI, "pull", url, str(out)], capture_output=True).returncode == 0
+    pulled = subprocess.run([*CLI, "pull", url, str(out)], capture_output=True)
+    assert pulled.returncode == 0 and pulled.stderr == b"", pulled.stderr
     assert (out / "tabulka1.txt").read_bytes() == TABLE1
     assert (out / "tabulka2.txt").read_bytes() == TABLE2
     assert ask(served, "write channel 1 convert file name/tabulka2/") == ""

@@ -26,8 +26,33 @@ def test_term_scripted_from_stdin(shared_logger: ServedLogger) -> None:
         text=True,
         timeout=30,
     )
-    assert done.returncode == 0, done.stderr
+    # every line is sent and answered; the refused one makes the exit status 1 (issue 26)
+    assert done.returncode == 1, done.stderr
     assert done.stdout == ("2.10\nOK\n00255,ALA1\n00154,OK\nreed date\nERROR\n2.10\nALA1\nOK\n")
+    assert done.stderr == "the logger answered ERROR to 'reed date' (:explain tells why)\n"
+
+
+def test_term_exit_status_of_error_responses(shared_logger: ServedLogger) -> None:
+    """Scripted, an ERROR answer (plain or decorated, §3.3.1) exits 1 unless --ignore-errors;
+    a script that only gets OK exits 0."""
+
+    def run(script: str, *args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [*TERM, shared_logger.url, "--timeout", "2", *args],
+            input=script,
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+
+    assert run("read i version\nsum read i device\n").returncode == 0
+    refused = run("sum write date 2026013012\nread i version\n")
+    assert refused.returncode == 1
+    assert refused.stdout.endswith("ERROR\n2.10\nOK\n")  # the next line still ran
+    assert "answered ERROR to 'sum write date 2026013012'" in refused.stderr
+    ignored = run("reed date\nread i version\n", "--ignore-errors")
+    assert (ignored.returncode, ignored.stderr) == (0, "")
+    assert ignored.stdout == "reed date\nERROR\n2.10\nOK\n"
 
 
 def test_term_reports_no_answer(shared_logger: ServedLogger) -> None:

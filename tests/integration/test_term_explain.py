@@ -69,7 +69,7 @@ def test_explain_names_the_rejected_token(
     shared_logger: ServedLogger, line: str, token: str, says: str
 ) -> None:
     done = term(shared_logger, f"{line}\n:explain\n")
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == 1, done.stderr  # a refused line (issue 26)
     echo, error, shown, caret, message = done.stdout.splitlines()[:5]
     assert (echo, error) == (line, "ERROR")  # the logger refused it (§3.3.1) ...
     assert shown == line
@@ -91,7 +91,7 @@ def test_explain_of_an_accepted_line_and_with_nothing_refused(shared_logger: Ser
 def test_log_captures_the_session(shared_logger: ServedLogger, tmp_path: Path) -> None:
     log = tmp_path / "session.log"
     done = term(shared_logger, f":log {log}\nread i version\nreed\n:log\nread i device\n")
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == 1 and "answered ERROR to 'reed'" in done.stderr
     assert done.stdout == (
         f"logging the session to {log}\n2.10\nOK\nreed\nERROR\nlog closed\nALA1\nOK\n"
     )

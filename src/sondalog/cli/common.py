@@ -14,6 +14,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 __all__ = [
     "Refused",
     "allow_remote_option",
+    "allow_remote_site_option",
     "format_address",
     "is_loopback",
     "listen_option",
@@ -50,14 +51,25 @@ def _remember_allow_remote(ctx: click.Context, param: click.Parameter, value: bo
     ctx.meta[_ALLOW_REMOTE] = value
 
 
+def _allow_remote(help_text: str) -> Callable[[F], F]:
+    return click.option(
+        "--allow-remote",
+        is_flag=True,
+        is_eager=True,
+        expose_value=False,
+        callback=_remember_allow_remote,
+        help=help_text,
+    )
+
+
 #: ``--allow-remote``: the explicit consent to listen beyond loopback (issue 9).
-allow_remote_option = click.option(
-    "--allow-remote",
-    is_flag=True,
-    is_eager=True,
-    expose_value=False,
-    callback=_remember_allow_remote,
-    help="Allow a --listen address beyond loopback (no authentication: see docs/security.md).",
+allow_remote_option = _allow_remote(
+    "Allow a --listen address beyond loopback (no authentication: see docs/security.md)."
+)
+#: The same for ``serve``, whose addresses are the ``listen`` fields of its site file.
+allow_remote_site_option = _allow_remote(
+    "Allow listen addresses of the site file beyond loopback (no authentication: see "
+    "docs/security.md)."
 )
 
 

@@ -55,11 +55,14 @@ def sms(ctx: click.Context, sender: str, to: str, text: str) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON list.")
 @click.pass_context
 def inbox(ctx: click.Context, number: str, queued: bool, as_json: bool) -> None:
-    """List the SMS delivered to NUMBER, oldest first."""
+    """List the SMS delivered to NUMBER, oldest first ("no SMS ..." when there is none)."""
     messages = _run(_api(ctx).inbox, number, queued)
     if as_json:
         click.echo(json.dumps(messages, ensure_ascii=False, indent=2))
         return
+    if not messages:
+        where = "waiting at the SMS centre for" if queued else "delivered to"
+        click.echo(f"no SMS {where} {number}")
     for sms in messages:
         click.echo(f"{sms['time']}  from {sms['from']}")
         for line in sms["text"].splitlines() or [""]:

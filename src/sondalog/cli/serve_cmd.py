@@ -7,7 +7,12 @@ from pathlib import Path
 
 import click
 
-from sondalog.cli.common import Refused, allow_remote_option, refuses_remote, speed_option
+from sondalog.cli.common import (
+    Refused,
+    allow_remote_site_option,
+    refuses_remote,
+    speed_option,
+)
 from sondalog.io import loop as serve_loop
 
 
@@ -27,7 +32,7 @@ from sondalog.io import loop as serve_loop
     default=None,
     help="Record the line of the logger's GSM modem in this file (docs/gsm.md).",
 )
-@allow_remote_option
+@allow_remote_site_option
 @click.pass_context
 def serve(
     ctx: click.Context, site: Path, state_dir: Path | None, speed: float, trace: Path | None

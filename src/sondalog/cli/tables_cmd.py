@@ -6,7 +6,8 @@ Parsing only; the work is in :mod:`sondalog.client.tables`.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Awaitable, Callable
+import contextlib
+from collections.abc import Awaitable, Callable, Iterator
 from pathlib import Path
 from typing import TypeVar
 
@@ -47,18 +48,23 @@ def _run(url: str, work: Callable[[Ala1Client], Awaitable[T]], timeout: float) -
         raise click.ClickException(str(exc)) from exc
 
 
-def _progress() -> Progress:
-    """One bar per phase (bytes on the wire, total and time left when known), on stderr;
-    kept on a terminal, nothing at all when stderr is not one."""
-    return Progress(
+@contextlib.contextmanager
+def _progress() -> Iterator[Callable[[str, int, int], None] | None]:
+    """A ``progress(phase, done, total)`` callback with one bar per phase (bytes on the wire,
+    total and time left when known) on stderr, kept once done; None when stderr is not a
+    terminal: nothing is written there then, not even the blank line a transient bar leaves."""
+    if not _err.is_terminal:
+        yield None
+        return
+    with Progress(
         TextColumn("{task.description:<13}"),
         BarColumn(),
         DownloadColumn(),
         TransferSpeedColumn(),
         TimeRemainingColumn(),
         console=_err,
-        transient=not _err.is_terminal,
-    )
+    ) as bar:
+        yield _phases(bar)
 
 
 def _phases(bar: Progress) -> Callable[[str, int, int], None]:
@@ -95,8 +101,8 @@ def push_cmd(folder: Path, url: str, timeout: float) -> None:
         raise SystemExit(2) from exc
 
     async def work(client: Ala1Client) -> tuple[bytes, bytes]:
-        with _progress() as bar:
-            return await push(client, found, _phases(bar))
+        with _progress() as progress:
+            return await push(client, found, progress)
 
     try:
         listing, data = _run(url, work, timeout)
@@ -117,8 +123,8 @@ def pull_cmd(url: str, folder: Path, timeout: float) -> None:
     """Download the tables of the logger at URL into FOLDER (one NAME.txt per table)."""
 
     async def work(client: Ala1Client) -> dict[str, bytes]:
-        with _progress() as bar:
-            return await pull(client, _phases(bar))
+        with _progress() as progress:
+            return await pull(client, progress)
 
     found = _run(url, work, timeout)
     folder.mkdir(parents=True, exist_ok=True)

@@ -10,9 +10,12 @@ Scripted (stdin is not a terminal): each stdin line is sent as one command and i
 printed once it is complete: a final ``OK`` (plain or decorated, ``00154,OK``) or ``ERROR``
 line. The ``--timeout`` runs from the last byte received, so a long answer on a slow line is
 never cut; a line with a ``quiet`` header (§8.5.3), which has no final line, ends after a
-short silence. A command with no answer (a failed ``check``), or an answer that stops without
-its final line (the line died), is reported on stderr and makes the exit status 1; a line the
-logger cannot receive (a character outside ASCII) is not sent, is reported, and makes it 2.
+short silence. A command the logger refused (its answer ends with ``ERROR``, §3.3.1), a
+command with no answer (a failed ``check``), or an answer that stops without its final line
+(the line died), is reported on stderr and makes the exit status 1 (``--ignore-errors``: not
+for ``ERROR``); a line the logger cannot receive (a character outside ASCII) is not sent, is
+reported, and makes it 2. When nothing at all came back, ``term`` asks whether the peer is an
+HCTMPS1 bus (one ``HELLO`` broadcast) and names the command for it.
 
 Both modes know local commands, lines starting with ``:`` that are not sent: ``:help``,
 ``:log FILE``, ``:explain [LINE]``, ``:quit`` (see :data:`sondalog.app.explain.HELP`).
@@ -56,6 +59,10 @@ class _Local:
         """The last line the logger refused, as it echoed it (§3.3.1)."""
         self.quit = False
         self._tail = ""
+        self.heard = False
+        """Did the peer send anything at all this session?"""
+        self.unanswered = 0
+        """Lines that should have been answered (no ``check``, no ``quiet``) and were not."""
 
     def sent(self, line: str) -> None:
         if self.log is not None:
@@ -67,6 +74,7 @@ class _Local:
         if self.log is not None:
             self.log.write(text)
             self.log.flush()
+        self.heard = self.heard or bool(text)
         lines = (self._tail + text).split("\n")
         self._tail = lines.pop()
         for before, line in zip(["", *lines], lines, strict=False):
@@ -123,7 +131,12 @@ class _Local:
     show_default=True,
     help="Seconds of silence after which an answer read from stdin counts as ended.",
 )
-def term(url: str, timeout: float) -> None:
+@click.option(
+    "--ignore-errors",
+    is_flag=True,
+    help="Reading from stdin, exit 0 even when the logger answered ERROR to a line.",
+)
+def term(url: str, timeout: float, ignore_errors: bool) -> None:
     """Talk to an ALA1 logger at URL (tcp://HOST:PORT, serial:///DEVICE?baud=9600).
 
     A serial URL also opens the pty of "logger serve --pty PATH": serial://PATH?baud=9600.
@@ -131,29 +144,81 @@ def term(url: str, timeout: float) -> None:
     network and talks through it once the modem answered (docs/gsm.md).
     Lines starting with ":" are local commands (:help, :log FILE, :explain, :quit).
 
-    Reading commands from stdin, exit status 1 means a command got no answer or an
-    incomplete one (reported on stderr), 2 that a line could not be sent.
+    Reading commands from stdin, exit status 1 means the logger answered ERROR to a
+    line, or a line got no answer or an incomplete one (reported on stderr), 2 that a
+    line could not be sent.
     """
     try:
         endpoint = parse_url(url)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="URL") from exc
     try:
-        status = asyncio.run(_session(endpoint, timeout, sys.stdin))
+        status = asyncio.run(_session(url, endpoint, timeout, sys.stdin, not ignore_errors))
     except OSError as exc:
         raise click.ClickException(f"cannot connect to {endpoint}: {exc}") from exc
     sys.exit(status)
 
 
-async def _session(endpoint: Endpoint, timeout: float, stdin: TextIO) -> int:
+async def _session(
+    url: str, endpoint: Endpoint, timeout: float, stdin: TextIO, errors_fail: bool
+) -> int:
     client = await Ala1Client.connect(endpoint, timeout)
     local = _Local()
     try:
         if stdin.isatty():
-            return await _interactive(client, local)
-        return await _scripted(client, stdin, timeout, local)
+            return await _interactive(client, local, url, timeout)
+        status = await _scripted(client, stdin, timeout, local, errors_fail)
     finally:
         local.close()
+    if local.unanswered and not local.heard:
+        click.echo(await _silent_peer(url), err=True)
+    return status
+
+
+async def _silent_peer(url: str) -> str:
+    """What to say when ``url`` answered nothing at all: an ALA1 logger answers every line, so
+    it may be an HCTMPS1 bus (the reverse of ``bus scan`` at a logger): one ``HELLO``
+    broadcast (hctmps1.md §2) tells."""
+    from sondalog.client.bus import BusMaster
+    from sondalog.client.bus_errors import BusError
+
+    modules: list[str] = []
+    with contextlib.suppress(ValueError, OSError, BusError):
+        master = await BusMaster.open(url)
+        try:
+            modules = sorted({frame.src for frame in await master.broadcast("HELLO")})
+        finally:
+            await master.close()
+    if modules:
+        return (
+            f"{url} is an HCTMPS1 bus, not an ALA1 logger: {_modules(modules)} answered "
+            f"HELLO. Talk to it with: sondalog bus scan {url}"
+        )
+    return _SILENT.format(url=url)
+
+
+def _modules(ids: list[str]) -> str:
+    return f"module {ids[0]}" if len(ids) == 1 else f"modules {', '.join(ids)}"
+
+
+#: The hint when a peer stays silent (interactive mode, or no bus module answered HELLO).
+_SILENT = (
+    "nothing at all came back from {url}: an ALA1 logger answers every line (OK or ERROR). "
+    "Check the address, cable and baud rate; an HCTMPS1 bus? Try: sondalog bus scan {url}"
+)
+
+
+def _expects_answer(line: str) -> bool:
+    """Must a logger answer ``line``? Not with ``check`` (silent when the sum is wrong) or
+    ``quiet`` (no final line, §8.5.3), nor an empty line."""
+    return bool(line.strip(" ")) and not header_words(line) & {"check", "quiet"}
+
+
+def _refused(answer: bytes) -> bool:
+    """Does a complete ``answer`` end with the error response (``ERROR``, plain or decorated
+    by ``sum``, ``number``, ``endline``; §3.3.1)?"""
+    last = answer.rstrip(b"\r\n").rsplit(b"\n", 1)[-1]
+    return b"ERROR" in last and b"OK" not in last
 
 
 def _incomplete(line: str, answer: bytes, timeout: float) -> str | None:
@@ -173,7 +238,9 @@ def _incomplete(line: str, answer: bytes, timeout: float) -> str | None:
     )
 
 
-async def _scripted(client: Ala1Client, stdin: TextIO, timeout: float, local: _Local) -> int:
+async def _scripted(
+    client: Ala1Client, stdin: TextIO, timeout: float, local: _Local, errors_fail: bool = True
+) -> int:
     status = 0
     try:
         for raw_line in stdin:
@@ -203,10 +270,15 @@ async def _scripted(client: Ala1Client, stdin: TextIO, timeout: float, local: _L
             if not answer:
                 click.echo(f"no answer to {line!r}", err=True)
                 status = max(status, 1)
+                if _expects_answer(line):
+                    local.unanswered += 1
             elif (why := _incomplete(line, answer, timeout)) is not None:
                 if not text.endswith("\n"):
                     click.echo("")
                 click.echo(why, err=True)
+                status = max(status, 1)
+            elif errors_fail and _refused(answer):
+                click.echo(f"the logger answered ERROR to {line!r} (:explain tells why)", err=True)
                 status = max(status, 1)
     except ConnectionLost as exc:
         click.echo(f"connection lost: {exc}", err=True)
@@ -216,7 +288,7 @@ async def _scripted(client: Ala1Client, stdin: TextIO, timeout: float, local: _L
     return status
 
 
-async def _interactive(client: Ala1Client, local: _Local) -> int:
+async def _interactive(client: Ala1Client, local: _Local, url: str, timeout: float) -> int:
     from prompt_toolkit import PromptSession
     from prompt_toolkit.history import InMemoryHistory
     from prompt_toolkit.patch_stdout import patch_stdout
@@ -224,6 +296,12 @@ async def _interactive(client: Ala1Client, local: _Local) -> int:
     session: PromptSession[str] = PromptSession(history=InMemoryHistory())
     closed = asyncio.Event()
     hinted: list[bool] = []  # the :explain hint is shown once a session
+    silence: list[asyncio.Task[None]] = []  # the silent-peer hint: once a session
+
+    async def hint_if_silent() -> None:
+        await asyncio.sleep(timeout)
+        if not local.heard:
+            print(f"({_SILENT.format(url=url)})", flush=True)
 
     async def show_incoming() -> None:
         try:
@@ -262,8 +340,14 @@ async def _interactive(client: Ala1Client, local: _Local) -> int:
                 if not closed.is_set():
                     local.sent(line)
                     await client.send_raw(line.encode("ascii") + b"\r")
+                    if not local.heard and not silence and _expects_answer(line):
+                        silence.append(asyncio.create_task(hint_if_silent()))
         finally:
-            reader.cancel()
+            for task in (*silence, reader):
+                task.cancel()
+            for task in silence:
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
             with contextlib.suppress(asyncio.CancelledError):
                 await reader
             await client.close()

@@ -15,17 +15,33 @@ from pathlib import Path
 from .app import create_app
 from .server import WebConfigError, serve
 
+#: The --help text: plain, unlike the module docstring (``--help`` prints it as it is).
+DESCRIPTION = (
+    "The dashboard alone, over an existing store (the collector's SQLite file). The collector "
+    "serves the dashboard itself ([web] listen in its config); this is for looking at a store "
+    "without running a collector. Bad options: a message and exit code 2."
+)
+
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sondalog.web", description=__doc__)
-    parser.add_argument("--store", type=Path, required=True, help="the collector's SQLite file")
-    parser.add_argument("--listen", default="127.0.0.1:8080", help="HOST:PORT (loopback)")
+    parser = argparse.ArgumentParser(prog="python -m sondalog.web", description=DESCRIPTION)
+    parser.add_argument(
+        "--store", type=Path, required=True, metavar="FILE", help="the collector's SQLite file"
+    )
+    parser.add_argument(
+        "--listen",
+        default="127.0.0.1:8080",
+        metavar="HOST:PORT",
+        help="where to serve (default 127.0.0.1:8080; loopback unless --allow-remote)",
+    )
     parser.add_argument(
         "--allow-remote",
         action="store_true",
         help="allow a non-loopback address (needs the token in $SONDALOG_WEB_TOKEN)",
     )
-    parser.add_argument("--poll", type=float, default=1.0, help="live update poll, seconds")
+    parser.add_argument(
+        "--poll", type=float, default=1.0, metavar="SECONDS", help="live update poll (default 1)"
+    )
     args = parser.parse_args(argv)
     host, sep, port_text = args.listen.rpartition(":")
     if not sep or not port_text.isdigit() or not host or int(port_text) > 65535:
@@ -42,7 +58,13 @@ def main(argv: list[str] | None = None) -> int:
         asyncio.run(
             serve(app, host, int(port_text), allow_remote=args.allow_remote, on_listen=listening)
         )
-    except (WebConfigError, ValueError, OSError) as exc:
+    except OSError as exc:  # the address is taken, or not this machine's
+        print(
+            f"python -m sondalog.web: cannot listen on {args.listen}: {exc.strerror or exc}",
+            file=sys.stderr,
+        )
+        return 2
+    except (WebConfigError, ValueError) as exc:
         print(f"python -m sondalog.web: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

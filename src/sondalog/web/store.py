@@ -174,19 +174,23 @@ def raw(
 
 def bucketed(
     conn: sqlite3.Connection, logger: str, edges: Sequence[str]
-) -> Iterator[tuple[int, int, float | None, float | None]]:
-    """``(bucket, channel, min, max)`` for buckets ``[edges[i], edges[i+1])``.
+) -> Iterator[tuple[int, int, int, float | None, str]]:
+    """``(bucket, channel, which, value, time)`` for buckets ``[edges[i], edges[i+1])``:
+    ``which`` 0 is the channel's smallest value in the bucket, 1 its largest, each with the
+    time of a row that has it (SQLite takes a bare column from the row of a lone min/max).
 
-    One key range per bucket: no function per row, and each bucket's grouping is small
-    (measured faster than one joined query whose grouping sorts every row).
+    One key range per bucket and extreme: no function per row, and each bucket's grouping
+    is small (measured faster than one joined query whose grouping sorts every row).
     """
-    q = (
-        "SELECT channel, min(value), max(value) FROM readings WHERE logger = ? "
+    one = (
+        "SELECT channel, {w}, {f}(value), time FROM readings WHERE logger = ? "
         "AND time >= ? AND time < ? AND channel > 0 GROUP BY channel"
     )
+    q = one.format(w=0, f="min") + " UNION ALL " + one.format(w=1, f="max")
     for i in range(len(edges) - 1):
-        for ch, vmin, vmax in conn.execute(q, (logger, edges[i], edges[i + 1])):
-            yield i, ch, vmin, vmax
+        lo, hi = edges[i], edges[i + 1]
+        for ch, which, value, time in conn.execute(q, (logger, lo, hi, logger, lo, hi)):
+            yield i, ch, which, value, time
 
 
 def newer(

@@ -43,6 +43,7 @@ class Series:
             "name": self.channel.name,
             "unit": self.channel.unit,
             "kind": self.channel.kind,
+            "decimals": self.channel.decimals,
             "t": self.t,
             "v": self.v,
             "step": self.step,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sqlite3
 from datetime import datetime, timedelta
 
@@ -11,6 +12,7 @@ from hypothesis import strategies as st
 from sondalog.collect.schema import SQLITE_DDL
 from sondalog.web import series, store
 from sondalog.web.series import break_gaps
+from sondalog.web.times import to_epoch
 
 values = st.one_of(st.none(), st.floats(-1e6, 1e6, allow_nan=False))
 
@@ -44,7 +46,11 @@ def test_budget_extremes_and_gaps(
     got, width = series.load(conn, "L", store.channels(conn, "L"), lo, hi, max_points)
     assert len(got) == channels
     stored = [v for v in vals[: len(steps)] if v is not None]
+    readings = {(to_epoch(r[2]), r[5]) for r in rows if r[1] == 1 and r[5] is not None}
     for s in got:
+        # every value shown is a reading, at its own time (so within the range, in order)
+        shown_points = {(math.floor(x), v) for x, v in zip(s.t, s.v, strict=True) if v is not None}
+        assert shown_points <= readings
         assert len(s.t) == len(s.v) <= max_points
         assert s.t == sorted(s.t)
         shown = [v for v in s.v if v is not None]
@@ -66,3 +72,26 @@ def test_break_gaps_puts_one_null_in_a_long_pause() -> None:
     t2, v2 = [0.0, 60, 120], [None, 1.0, None]
     break_gaps(t2, v2)
     assert (t2, v2) == ([0, 60, 120], [None, 1.0, None])
+
+
+def test_downsampled_extremes_keep_their_times_and_order() -> None:
+    """A falling series: each bucket's maximum comes before its minimum, and the last point
+    is the last reading, not half a bucket after it (issue 26)."""
+    conn = sqlite3.connect(":memory:")
+    conn.executescript(SQLITE_DDL)
+    t0 = datetime(2026, 1, 1)
+    rows = [
+        ("L", 1, (t0 + timedelta(minutes=i)).strftime("%Y-%m-%dT%H:%M:%S"), 0, 1, -i, None)
+        for i in range(1000)
+    ]
+    conn.executemany(
+        "INSERT INTO readings (logger, channel, time, counter, type, value, text) "
+        "VALUES (?,?,?,?,?,?,?)",
+        rows,
+    )
+    lo, hi = rows[0][2], rows[-1][2]
+    (s,), width = series.load(conn, "L", store.channels(conn, "L"), lo, hi, 40)
+    assert width is not None
+    assert s.v == sorted(s.v, reverse=True)  # falling, as the readings do
+    assert s.t[0] == to_epoch(lo) and s.t[-1] == to_epoch(hi)
+    assert s.v[-1] == -999

@@ -159,6 +159,8 @@ credit = { model = "constant", value = 250.0 }
         "write channel 3 sampling period 0015 write channel 4 sampling period 0015",
     ),
 )
+#: The GSM logger's names and units for the collector, which only reads its e-mails.
+GSM_CHANNELS = 'channels = { 1 = "Supply [V]", 2 = "Soil [C]", 3 = "Signal", 4 = "Credit [CZK]" }'
 #: The GSM logger's history is short: its first e-mail carries all of it.
 GSM_HISTORY_DAYS = 2
 GSM_MODEM, GSM_PHONE = "+420600000003", "+420700000001"
@@ -280,7 +282,7 @@ def collector_toml(
             f'[[source]]\nname = "gsm-mail"\nkind = "mailbox"\n'
             f'url = "pop3://{USER_MAIL}:secret@{pop3[0]}:{pop3[1]}"\n'
             f'loggers = {{ "{LOGGER_MAIL}" = "{GSM.serial}" }}\n'
-            "signal = 3\ncredit = 4\ninterval = 5"
+            "signal = 3\ncredit = 4\ninterval = 5\n" + GSM_CHANNELS
         )
     return "\n\n".join(parts) + "\n"
 

@@ -33,6 +33,7 @@
     keep = false                # optional: true leaves the mails in the mailbox
     signal = 3                  # optional: the channels with GSM signal and credit (types
     credit = 4                  # 12, 11) when no download told the store
+    channels = { 1 = "Air [C]", 2 = "Signal" }   # optional: names and units, likewise
 
     [[source]]                  # loggers' data messages by SMS, from the GSM network's API
     kind = "network"
@@ -84,10 +85,11 @@ _SOURCE = {
     "keep",
     "signal",
     "credit",
+    "channels",
 }
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Keys only the message sources (``mailbox``, ``network``) take.
-_MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit")
+_MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit", "channels")
 #: Sink tables handed to :func:`sondalog.collect.sinks.load_sink` besides the store.
 SINK_TABLES = ("postgres", "mqtt")
 
@@ -121,6 +123,9 @@ class SourceConfig:
     #: message source, when no download told the store the channels' types.
     signal: int | None = None
     credit: int | None = None
+    #: Channel number -> ``"Name [unit]"`` of the loggers of a message source, when no
+    #: download told the store their names and units.
+    channels: dict[int, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -295,4 +300,27 @@ def _message_keys(s: Mapping[str, Any], kind: str, where: str, fail: Any) -> dic
         ):
             raise fail(f"{where}.{key}", "must be the number of the logger's channel")
         gsm[key] = value
-    return {"logger": logger, "loggers": dict(loggers), "number": number, "keep": keep, **gsm}
+    channels = _channel_names(s.get("channels", {}), f"{where}.channels", fail)
+    return {
+        "logger": logger,
+        "loggers": dict(loggers),
+        "number": number,
+        "keep": keep,
+        "channels": channels,
+        **gsm,
+    }
+
+
+def _channel_names(value: object, where: str, fail: Any) -> dict[int, str]:
+    """``{ 1 = "Air [C]", ... }``: channel number -> name with its unit in brackets."""
+    shape = 'must be a table of channel number = "Name [unit]", like { 1 = "Air [C]" }'
+    if not isinstance(value, dict):
+        raise fail(where, shape)
+    out: dict[int, str] = {}
+    for key, name in value.items():
+        if not str(key).isdigit() or int(key) < 1:
+            raise fail(f"{where}.{key}", f"not a channel number; {shape}")
+        if not isinstance(name, str) or not name.strip():
+            raise fail(f"{where}.{key}", f"must be a name; {shape}")
+        out[int(key)] = name.strip()
+    return out

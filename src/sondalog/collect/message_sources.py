@@ -31,7 +31,7 @@ from typing import Any
 from urllib.parse import quote
 
 from sondalog.client.phone import PhoneApi
-from sondalog.client.records import Channel
+from sondalog.client.records import Channel, split_name
 from sondalog.collect.config import SourceConfig
 from sondalog.collect.message_rows import MessageError, identify, parse_message
 from sondalog.collect.message_url import parse_pop3_url
@@ -88,7 +88,9 @@ class MessageIntake:
         return False
 
     def _channels(self, logger: str) -> tuple[dict[int, Channel], dict[int, int]]:
-        """Names and units a download stored for ``logger``, and its GSM channels' types."""
+        """Names and units a download stored for ``logger`` (asked of the logger), else the
+        source's ``channels`` (then written to the store's ``channels`` table, so that the
+        dashboard shows them too), and its GSM channels' types."""
         rows = self.store.db.execute(
             "SELECT channel, name, unit, type FROM channels WHERE logger = ?", (logger,)
         ).fetchall()
@@ -97,6 +99,13 @@ class MessageIntake:
         if not types:  # no download told the store: the source's signal and credit
             gsm = ((self.config.signal, 12), (self.config.credit, 11))
             types = {n: t for n, t in gsm if n is not None}
+        if not channels and self.config.channels:
+            channels = {n: split_name(text) for n, text in self.config.channels.items()}
+            stored = {n: t for n, _, _, t in rows if t is not None} | types
+            self.store.set_channels(
+                logger,
+                [(n, c.name, c.unit, stored.get(n)) for n, c in sorted(channels.items())],
+            )
         return channels, types
 
     def summary(self, what: str) -> str:

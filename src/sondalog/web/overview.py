@@ -31,6 +31,7 @@ def channel_json(c: store.Channel) -> dict[str, Any]:
         "kind": c.kind,
         "time": c.last_time,
         "value": c.last_value,
+        "decimals": c.decimals,
     }
 
 
@@ -60,6 +61,9 @@ def logger_json(
         "module": logger.startswith("bus:"),
         "last_reading": last,
         "last_contact": max(contacts) if contacts else None,
+        "offset_s": _first(
+            sorted(mine, key=lambda s: s["last_contact"] or "", reverse=True), "offset_s"
+        ),
         "record_fill": _first(mine, "record_fill"),
         "signal": _first(mine, "signal"),
         "credit": _first(mine, "credit"),

@@ -3,17 +3,20 @@
 A range with at most ``max_points`` rows per channel is sent as it is (unless the gaps'
 nulls would take a series over the budget). A larger one is cut into ``max_points // 2``
 equal buckets and each series sends its smallest and largest value per bucket (min/max
-downsampling: peaks survive any zoom level); a type-6 channel (bars, §6.5.6.4) sends its
-largest count per bucket. A "no valid value" reading (NULL) stays a gap, and so does a
-pause in the data longer than three times the series' usual step: a ``null`` is put there
-so the line breaks instead of bridging it. Each series carries its own times (``t``, seconds on the
-logger's clock read as UTC) and values (``v``); the browser joins them.
+downsampling: peaks survive any zoom level), each at the time of a reading that has it and
+in their order in time, so no point lies outside the range or after the last reading; a
+type-6 channel (bars, §6.5.6.4) sends its largest count per bucket. A "no valid value"
+reading (NULL) stays a gap, and so does a pause in the data longer than three times the
+series' usual step (``step``, sent along for the live rows the browser appends): a ``null``
+is put there so the line breaks instead of bridging it. Each series carries its own times
+(``t``, seconds on the logger's clock read as UTC) and values (``v``); the browser joins them.
 """
 
 from __future__ import annotations
 
 import math
 import sqlite3
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import pairwise
 from statistics import median
@@ -30,6 +33,9 @@ class Series:
     channel: store.Channel
     t: list[float] = field(default_factory=list)
     v: list[float | None] = field(default_factory=list)
+    #: The usual step (seconds) a pause is measured against (None: under 3 points); the
+    #: browser breaks the live rows it appends at the same pauses as a fresh load.
+    step: float | None = None
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -37,31 +43,38 @@ class Series:
             "name": self.channel.name,
             "unit": self.channel.unit,
             "kind": self.channel.kind,
+            "decimals": self.channel.decimals,
             "t": self.t,
             "v": self.v,
+            "step": self.step,
         }
 
 
-def break_gaps(t: list[float], v: list[float | None]) -> None:
+def break_gaps(
+    t: list[float], v: list[float | None], may_break: Sequence[bool] | None = None
+) -> float | None:
     """Insert a ``null`` midway where consecutive points are more than 3 usual steps apart.
 
-    The usual step is the median one; at most one null per gap; modifies ``t`` and ``v``.
+    The usual step is the median one (returned; None under 3 points); at most one null per
+    gap; ``may_break[i]`` False forbids one before point ``i``; modifies ``t`` and ``v``.
     """
     if len(t) < 3:
-        return
+        return None
     usual = median(b - a for a, b in pairwise(t))
     if usual <= 0:
-        return
+        return None
     out_t: list[float] = [t[0]]
     out_v: list[float | None] = [v[0]]
     for i in range(1, len(t)):
-        if t[i] - t[i - 1] > 3 * usual and out_v[-1] is not None:
+        allowed = may_break is None or may_break[i]
+        if allowed and t[i] - t[i - 1] > 3 * usual and out_v[-1] is not None:
             out_t.append((t[i - 1] + t[i]) / 2)
             out_v.append(None)
         out_t.append(t[i])
         out_v.append(v[i])
     t[:] = out_t
     v[:] = out_v
+    return usual
 
 
 def load(
@@ -107,7 +120,7 @@ def _raw(conn: sqlite3.Connection, logger: str, lo: str, hi: str, by_ch: dict[in
         s.t.append(base + slot / 1000 if slot else base)
         s.v.append(value)
     for s in by_ch.values():
-        break_gaps(s.t, s.v)
+        s.step = break_gaps(s.t, s.v)
 
 
 def _downsampled(
@@ -121,21 +134,35 @@ def _downsampled(
     start, end = to_epoch(lo), to_epoch(hi) + 1
     width = max(1, math.ceil((end - start) / buckets))
     edges = [from_epoch(start + i * width) for i in range(math.ceil((end - start) / width) + 1)]
-    cells: dict[int, list[tuple[int, float | None, float | None]]] = {}
-    for i, ch, vmin, vmax in store.bucketed(conn, logger, edges):
-        cells.setdefault(ch, []).append((i, vmin, vmax))
-    for ch, rows in cells.items():
+    cells: dict[int, dict[int, dict[int, tuple[float | None, str]]]] = {}
+    for i, ch, which, value, time in store.bucketed(conn, logger, edges):
+        cells.setdefault(ch, {}).setdefault(i, {})[which] = (value, time)
+    for ch, per_bucket in cells.items():
         s = by_ch[ch]
-        rows.sort()
         bars = s.channel.kind == "bars"
-        for i, vmin, vmax in rows:
-            x = start + i * width
-            if bars or vmin == vmax:
+        index: list[int] = []
+        for i in sorted(per_bucket):
+            for x, value in _extremes(per_bucket[i], bars):
                 s.t.append(x)
-                s.v.append(vmax)
-            else:
-                s.t += [x, x + width / 2]
-                s.v += [vmin, vmax]
-        # a pause spans at least one empty bucket, so the nulls keep within 2 per bucket
-        break_gaps(s.t, s.v)
+                s.v.append(value)
+                index.append(i)
+        # a pause is broken only across an empty bucket, so the nulls keep within 2 per bucket
+        may = [k == 0 or index[k] - index[k - 1] > 1 for k in range(len(index))]
+        s.step = break_gaps(s.t, s.v, may)
     return float(width)
+
+
+def _extremes(
+    cell: dict[int, tuple[float | None, str]], bars: bool
+) -> list[tuple[float, float | None]]:
+    """A bucket's points: its smallest and largest value at the times of readings that
+    have them, in time order (so every point lies in the range, where a reading was);
+    bars: the largest only."""
+    vmax, tmax = cell[1]
+    if bars or cell[0][0] == vmax:
+        return [(to_epoch(tmax), vmax)]
+    vmin, tmin = cell[0]
+    a, b = to_epoch(tmin), to_epoch(tmax)
+    if a == b:  # two rows of one second (counters): a millisecond apart, as raw rows are
+        return [(a, vmin), (b + 0.001, vmax)]
+    return sorted([(a, vmin), (b, vmax)])

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sqlite3
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,10 @@ class Channel:
     type: int | None = None
     last_time: str | None = None
     last_value: float | None = None
+    #: Decimals of the channel's format (§6.5.7) as its recent values show them: the most
+    #: any of them has (the logger writes every value with its format's decimals, so one
+    #: with fewer had trailing zeros); None without values.
+    decimals: int | None = None
 
     @property
     def kind(self) -> str:
@@ -111,9 +115,12 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
         "ORDER BY time DESC, counter DESC LIMIT ?",
         (logger, RECENT_ROWS),
     )
+    places: dict[int, int] = {}
     for ch, time, value, name, unit in recent:
         if ch <= 0:
             continue
+        if value is not None:
+            places[ch] = max(places.get(ch, 0), decimals(value))
         old = out.get(ch)
         if old is not None and old.last_time is not None:
             continue
@@ -125,7 +132,18 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
             time,
             value,
         )
+    for ch, n in places.items():
+        out[ch] = replace(out[ch], decimals=n)
     return [out[k] for k in sorted(out)]
+
+
+def decimals(value: float) -> int:
+    """The decimals ``value`` shows at most (0 for a whole number; up to 6)."""
+    text = repr(float(value))
+    if "e" in text:
+        text = f"{value:.6f}".rstrip("0")
+    frac = text.partition(".")[2]
+    return 0 if frac in ("", "0") else min(len(frac), 6)
 
 
 def last_time(conn: sqlite3.Connection, logger: str) -> str | None:
@@ -174,19 +192,23 @@ def raw(
 
 def bucketed(
     conn: sqlite3.Connection, logger: str, edges: Sequence[str]
-) -> Iterator[tuple[int, int, float | None, float | None]]:
-    """``(bucket, channel, min, max)`` for buckets ``[edges[i], edges[i+1])``.
+) -> Iterator[tuple[int, int, int, float | None, str]]:
+    """``(bucket, channel, which, value, time)`` for buckets ``[edges[i], edges[i+1])``:
+    ``which`` 0 is the channel's smallest value in the bucket, 1 its largest, each with the
+    time of a row that has it (SQLite takes a bare column from the row of a lone min/max).
 
-    One key range per bucket: no function per row, and each bucket's grouping is small
-    (measured faster than one joined query whose grouping sorts every row).
+    One key range per bucket and extreme: no function per row, and each bucket's grouping
+    is small (measured faster than one joined query whose grouping sorts every row).
     """
-    q = (
-        "SELECT channel, min(value), max(value) FROM readings WHERE logger = ? "
+    one = (
+        "SELECT channel, {w}, {f}(value), time FROM readings WHERE logger = ? "
         "AND time >= ? AND time < ? AND channel > 0 GROUP BY channel"
     )
+    q = one.format(w=0, f="min") + " UNION ALL " + one.format(w=1, f="max")
     for i in range(len(edges) - 1):
-        for ch, vmin, vmax in conn.execute(q, (logger, edges[i], edges[i + 1])):
-            yield i, ch, vmin, vmax
+        lo, hi = edges[i], edges[i + 1]
+        for ch, which, value, time in conn.execute(q, (logger, lo, hi, logger, lo, hi)):
+            yield i, ch, which, value, time
 
 
 def newer(

@@ -23,6 +23,28 @@ let stream = null;
 let liveRows = 0;
 
 const iso = (epoch) => new Date(Math.round(epoch) * 1000).toISOString().slice(0, 19);
+// every time on the pages: YYYY-MM-DD HH:MM:SS, 24-hour, the logger's clock
+const shown = (stamp) => (stamp ? stamp.replace("T", " ") : "");
+
+// the channel's format (decimals its values show), else as uPlot would
+function fmt(s) {
+  return (u, v) => (v == null ? "--" : s.decimals == null ? String(v) : v.toFixed(s.decimals));
+}
+
+// a value with no drawn neighbour (null on both sides, past the join's undefined) is no
+// line at all: it is drawn as a point
+function lonePoints(u, si) {
+  const ys = u.data[si];
+  const out = [];
+  const near = (i, step) => {
+    for (let j = i + step; j >= 0 && j < ys.length; j += step) if (ys[j] !== undefined) return ys[j];
+    return null;
+  };
+  for (let i = 0; i < ys.length; i++) {
+    if (ys[i] != null && near(i, -1) === null && near(i, 1) === null) out.push(i);
+  }
+  return out;
+}
 
 function label(s) {
   const name = s.name || `channel ${s.channel}`;
@@ -62,7 +84,7 @@ function describe(d) {
   const how = d.downsampled
     ? `min/max per ${d.bucket_s} s bucket`
     : "every reading";
-  return `${d.from} to ${d.to}: ${d.series.length} series, up to ${most} points each (${how})` +
+  return `${shown(d.from)} to ${shown(d.to)} (logger clock): ${d.series.length} series, up to ${most} points each (${how})` +
     (liveRows ? `; ${liveRows} live readings added` : "");
 }
 
@@ -73,7 +95,9 @@ function size() {
 }
 
 function options(d) {
-  const units = [...new Set(d.series.map((s) => s.unit || ""))];
+  // one y axis per unit; a channel without a unit shares its scale with nothing
+  const key = (s) => (s.unit ? `unit ${s.unit}` : `channel ${s.channel}`);
+  const keys = [...new Set(d.series.map(key))];
   const scales = { x: { time: true, range: () => [d.x_from, Math.max(d.x_to, lastX())] } };
   // 24-hour ISO-like tick labels, as the logger writes its times
   const axes = [{
@@ -86,20 +110,28 @@ function options(d) {
       [1, "{HH}:{mm}:{ss}", "\n{YYYY}-{MM}-{DD}", null, "\n{MM}-{DD}", null, null, null, 1],
     ],
   }];
-  units.forEach((u, i) => {
+  keys.forEach((k, i) => {
+    const first = d.series.find((s) => key(s) === k);
     scales[`u${i}`] = { auto: true };
-    axes.push({ scale: `u${i}`, label: u, side: i % 2 ? 1 : 3, grid: { show: i === 0 } });
+    axes.push({
+      scale: `u${i}`,
+      label: first.unit || label(first),
+      side: i % 2 ? 1 : 3,
+      grid: { show: i === 0 },
+    });
   });
-  const series = [{ label: "time", value: (u, ts) => (ts == null ? "--" : iso(ts).replace("T", " ")) }];
+  const series = [{ label: "time (logger clock)", value: (u, ts) => (ts == null ? "--" : shown(iso(ts))) }];
   d.series.forEach((s, i) => {
     const color = COLORS[i % COLORS.length];
     const box = document.getElementById(`show-${s.channel}`);
     const one = {
       label: label(s),
       stroke: color,
-      scale: `u${units.indexOf(s.unit || "")}`,
+      scale: `u${keys.indexOf(key(s))}`,
       width: 1.5,
       show: box ? box.checked : true,
+      value: fmt(s),
+      points: { show: true, filter: lonePoints, size: 7, fill: color },
     };
     if (s.kind === "bars") {
       one.fill = `${color}66`;
@@ -159,13 +191,22 @@ function startLive() {
     for (const [t, ch, v] of data.rows) {
       const s = current.series.find((x) => x.channel === ch);
       if (!s) { unknown = true; continue; }
-      const prev = s.t.length ? s.t[s.t.length - 1] : -Infinity;
-      s.t.push(t > prev ? t : prev + 0.001);
+      const n = s.t.length;
+      const prev = n ? s.t[n - 1] : -Infinity;
+      const x = t > prev ? t : prev + 0.001;
+      // a pause breaks the line as on a fresh load (series.py break_gaps): a null midway
+      if (s.step && n && s.v[n - 1] !== null && x - prev > 3 * s.step) {
+        s.t.push((prev + x) / 2);
+        s.v.push(null);
+      }
+      if (!s.step && n >= 2) unknown = true; // its usual step is only known from a fresh load
+      s.t.push(x);
       s.v.push(v);
       liveRows += 1;
     }
     current.last = data.last;
     current.to = data.last;
+    if (document.activeElement !== toIn) toIn.value = shown(data.last);
     current.x_to = Math.max(current.x_to, lastX());
     if (unknown) { load(); return; }
     plot.setData(joined(current.series, current.x_from, current.x_to));
@@ -198,8 +239,8 @@ async function load() {
   }
   current = d;
   liveRows = 0;
-  fromIn.value = d.from;
-  toIn.value = d.to;
+  fromIn.value = shown(d.from);
+  toIn.value = shown(d.to);
   csvLink.href = `${base}/readings.csv?${new URLSearchParams({ from: d.from, to: d.to })}`;
   draw(d);
   expose();
@@ -218,7 +259,9 @@ function navigate(from, to) {
 
 form.addEventListener("submit", (ev) => {
   ev.preventDefault();
-  navigate(fromIn.value, toIn.value);
+  // an end left at the live end keeps following the logger
+  const following = current && current.following && toIn.value === shown(current.to);
+  navigate(fromIn.value.trim(), following ? null : toIn.value.trim());
 });
 for (const b of form.querySelectorAll("button[data-span]")) {
   b.addEventListener("click", () => {

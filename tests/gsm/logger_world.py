@@ -95,6 +95,10 @@ class Cable:
 
     def ask(self, command: str) -> bytes:
         self.sock.sendall(command.encode() + b"\r")
+        return self.answer()
+
+    def answer(self) -> bytes:
+        """The answer of a command line already sent (up to its ``OK``/``ERROR``)."""
         data = b""
         while not data.endswith((b"OK\r\n", b"ERROR\r\n")):
             chunk = self.sock.recv(4096)
@@ -197,6 +201,23 @@ class DataCall:
                 return False
             self.received += data
         return True
+
+    def listen(self, seconds: float) -> bytes:
+        """Whatever else comes within ``seconds`` (also kept in :attr:`received`)."""
+        before = len(self.received)
+        deadline = time.monotonic() + seconds
+        while (left := deadline - time.monotonic()) > 0:
+            self.sock.settimeout(left)
+            try:
+                data = self.sock.recv(4096)
+            except TimeoutError:
+                continue
+            except OSError:  # the bridge was cut: nothing more can come
+                break
+            if not data:
+                break
+            self.received += data
+        return self.received[before:]
 
     def hang_up(self) -> None:
         if self.state() != "ended":

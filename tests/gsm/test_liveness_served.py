@@ -7,6 +7,7 @@ answered exactly once within a bounded time of real time (a reply normally takes
 
 from __future__ import annotations
 
+import re
 import smtplib
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -116,6 +117,74 @@ def test_a_data_call_after_coverage_lost_during_the_pop3_check_does_not_wedge(
         _answered_once(world, PHONE2, "000001")
     finally:
         world.stop()
+
+
+#: An AT command line as the caller of a data call would see it (the driver's bytes in data mode).
+AT_COMMAND = re.compile(rb"(?:^|[\r\n])AT|AT\+")
+
+
+def _data_call_as_the_line_turns_modem(tmp_path: Path, lead: float) -> None:
+    """Symptom 2 as the old driver showed it: a data call rings while the logger's com line
+    still works as local (``write com device wavecom41`` given, ``write com close`` going,
+    no AT sent yet). ``lead``: seconds from ``write com close`` to the call (< 0: the call
+    first). The old driver answered (``ATA``, ``CONNECT 9600``), sent ``AT+CSQ`` straight into
+    the data session and never answered its modem again."""
+    world = start(tmp_path)
+    try:
+        line = Cable(world.cable_port)
+        try:
+            line.setup("write com device wavecom41")
+            if lead < 0:
+                call = DataCall(world, PHONE)
+                time.sleep(-lead)
+                line.sock.sendall(b"write com close\r")
+            else:
+                line.sock.sendall(b"write com close\r")
+                time.sleep(lead)
+                call = DataCall(world, PHONE)
+            assert line.answer().endswith(b"OK\r\n")
+        finally:
+            line.close()
+        if not call.connected():  # refusing a call that rang before the set-up is fair...
+            call.hang_up()
+            time.sleep(10.0)  # ...but the next one is a command session
+            call = DataCall(world, PHONE)
+            assert call.connected(), f"{call.reason}: {world.trace()[-3000:]}"
+        try:
+            call.send(b"read i version\r")
+            answered = call.expect(b"2.10\r\nOK\r\n", 15.0)
+            call.listen(1.0)  # anything the driver sends after the answer
+            received = call.received
+        finally:
+            call.hang_up()
+        where = f"lead {lead}: the caller got {received!r}; {world.trace()[-3000:]}"
+        assert not AT_COMMAND.search(received), f"an AT command went into the data call, {where}"
+        assert answered, f"no answer to read i version, {where}"
+        assert received == b"2.10\r\nOK\r\n", where
+        # the driver still talks to its modem: an SMS command is answered, once
+        world.phone.sms(PHONE2, MODEM, "##*#read i version##*#")
+        _answered_once(world, PHONE2, "2.10")
+    finally:
+        world.stop()
+
+
+def test_a_data_call_ringing_as_the_line_turns_to_the_modem_is_a_command_session(
+    tmp_path: Path,
+) -> None:
+    """Three fresh worlds side by side: the call rings just before, at and just after
+    ``write com close`` (the logger's first AT); each is a clean command session and the
+    SMS that follows is answered once."""
+    leads = (-0.2, 0.0, 0.5)
+    paths = [tmp_path / str(n) for n in range(len(leads))]
+    for path in paths:
+        path.mkdir()
+    with ThreadPoolExecutor(len(leads)) as pool:
+        runs = [
+            pool.submit(_data_call_as_the_line_turns_modem, p, x)
+            for p, x in zip(paths, leads, strict=True)
+        ]
+    failed = [f"{type(e).__name__}: {e}" for e in (run.exception() for run in runs) if e]
+    assert not failed, "\n\n".join(failed)
 
 
 def test_an_sms_arriving_during_a_data_call_is_answered_after_it(tmp_path: Path) -> None:

@@ -14,7 +14,7 @@ idempotent: a record row seen twice (by download and by a data message) is store
 
 Additive tables (:data:`SQLITE_ADDITIVE_DDL`) are created on every open of a store of this
 version, old or new, without changing ``schema_version``: a sondalog that does not know them
-ignores them. ``channels(logger, channel, name, unit, type)`` is each logger channel's name,
+ignores them. ``channels(logger, channel, name, unit, type, format)`` is each logger channel's name,
 unit and ``channel type`` (§6.5.6) as last read by the collector; the dashboard draws type-6
 channels (sporadic pulses, §6.5.6.4) as bars.
 """
@@ -76,6 +76,9 @@ CREATE TABLE IF NOT EXISTS channels (
     name    TEXT,
     unit    TEXT,
     type    INTEGER,
+    format  TEXT,
     PRIMARY KEY (logger, channel)
 );
 """
+#: Columns added to additive tables after they first shipped: (table, column, type).
+SQLITE_ADDITIVE_COLUMNS = (("channels", "format", "TEXT"),)

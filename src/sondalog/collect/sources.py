@@ -11,6 +11,7 @@ store stands.
 from __future__ import annotations
 
 import logging
+import re
 import time
 from collections.abc import Awaitable, Callable
 from datetime import datetime
@@ -56,10 +57,11 @@ class LoggerSource:
             download = Download(client, after=known.get("cursor"), zone=cfg.zone)
             info = await download.identify()
             status = await client.command("read record status")
-            types = await _channel_types(client, len(info.channels))
+            types, formats = await _channel_types(client, len(info.channels))
             store.set_channels(
                 info.snumber,
                 [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())],
+                formats,
             )
             gsm = {n: GSM_TYPES[t] for n, t in types.items() if t in GSM_TYPES}
             state: dict[str, Any] = {
@@ -130,15 +132,23 @@ def idle_hint(rows: int, record_fill: str | None, clock: ClockReading) -> str | 
 GSM_TYPES = {12: "signal", 11: "credit"}
 
 
-async def _channel_types(client: Ala1Client, count: int) -> dict[int, int]:
-    """``read channel type``: channel number -> type; {} when the answer is not that."""
-    response = await client.command("read channel type")
-    if not response.ok or len(response.lines) != 1:
-        return {}
-    fields = response.lines[0].split(",")
-    if len(fields) != count or not all(f.strip().isdigit() for f in fields):
-        return {}
-    return {n: int(f) for n, f in enumerate(fields, start=1)}
+async def _channel_types(client: Ala1Client, count: int) -> tuple[dict[int, int], dict[int, str]]:
+    """``read channel type read channel format`` in one line (one round trip): channel
+    number -> type, and -> value format (§6.5.7); {} for an answer that is not that."""
+    response = await client.command("read channel type read channel format")
+    lines = response.lines if response.ok else []
+    fields = [line.split(",") for line in lines[:2]]
+    types: dict[int, int] = {}
+    if fields and len(fields[0]) == count and all(f.strip().isdigit() for f in fields[0]):
+        types = {n: int(f) for n, f in enumerate(fields[0], start=1)}
+    formats: dict[int, str] = {}
+    if len(fields) == 2 and len(fields[1]) == count:
+        formats = {n: f.strip() for n, f in enumerate(fields[1], start=1) if _FORMAT.fullmatch(f)}
+    return types, formats
+
+
+#: A value format as the logger answers it: ``w.p`` (§4.3.5, §6.5.7).
+_FORMAT = re.compile(r"\s*\d\.\d\s*")
 
 
 class BusSource:

@@ -22,7 +22,12 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.collect.model import Reading, SinkUnavailable, utc_text
-from sondalog.collect.schema import SCHEMA_VERSION, SQLITE_ADDITIVE_DDL, SQLITE_DDL
+from sondalog.collect.schema import (
+    SCHEMA_VERSION,
+    SQLITE_ADDITIVE_COLUMNS,
+    SQLITE_ADDITIVE_DDL,
+    SQLITE_DDL,
+)
 from sondalog.io.private import connect_private, private_parents
 
 _INSERT = (
@@ -164,6 +169,7 @@ class SqliteStore:
         version = self._version(db)
         if version == SCHEMA_VERSION:
             db.executescript(SQLITE_ADDITIVE_DDL)
+            _add_columns(db)
             return
         script = ["BEGIN IMMEDIATE;", SQLITE_DDL if version == 0 else ""]
         for step in range(max(version, 1), SCHEMA_VERSION):
@@ -182,6 +188,7 @@ class SqliteStore:
             if db.in_transaction:
                 db.execute("ROLLBACK")
             raise
+        _add_columns(db)
 
     def close_sync(self) -> None:
         if self._db is not None:
@@ -237,14 +244,20 @@ class SqliteStore:
         self.db.execute(f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name))
 
     def set_channels(
-        self, logger: str, channels: Iterable[tuple[int, str | None, str | None, int | None]]
+        self,
+        logger: str,
+        channels: Iterable[tuple[int, str | None, str | None, int | None]],
+        formats: dict[int, str] | None = None,
     ) -> None:
-        """Replace ``logger``'s rows of the ``channels`` table: ``(channel, name, unit, type)``."""
+        """Replace ``logger``'s rows of the ``channels`` table: ``(channel, name, unit, type)``
+        and the channels' value formats (§6.5.7, ``0.1``) where known."""
+        formats = formats or {}
         with self.db:
             self.db.execute("DELETE FROM channels WHERE logger = ?", (logger,))
             self.db.executemany(
-                "INSERT INTO channels (logger, channel, name, unit, type) VALUES (?, ?, ?, ?, ?)",
-                [(logger, *c) for c in channels],
+                "INSERT INTO channels (logger, channel, name, unit, type, format) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                [(logger, *c, formats.get(c[0])) for c in channels],
             )
 
     def event(self, source: str, kind: str, text: str, time: str | None = None) -> None:
@@ -275,3 +288,12 @@ def create(table: dict[str, Any]) -> SqliteStore:
     if not isinstance(readings, bool):
         raise ValueError("sqlite.readings: must be true or false")
     return SqliteStore(path, readings=readings)
+
+
+def _add_columns(db: sqlite3.Connection) -> None:
+    """Columns that additive tables gained later (``SQLITE_ADDITIVE_COLUMNS``)."""
+    for table, column, kind in SQLITE_ADDITIVE_COLUMNS:
+        have = {row[1] for row in db.execute(f"PRAGMA table_info({table})")}
+        if column not in have:
+            with db:
+                db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {kind}")

@@ -38,9 +38,9 @@ class Channel:
     type: int | None = None
     last_time: str | None = None
     last_value: float | None = None
-    #: Decimals of the channel's format (§6.5.7) as its recent values show them: the most
-    #: any of them has (the logger writes every value with its format's decimals, so one
-    #: with fewer had trailing zeros); None without values.
+    #: Decimals of the channel's format (§6.5.7): from the format the collector read from
+    #: the logger, else as its recent values show them (the most any of them has: the logger
+    #: writes every value with its format's decimals); None without either.
     decimals: int | None = None
 
     @property
@@ -105,11 +105,16 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
     From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows.
     """
     out: dict[int, Channel] = {}
+    formats: dict[int, int] = {}
     if has_table(conn, "channels"):
-        for ch, name, unit, typ in conn.execute(
-            "SELECT channel, name, unit, type FROM channels WHERE logger = ?", (logger,)
+        columns = {row[1] for row in conn.execute("PRAGMA table_info(channels)")}
+        fmt = "format" if "format" in columns else "NULL"
+        for ch, name, unit, typ, form in conn.execute(
+            f"SELECT channel, name, unit, type, {fmt} FROM channels WHERE logger = ?", (logger,)
         ):
             out[int(ch)] = Channel(int(ch), name, unit, None if typ is None else int(typ))
+            if form:
+                formats[int(ch)] = format_decimals(str(form))
     recent = conn.execute(
         "SELECT channel, time, value, name, unit FROM readings WHERE logger = ? "
         "ORDER BY time DESC, counter DESC LIMIT ?",
@@ -132,9 +137,17 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
             time,
             value,
         )
-    for ch, n in places.items():
-        out[ch] = replace(out[ch], decimals=n)
+    for ch, n in (places | formats).items():  # the logger's own format wins
+        if ch in out:
+            out[ch] = replace(out[ch], decimals=n)
     return [out[k] for k in sorted(out)]
+
+
+def format_decimals(form: str) -> int:
+    """The decimals of a number format ``w.p`` (§4.3.5: ``p`` decimal places, §6.5.7):
+    ``0.1`` -> 1, ``5.2`` -> 2, ``0.0`` -> 0."""
+    _, _, places = form.strip().partition(".")
+    return int(places) if places.isdigit() else 0
 
 
 def decimals(value: float) -> int:

@@ -129,8 +129,7 @@ async def _http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
     if _is_api(request):
         return JSONResponse({"error": exc.detail}, status_code=exc.status_code)
-    body = f"<h1>{exc.status_code}</h1><p>{pages._e(exc.detail)}</p>"
-    return HTMLResponse(pages.page(str(exc.status_code), body), status_code=exc.status_code)
+    return HTMLResponse(pages.error(exc.status_code, exc.detail), status_code=exc.status_code)
 
 
 def _int(request: Request, name: str, default: int, lo: int, hi: int) -> int:

@@ -129,3 +129,11 @@ def test_a_misspelt_table_is_refused_with_a_suggestion(tmp_path: Path) -> None:
     assert done.returncode == 2, done.stderr
     assert f"{site}:20: bsu: unknown table" in done.stderr
     assert "did you mean bus?" in done.stderr
+
+
+def test_a_missing_board_file_is_reported_at_the_line_naming_it(tmp_path: Path) -> None:
+    site = _example(tmp_path)
+    site.write_text('board = "board.toml"\n' + site.read_text())
+    done = _check(site)
+    assert done.returncode == 2, done.stderr
+    assert f"{site}:1: board: {tmp_path / 'board.toml'}: cannot read" in done.stderr

@@ -6,10 +6,17 @@ what later issues add) and every other TOML file of sondalog (collector, board f
 
 from __future__ import annotations
 
+import difflib
+import math
+import os
 import re
+import stat
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
+
+#: The largest configuration file read (a site file of a 20,000-logger fleet is far smaller).
+MAX_FILE_BYTES = 1 << 20
 
 
 class SiteError(ValueError):
@@ -20,6 +27,7 @@ class SiteError(ValueError):
         if line is not None:
             where += f":{line}"
         super().__init__(f"{where}: {field}: {message}")
+        self.message = message
         self.path = path
         self.field = field
         self.line = line
@@ -42,16 +50,70 @@ def serve_table(
     return dict(serve)
 
 
-def read_site_file(path: Path) -> tuple[dict[str, object], str]:
-    """The parsed TOML of a site file and its text (for line numbers in errors)."""
+def read_text(path: Path, limit: int = MAX_FILE_BYTES) -> str:
+    """The UTF-8 text of the configuration file ``path``; raises :class:`SiteError`.
+
+    Only a regular file (after symlinks) of at most ``limit`` bytes is read: a FIFO, a
+    device (``/dev/zero``) or a directory is refused before it is opened."""
     try:
-        text = path.read_text(encoding="utf-8")
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):
+            raise SiteError(path, "file", "not a regular file")
+        if info.st_size > limit:
+            raise SiteError(path, "file", f"larger than {limit} bytes ({info.st_size})")
+        with path.open("rb") as f:
+            raw = f.read(limit + 1)
     except OSError as exc:
-        raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from exc
+        raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from None
+    if len(raw) > limit:
+        raise SiteError(path, "file", f"larger than {limit} bytes")
     try:
-        return tomllib.loads(text), text
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        bad = raw[exc.start : exc.start + 1].hex()
+        message = f"not UTF-8 text (byte 0x{bad} at offset {exc.start}); save it as UTF-8"
+        raise SiteError(path, "file", message, line) from None
+
+
+def read_site_file(path: Path) -> tuple[dict[str, object], str]:
+    """The parsed TOML of a site file and its text (for line numbers in errors).
+
+    Every configuration file of sondalog is read here (:func:`read_text`); a non-finite
+    number (``inf``, ``nan``, ``1e309``) is refused at its field."""
+    text = read_text(path)
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SiteError(path, "toml", str(exc)) from exc
+        raise SiteError(path, "toml", str(exc)) from None
+    found = _non_finite(data, "")
+    if found is not None:
+        where, value = found
+        raise SiteError(path, where, f"{value} is not a finite number", locate(text, where))
+    return data, text
+
+
+def _non_finite(value: object, where: str) -> tuple[str, float] | None:
+    """The dotted field and value of the first ``inf`` or ``nan`` in ``value``."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return where, value
+    items: Iterable[tuple[str, object]] = ()
+    if isinstance(value, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(value))
+    for field, item in items:
+        if (found := _non_finite(item, field)) is not None:
+            return found
+    return None
+
+
+def unknown(name: str, known: Iterable[str]) -> str:
+    """``unknown table [name] (did you mean [x]? known: ...)`` for a misspelt name."""
+    options = sorted(known)
+    close = difflib.get_close_matches(name, options, n=1)
+    hint = f"did you mean {close[0]}? " if close else ""
+    return f"unknown table or key {name!r} ({hint}known: {', '.join(options)})"
 
 
 _HEADER = re.compile(r"^\s*(\[\[?)\s*([A-Za-z0-9_.\s\"]+?)\s*\]\]?")

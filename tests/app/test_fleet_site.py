@@ -30,7 +30,9 @@ def _write(tmp_path: Path, text: str) -> Path:
 
 
 def test_declared_and_numbered_loggers(tmp_path: Path) -> None:
-    (tmp_path / "world.toml").write_text("[logger]\nsupply = 12.5\n")
+    (tmp_path / "world.toml").write_text(
+        '[logger]\nsupply = { model = "constant", value = 12.5 }\n'
+    )
     site = _write(
         tmp_path,
         '[[loggers]]\nserial_number = "A1-0001"\nlisten = "127.0.0.1:11001"\n'

@@ -43,12 +43,16 @@ from sondalog.backends.linux.board import board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
-from sondalog.sitefile import Fail, SiteError, locate, read_site_file, serve_table
+from sondalog.sitefile import Fail, SiteError, locate, read_site_file, serve_table, unknown
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
 _LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate", "modem"}
 _BUS_SERVE = {"listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx"}
+#: The top-level tables (and keys) of a site file; anything else is a misspelling.
+_TOP = {"logger", "loggers", "bus", "mail", "gsm", "board"}
+#: Hosts that bind every address: their port clashes with the same port on any host.
+_ANY_HOST = {"", "0.0.0.0", "::", "*"}
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,9 @@ def load_site(path: Path) -> SitePlan:
             raise fail(name, "must be a table")
         return found
 
+    for name in data:
+        if name not in _TOP:
+            raise fail(name, unknown(name, _TOP))
     listens: list[tuple[str, tuple[str, int]]] = []
     logger = bus = None
     if (logger_table := table("logger")) is not None:
@@ -126,20 +133,54 @@ def load_site(path: Path) -> SitePlan:
     if gsm is not None:
         listens.append(("gsm.serve.api", gsm.api))
         listens += [
-            (f"gsm.modem.{m.number}.serve.listen", m.listen) for m in gsm.modems if m.listen
+            (f"gsm.modem[{i}].serve.listen", m.listen) for i, m in enumerate(gsm.modems) if m.listen
         ]
     if logger is not None and logger.modem is not None:
         numbers = [m.number for m in gsm.modems] if gsm is not None else []
         if logger.modem not in numbers:
             raise fail("logger.serve.modem", f"no [[gsm.modem]] with number {logger.modem}")
     fleet = parse_fleet(data, path, text)
+    _check_worlds(fleet, fail)
     listens.extend((f"{member.where}.listen", member.listen) for member in fleet)
+    _check_ports(listens, fail)
     if logger is None and bus is None and mail is None and gsm is None and not fleet:
         raise fail(
             "site",
             "nothing to serve: the file has no [logger], [[loggers]], [bus], [mail] or [gsm]",
         )
     return SitePlan(path, data, text, logger, bus, mail, listens, gsm, fleet)
+
+
+def _check_worlds(fleet: list[FleetLogger], fail: Fail) -> None:
+    """Read and check every site file a ``[[loggers]]`` entry names (``site =``), as the
+    start will; a file that cannot be read is reported at the line that names it."""
+    seen: set[Path] = set()
+    for member in fleet:
+        if member.world is None or member.world in seen:
+            continue
+        seen.add(member.world)
+        try:
+            data, text = read_site_file(member.world)
+        except SiteError as exc:
+            if exc.field != "file" or exc.path != member.world:
+                raise
+            where = f" (line {exc.line})" if exc.line is not None else ""
+            raise fail(f"{member.where}.site", f"{member.world}{where}: {exc.message}") from None
+        parse_logger_site(data, 0.0, member.world, text)
+
+
+def _check_ports(listens: list[tuple[str, tuple[str, int]]], fail: Fail) -> None:
+    """Refuse a port that two parts of the file would listen on (port 0: any free port),
+    at the second one, before anything binds."""
+    used: dict[int, list[tuple[str, str]]] = {}
+    for where, (host, port) in listens:
+        if port == 0:
+            continue
+        host = "127.0.0.1" if host == "localhost" else host
+        for other, other_host in used.get(port, []):
+            if host == other_host or host in _ANY_HOST or other_host in _ANY_HOST:
+                raise fail(where, f"port {port} is already used by {other}")
+        used.setdefault(port, []).append((where, host))
 
 
 def _text(value: object, where: str, fail: Fail) -> str:

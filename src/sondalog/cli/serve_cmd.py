@@ -33,9 +33,19 @@ from sondalog.io import loop as serve_loop
     help="Record the line of the logger's GSM modem in this file (docs/gsm.md).",
 )
 @allow_remote_site_option
+@click.option(
+    "--check",
+    is_flag=True,
+    help="Only check the site file (every part, the files it names, the ports), then exit.",
+)
 @click.pass_context
 def serve(
-    ctx: click.Context, site: Path, state_dir: Path | None, speed: float, trace: Path | None
+    ctx: click.Context,
+    site: Path,
+    state_dir: Path | None,
+    speed: float,
+    trace: Path | None,
+    check: bool,
 ) -> None:
     """Serve the loggers, buses and mail hub that the site file SITE describes.
 
@@ -56,6 +66,9 @@ def serve(
                 f"{site}: {field}: {host} is reachable from other machines and the protocol "
                 "has no authentication (docs/security.md); add --allow-remote to serve there"
             )
+    if check:
+        click.echo(f"{site}: {len(plan.listens)} listening addresses, no clash")
+        return
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
         serve_loop.run(_serve(plan, state, speed, trace))

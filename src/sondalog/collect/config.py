@@ -53,8 +53,8 @@ Relative paths are relative to the configuration file's directory.
 
 from __future__ import annotations
 
+import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -65,7 +65,7 @@ from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.collect.message_url import check_message_url
 from sondalog.collect.web_config import WebConfig, parse_web
-from sondalog.sitefile import locate
+from sondalog.sitefile import SiteError, locate, read_site_file
 
 _TOP = {"sqlite", "buffer", "source", "postgres", "mqtt", "web"}
 _SOURCE = {
@@ -148,13 +148,9 @@ class CollectorConfig:
 def load_config(path: Path) -> CollectorConfig:
     """Read and check ``path``; raises :class:`ConfigError`."""
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(path, "file", f"cannot read: {exc.strerror or exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(path, "toml", str(exc)) from None
+        data, text = read_site_file(path)  # a regular UTF-8 file, size-limited, finite numbers
+    except SiteError as exc:
+        raise ConfigError(path, exc.field, exc.message, exc.line) from None
     return parse_config(data, path, text)
 
 
@@ -178,6 +174,8 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
         if key not in ("path", "readings"):
             raise fail(f"sqlite.{key}", "unknown key (known: path, readings)")
     store = _path(sqlite.get("path", "collector.sqlite"), base, "sqlite.path", fail)
+    if store.is_dir():
+        raise fail("sqlite.path", f"{store} is a directory; name the store's file")
     keep = sqlite.get("readings", True)
     if not isinstance(keep, bool):
         raise fail("sqlite.readings", "must be true or false")
@@ -187,6 +185,8 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
             raise fail(f"buffer.{key}", "unknown key (known: path)")
     default_buffer = store.with_name(store.stem + ".buffer.sqlite")
     buffer = _path(buffer_table.get("path", str(default_buffer)), base, "buffer.path", fail)
+    if buffer.is_dir():
+        raise fail("buffer.path", f"{buffer} is a directory; name the buffer's file")
 
     raw_sources = data.get("source", [])
     if not isinstance(raw_sources, list) or not all(isinstance(s, dict) for s in raw_sources):
@@ -213,7 +213,12 @@ def _path(value: object, base: Path, where: str, fail: Any) -> Path:
 
 def _number(table: Mapping[str, Any], key: str, default: float, where: str, fail: Any) -> float:
     value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
         raise fail(f"{where}.{key}", "must be a positive number of seconds")
     return float(value)
 

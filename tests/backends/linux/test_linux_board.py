@@ -83,5 +83,5 @@ def test_mistakes_name_file_line_and_field(
 def test_an_unreadable_board_file(tmp_path: Path) -> None:
     site = tmp_path / "site.toml"
     site.write_text('board = "missing.toml"\n')
-    with pytest.raises(SiteError, match=r"missing\.toml: file: cannot read"):
+    with pytest.raises(SiteError, match=r"site\.toml:1: board: .*missing\.toml: cannot read"):
         load_board(site)

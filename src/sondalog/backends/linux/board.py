@@ -180,7 +180,14 @@ def board_of_site(
         return None
     if isinstance(board, str):
         path = site.parent / board
-        data, text = read_site_file(path)
+        try:
+            data, text = read_site_file(path)
+        except SiteError as exc:
+            if exc.field != "file" or exc.path != path:
+                raise
+            raise SiteError(
+                site, "board", f"{path}: {exc.message}", locate(text, "board")
+            ) from None
         if not isinstance(data.get("board"), Mapping):
             raise SiteError(path, "board", "the board file needs a [board] table", None)
         return parse_board(data, path, text)

@@ -46,6 +46,8 @@ MARGIN = 0.1
 #: Longest wait for a bulk conversion to finish (the kernel's own timeout is similar).
 BULK_TIMEOUT = 2.0
 CONSUMER = "sondalog"
+#: How to get the optional GPIO bindings.
+INSTALL = "pip install 'sondalog[linux]'"
 
 
 @dataclass(slots=True)
@@ -117,6 +119,10 @@ class LinuxHardware:
             path = name if name.startswith("/") else str(self.root / "dev" / name)
             try:
                 chip = GpiodChip(path)
+            except ImportError:
+                raise self.board.error(
+                    f"{where}.chip", f"GPIO needs the gpiod bindings (libgpiod v2): {INSTALL}"
+                ) from None
             except (OSError, ValueError) as exc:
                 raise self.board.error(f"{where}.chip", f"cannot open {path}: {exc}") from None
             self._chips[name] = chip

@@ -36,6 +36,7 @@ from sondalog.ala1.hardware import (
     pin_of,
 )
 from sondalog.backends.linux.board import BoardConfig, IioWiring, PulseWiring
+from sondalog.backends.linux.fakegpio import DirChip
 from sondalog.backends.linux.gpio import EdgeLines, GpioChip, GpiodChip, OutputLines, PulseCounter
 from sondalog.backends.linux.iio import IioChannel, IioError, find_device
 from sondalog.backends.linux.w1 import W1Master, find_masters, rom_from_slave
@@ -118,7 +119,11 @@ class LinuxHardware:
         if chip is None:
             path = name if name.startswith("/") else str(self.root / "dev" / name)
             try:
-                chip = GpiodChip(path)
+                if Path(path).is_dir():  # a fake tree's chip (docs/linux-board.md)
+                    chip = DirChip(Path(path))
+                    log.warning("%s is a directory: GPIO lines are files in it", path)
+                else:
+                    chip = GpiodChip(path)
             except ImportError:
                 raise self.board.error(
                     f"{where}.chip", f"GPIO needs the gpiod bindings (libgpiod v2): {INSTALL}"

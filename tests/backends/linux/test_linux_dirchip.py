@@ -12,8 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from sondalog.app.logger import start_logger
 from sondalog.backends.linux.board import load_board
 from sondalog.backends.linux.hardware import LinuxHardware
+from sondalog.io.clock import RealClock
 from sondalog.sitefile import SiteError
 
 BOARD = """\
@@ -123,3 +125,19 @@ def test_a_line_the_chip_does_not_have(tmp_path: Path, line: str, message: str) 
         _board(tmp_path, BOARD.replace('"GPIO17"', line))
     assert info.value.line == 5 and info.value.field == "board.pulses[0].line"
     assert message in str(info.value)
+
+
+def test_stopping_the_logger_switches_the_outputs_off(tmp_path: Path) -> None:
+    """A relay left on after `sondalog serve` stops would drain the battery: closing the
+    logger releases the lines inactive (and removes the pulse pipe)."""
+
+    async def serve() -> None:
+        hw = _board(tmp_path)
+        logger = await start_logger(tmp_path / "state", RealClock(), ("127.0.0.1", 0), hardware=hw)
+        hw.set_output(2, True, time.time())
+        assert (tmp_path / "root/dev/gpiochip0/line27").read_text() == "1\n"
+        await logger.close()
+
+    asyncio.run(serve())
+    assert (tmp_path / "root/dev/gpiochip0/line27").read_text() == "0\n"
+    assert not (tmp_path / "root/dev/gpiochip0/line17").exists()

@@ -294,7 +294,8 @@ class LinuxHardware:
         return due
 
     async def run(self) -> None:
-        """The acquisition task: runs until cancelled."""
+        """The acquisition task: runs until cancelled; then the board's GPIO lines are
+        released (:meth:`close`: outputs inactive), as the logger stops by cancelling it."""
         loop = asyncio.get_running_loop()
         self._wake = asyncio.Event()
         for lines, counter in self._edges:
@@ -304,8 +305,10 @@ class LinuxHardware:
                 wait = self.next_acquisition() - self.host_now()
                 if wait > 0:
                     self._wake.clear()
+                    # not wait_for: on 3.11 it swallows a cancel that comes with the wake-up
                     with contextlib.suppress(TimeoutError):
-                        await asyncio.wait_for(self._wake.wait(), wait)
+                        async with asyncio.timeout(wait):
+                            await self._wake.wait()
                     continue
                 try:
                     await self.acquire()
@@ -315,6 +318,7 @@ class LinuxHardware:
         finally:
             for lines, _ in self._edges:
                 loop.remove_reader(lines.fileno())
+            self.close()
 
     async def acquire(self) -> None:
         """One pass: every thermometer (a bulk conversion where the master has one), then

@@ -166,7 +166,7 @@ async def serve_until(stop: asyncio.Event, logger: Logger) -> None:
         await logger.close()
 
 
-def logger_hardware(site: Path | None, start: float) -> Hardware:
+def logger_hardware(site: Path | None, start: float, speed: float = 1.0) -> Hardware:
     """The hardware of ``logger serve --site FILE``: the backend the site file names
     (``[logger] backend``, default ``sim``); without a file, a 12 V supply and nothing else.
     Raises :class:`~sondalog.sitefile.SiteError`."""
@@ -175,7 +175,9 @@ def logger_hardware(site: Path | None, start: float) -> Hardware:
     data, text = read_site_file(site)
     table = data.get("logger")
     backend = table.get("backend", "sim") if isinstance(table, dict) else "sim"
-    return create_hardware(str(backend), BackendContext(data, site, text, start, sensor_root()))
+    return create_hardware(
+        str(backend), BackendContext(data, site, text, start, sensor_root(), speed)
+    )
 
 
 def sensor_root() -> Path:

@@ -80,7 +80,9 @@ async def start_site(
     try:
         if plan.logger is not None:
             logger = plan.logger
-            context = BackendContext(plan.data, plan.path, plan.text, clock.now(), root)
+            context = BackendContext(
+                plan.data, plan.path, plan.text, clock.now(), root, clock.speed
+            )
             hardware = create_hardware(logger.backend, context)
             running.logger = await start_logger(
                 state / "logger",

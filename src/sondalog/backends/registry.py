@@ -31,6 +31,7 @@ class BackendContext:
     text: str | None = None
     start: float = 0.0  # host-clock time the backend starts at
     root: Path = Path("/")  # file-system root of sysfs and /dev (tests use a temp dir)
+    speed: float = 1.0  # the clock's --speed (a real board's backend refuses anything but 1)
 
 
 @runtime_checkable

@@ -118,7 +118,7 @@ def serve(
     version = Version(protocol) if protocol is not None else None
     clock = make_clock(speed)
     try:
-        hardware = logger_hardware(site, clock.now())
+        hardware = logger_hardware(site, clock.now(), clock.speed)
     except SiteError as exc:
         raise Refused(str(exc)) from exc
     try:

@@ -64,6 +64,15 @@ BAD = [
     ("[board.rs485]\nport = '/dev/ttyUSB0'\ndelay_before_rx = 0.01\n", 3, "delay", "turnaround"),
     ("[board.rs485]\nport = '/dev/ttyUSB0'\nmode = 'magic'\n", 3, "board.rs485.mode", "kernel"),
     ("[board.serial]\nports = '/dev/ttyS0'\n", 2, "board.serial.ports", "list"),
+    # an unknown part is named at its own table, not at [board] (issue 26)
+    (
+        "[board]\nhold = 60\n\n[[board.ds18b20]]\npin = 4\nmaster = 'w1_bus_master1'\n\n"
+        "[[board.dht22]]\npin = 17\n",
+        8,
+        "board.dht22",
+        "unknown key",
+    ),
+    ("[board]\nhold = 60\n\n[board.dht22]\npin = 17\n", 4, "board.dht22", "unknown key"),
 ]
 
 

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from sondalog.backends.linux.board import BoardConfig, board_of_site, load_board, parse_board
 from sondalog.backends.linux.hardware import LinuxHardware
-from sondalog.sitefile import SiteError
+from sondalog.sitefile import SiteError, locate
 
 if TYPE_CHECKING:
     from sondalog.backends.registry import BackendContext
@@ -28,6 +28,14 @@ def open_board(board: BoardConfig, *, root: Path = Path("/")) -> LinuxHardware:
 
 def create(context: BackendContext) -> LinuxHardware:
     """The registry's entry (``backend = "linux"``): the site file's board, on ``root``."""
+    if context.speed != 1:  # the cached readings would be stamped on one clock, read on another
+        raise SiteError(
+            context.path,
+            "logger.backend",
+            f"--speed {context.speed:g}: a real board's sensors, conversions and pulses keep "
+            'real time; serve it without --speed (backend = "sim" runs faster)',
+            locate(context.text, "logger.backend"),
+        )
     path = context.path if context.path is not None else Path("site.toml")
     board = board_of_site(context.site, path, context.text)
     if board is None:

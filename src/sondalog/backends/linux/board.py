@@ -56,10 +56,10 @@ Mistakes are :class:`~sondalog.backends.sim.site_bus.SiteError` naming file, lin
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import cast
+from typing import Protocol, cast
 
 from sondalog.ala1.hardware import ANALOG_ADDRESSES, pin_of
 from sondalog.backends.linux.gpio import BiasKind, EdgeKind
@@ -199,8 +199,8 @@ def parse_board(
 ) -> BoardConfig:
     """Check the ``[board]`` table of a parsed TOML document."""
 
-    def fail(where: str, message: str) -> SiteError:
-        return SiteError(path, where, message, locate(text, where))
+    def fail(where: str, message: str, at: str | None = None) -> SiteError:
+        return SiteError(path, where, message, locate(text, at or where))
 
     board = data.get("board")
     if not isinstance(board, Mapping):
@@ -379,10 +379,20 @@ def parse_board(
     )
 
 
-def _known(
-    table: Mapping[str, object], kind: str, where: str, fail: Callable[[str, str], SiteError]
-) -> None:
+class _Fail(Protocol):
+    def __call__(self, where: str, message: str, at: str | None = None) -> SiteError: ...
+
+
+def _known(table: Mapping[str, object], kind: str, where: str, fail: _Fail) -> None:
+    """Unknown keys are refused at their own line: an array of tables (``[[board.dht22]]``)
+    at its first header, not at the table holding it."""
     keys = _KEYS[kind]
-    for key in table:
+    for key, value in table.items():
         if key not in keys:
-            raise fail(f"{where}.{key}", f"unknown key (known: {', '.join(sorted(keys))})")
+            field = f"{where}.{key}"
+            array = isinstance(value, list) and value and isinstance(value[0], Mapping)
+            raise fail(
+                field,
+                f"unknown key (known: {', '.join(sorted(keys))})",
+                f"{field}[0]" if array else None,
+            )

@@ -1,18 +1,43 @@
-"""A GPIO chip in memory, behind the same :class:`~sondalog.backends.linux.gpio.GpioChip`
-interface as the real one: tests (and dry runs of a board file) drive it.
+"""GPIO chips without a gpiochip, behind the same :class:`~sondalog.backends.linux.gpio.
+GpioChip` interface as the real one.
 
-Edge events are injected with timestamps in the chip's own nanosecond clock
-(:attr:`FakeChip.now_ns`); the chip wakes its reader through a real pipe, so the backend's
-``loop.add_reader`` path runs exactly as on a board.
+:class:`FakeChip` lives in memory and tests drive it: edge events are injected with
+timestamps in the chip's own nanosecond clock (:attr:`FakeChip.now_ns`); the chip wakes its
+reader through a real pipe, so the backend's ``loop.add_reader`` path runs exactly as on a
+board.
+
+:class:`DirChip` is a directory standing for ``/dev/gpiochipN`` in a fake tree
+(``SONDALOG_ROOT``), so a user exercises outputs and pulse counting without a board
+(docs/linux-board.md, "Testing without a board"): an output line is the file ``lineN``
+holding ``1`` (active) or ``0``; a pulse input line is the named pipe ``lineN``, and each
+line written to it is that many edges now (an empty line: one).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
+import stat
+import time
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 
 from sondalog.backends.linux.gpio import BiasKind, Edge, EdgeKind, EdgeLines, OutputLines
+
+log = logging.getLogger(__name__)
+#: Most edges one line written to a :class:`DirChip` pipe may ask for.
+MAX_WRITTEN = 100_000
+
+
+def _offset_of(line: int | str, lines: int) -> int:
+    """``17`` or ``"GPIO17"`` (the Raspberry Pi's line names) on a chip of ``lines`` lines."""
+    offset = line
+    if isinstance(line, str):
+        offset = int(line[4:]) if line.startswith("GPIO") and line[4:].isdigit() else -1
+    if not isinstance(offset, int) or not 0 <= offset < lines:
+        raise ValueError(f"no line {line!r} on the fake chip (0..{lines - 1} or GPIO0..)")
+    return offset
 
 
 class FakeChip:
@@ -37,10 +62,7 @@ class FakeChip:
         self._now_ns = value
 
     def offset_of(self, line: int | str) -> int:
-        offset = int(line[4:]) if isinstance(line, str) and line.startswith("GPIO") else line
-        if not isinstance(offset, int) or not 0 <= offset < self.lines:
-            raise ValueError(f"no line {line!r} on the fake chip")
-        return offset
+        return _offset_of(line, self.lines)
 
     def request_outputs(self, lines: Mapping[int, bool], consumer: str) -> OutputLines:
         for offset in lines:
@@ -126,3 +148,111 @@ class _FakeEdges:
             os.close(self.read_fd)
             os.close(self.write_fd)
             self.read_fd = self.write_fd = -1
+
+
+class DirChip:
+    """A directory as a chip: output lines are files, pulse input lines named pipes."""
+
+    def __init__(self, path: Path, lines: int = 54) -> None:
+        if not path.is_dir():
+            raise OSError(2, f"{path} is not a directory")
+        self.path = path
+        self.lines = lines
+        self._busy: set[int] = set()
+
+    def offset_of(self, line: int | str) -> int:
+        return _offset_of(line, self.lines)
+
+    def _claim(self, offsets: Sequence[int]) -> None:
+        for offset in offsets:
+            if offset in self._busy:
+                raise OSError(16, f"line {offset} is busy")
+        self._busy.update(offsets)
+
+    def request_outputs(self, lines: Mapping[int, bool], consumer: str) -> OutputLines:
+        self._claim(list(lines))
+        outputs = _DirOutputs(self)
+        for offset in lines:
+            outputs.set(offset, False)
+        return outputs
+
+    def request_edges(
+        self,
+        offsets: Sequence[int],
+        consumer: str,
+        *,
+        edge: EdgeKind,
+        bias: BiasKind,
+        debounce: float,
+    ) -> EdgeLines:
+        if len(offsets) != 1:
+            raise ValueError("a directory chip takes one pulse line per request")
+        self._claim(offsets)
+        return _DirEdges(self.path / f"line{offsets[0]}", offsets[0], edge)
+
+    def close(self) -> None:
+        self._busy.clear()
+
+
+class _DirOutputs:
+    def __init__(self, chip: DirChip) -> None:
+        self.chip = chip
+
+    def set(self, offset: int, on: bool) -> None:
+        (self.chip.path / f"line{offset}").write_text("1\n" if on else "0\n", encoding="ascii")
+        log.info("%s line %d: %s", self.chip.path, offset, "active" if on else "inactive")
+
+    def release(self) -> None:
+        return None
+
+
+class _DirEdges:
+    """A named pipe ``lineN``, opened read-write so that it never reads as closed."""
+
+    def __init__(self, path: Path, offset: int, edge: EdgeKind) -> None:
+        with contextlib.suppress(FileNotFoundError):
+            if not stat.S_ISFIFO(path.lstat().st_mode):
+                path.unlink()  # a file left by `echo` while nothing was serving
+        if not path.exists():
+            os.mkfifo(path, 0o660)
+        self.path = path
+        self.offset = offset
+        self.edge = edge
+        self.fd = os.open(path, os.O_RDWR | os.O_NONBLOCK)
+        self._partial = b""
+        self._rising = edge == "rising"
+
+    def fileno(self) -> int:
+        return self.fd
+
+    def read(self) -> list[Edge]:
+        data = b""
+        with contextlib.suppress(BlockingIOError):
+            while chunk := os.read(self.fd, 4096):
+                data += chunk
+        *complete, self._partial = (self._partial + data).split(b"\n")
+        now = time.monotonic_ns()
+        edges: list[Edge] = []
+        for raw in complete:
+            text = raw.decode("ascii", "replace").strip()
+            count = int(text) if text.isdigit() else 1 if not text else -1
+            if not 0 <= count <= MAX_WRITTEN:
+                log.warning(
+                    "%s: %r is not a number of pulses (0..%d)", self.path, text, MAX_WRITTEN
+                )
+                continue
+            for _ in range(count):
+                if self.edge == "both":
+                    self._rising = not self._rising
+                edges.append(Edge(self.offset, now, self._rising))
+        return edges
+
+    def clock_ns(self) -> int:
+        return time.monotonic_ns()
+
+    def release(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+            with contextlib.suppress(OSError):
+                self.path.unlink()  # a writer would otherwise wait for a reader forever

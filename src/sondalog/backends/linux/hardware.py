@@ -36,6 +36,7 @@ from sondalog.ala1.hardware import (
     pin_of,
 )
 from sondalog.backends.linux.board import BoardConfig, IioWiring, PulseWiring
+from sondalog.backends.linux.fakegpio import DirChip
 from sondalog.backends.linux.gpio import EdgeLines, GpioChip, GpiodChip, OutputLines, PulseCounter
 from sondalog.backends.linux.iio import IioChannel, IioError, find_device
 from sondalog.backends.linux.w1 import W1Master, find_masters, rom_from_slave
@@ -46,6 +47,8 @@ MARGIN = 0.1
 #: Longest wait for a bulk conversion to finish (the kernel's own timeout is similar).
 BULK_TIMEOUT = 2.0
 CONSUMER = "sondalog"
+#: How to get the optional GPIO bindings.
+INSTALL = "pip install 'sondalog[linux]'"
 
 
 @dataclass(slots=True)
@@ -116,7 +119,15 @@ class LinuxHardware:
         if chip is None:
             path = name if name.startswith("/") else str(self.root / "dev" / name)
             try:
-                chip = GpiodChip(path)
+                if Path(path).is_dir():  # a fake tree's chip (docs/linux-board.md)
+                    chip = DirChip(Path(path))
+                    log.warning("%s is a directory: GPIO lines are files in it", path)
+                else:
+                    chip = GpiodChip(path)
+            except ImportError:
+                raise self.board.error(
+                    f"{where}.chip", f"GPIO needs the gpiod bindings (libgpiod v2): {INSTALL}"
+                ) from None
             except (OSError, ValueError) as exc:
                 raise self.board.error(f"{where}.chip", f"cannot open {path}: {exc}") from None
             self._chips[name] = chip
@@ -283,7 +294,8 @@ class LinuxHardware:
         return due
 
     async def run(self) -> None:
-        """The acquisition task: runs until cancelled."""
+        """The acquisition task: runs until cancelled; then the board's GPIO lines are
+        released (:meth:`close`: outputs inactive), as the logger stops by cancelling it."""
         loop = asyncio.get_running_loop()
         self._wake = asyncio.Event()
         for lines, counter in self._edges:
@@ -293,8 +305,10 @@ class LinuxHardware:
                 wait = self.next_acquisition() - self.host_now()
                 if wait > 0:
                     self._wake.clear()
+                    # not wait_for: on 3.11 it swallows a cancel that comes with the wake-up
                     with contextlib.suppress(TimeoutError):
-                        await asyncio.wait_for(self._wake.wait(), wait)
+                        async with asyncio.timeout(wait):
+                            await self._wake.wait()
                     continue
                 try:
                     await self.acquire()
@@ -304,6 +318,7 @@ class LinuxHardware:
         finally:
             for lines, _ in self._edges:
                 loop.remove_reader(lines.fileno())
+            self.close()
 
     async def acquire(self) -> None:
         """One pass: every thermometer (a bulk conversion where the master has one), then

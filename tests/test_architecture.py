@@ -1,14 +1,17 @@
 """The package map's import rule (docs/architecture.md), checked on every module of src/.
 
 ``protocol`` <- ``ala1``, ``hctmps1``, ``gsm`` <- ``world`` <- ``backends``; ``io`` uses only
-``protocol``; ``app`` wires everything; ``cli`` parses. The host side (``client``,
-``collect``, ``web``) uses only ``protocol``, ``io`` and ``client`` (and the collector's schema).
-No package imports the CLI, and no core imports I/O, storage, simulation or wiring.
+``protocol``; ``app`` wires everything; ``cli`` parses and calls ``app`` (or the host side):
+it reaches no core, world or backend, not even inside a function or under TYPE_CHECKING.
+The host side (``client``, ``collect``, ``web``) uses only ``protocol``, ``io`` and ``client``
+(and the collector's schema). No package imports the CLI, and no core imports I/O, storage,
+simulation or wiring.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -41,7 +44,7 @@ ALLOWED: dict[str, set[str]] = {
         "web",
     },
     "demo": {"protocol", "io", "app", "client", "backends"},
-    "cli": {"*"},
+    "cli": {"protocol", "io", "sitefile", "client", "collect", "web", "app"},
     "__init__": set(),
     "__main__": {"cli"},
 }
@@ -52,8 +55,15 @@ def _package(path: Path) -> str:
     return rel.parts[0].removesuffix(".py")
 
 
-def _imports(path: Path) -> list[tuple[int, str]]:
-    tree = ast.parse(path.read_text(), str(path))
+#: What the CLI never imports: it calls functions of ``app`` (or the host side) instead.
+CLI_FORBIDDEN = ("ala1", "hctmps1", "gsm", "world", "backends")
+
+
+def _imports(path: Path, text: str | None = None) -> list[tuple[int, str]]:
+    """Every import of a ``sondalog`` module in ``path`` (or ``text`` as if it were there):
+    every import node of the tree (``ast.walk``: inside functions, classes,
+    ``if TYPE_CHECKING:`` and ``try:`` too)."""
+    tree = ast.parse(path.read_text() if text is None else text, str(path))
     found = []
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
@@ -86,6 +96,61 @@ def test_imports_follow_the_package_map(path: Path) -> None:
             f"{path.relative_to(SRC)}:{line} imports {name}: {package} may import only "
             f"{sorted(allowed) or 'the standard library'}"
         )
+
+
+def _module_names(path: Path, text: str | None = None) -> list[tuple[int, str]]:
+    """String constants that are a ``sondalog`` module's name (``importlib.import_module``)."""
+    tree = ast.parse(path.read_text() if text is None else text, str(path))
+    return [
+        (node.lineno, node.value)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, str)
+        and re.fullmatch(r"sondalog(\.\w+)+", node.value)
+    ]
+
+
+def _cli_violations(path: Path, text: str | None = None) -> list[str]:
+    return [
+        f"{path.relative_to(SRC)}:{line} imports {name}: the CLI calls app (or client)"
+        " functions instead"
+        for line, name in [*_imports(path, text), *_module_names(path, text)]
+        if name.split(".")[1] in CLI_FORBIDDEN
+    ]
+
+
+@pytest.mark.parametrize(
+    "path",
+    [p for p in MODULES if _package(p) == "cli"],
+    ids=lambda p: str(p.relative_to(SRC)),
+)
+def test_the_cli_reaches_no_core_world_or_backend(path: Path) -> None:
+    assert not _cli_violations(path)
+
+
+def test_the_cli_rule_sees_imports_anywhere_in_a_module() -> None:
+    """The rule's own check: imports inside functions, under TYPE_CHECKING, relative ones
+    and module names handed to importlib are all seen; app and client ones pass."""
+    text = (
+        "from typing import TYPE_CHECKING\n"
+        "import importlib\n"
+        "if TYPE_CHECKING:\n"
+        "    from sondalog.ala1.hardware import Hardware\n"
+        "def f():\n"
+        "    import sondalog.backends.linux.rs485\n"
+        "    from ..hctmps1 import COMMAND_NAMES\n"
+        "    from sondalog.app.logger import start_logger\n"
+        "    from sondalog.client.bus import BusMaster\n"
+        "    return importlib.import_module('sondalog.world.bus')\n"
+    )
+    found = _cli_violations(SRC / "cli" / "example_cmd.py", text)
+    assert sorted(v.split(" imports ")[1].split(":")[0] for v in found) == [
+        "sondalog.ala1.hardware",
+        "sondalog.backends.linux.rs485",
+        "sondalog.hctmps1",
+        "sondalog.world.bus",
+    ]
+    assert found[0].startswith("cli/example_cmd.py:")
 
 
 def test_no_module_is_over_the_size_aim() -> None:

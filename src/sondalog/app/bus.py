@@ -24,7 +24,7 @@ from sondalog.backends.store.eeprom import EepromDatabase
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.pty import PtyLine
-from sondalog.io.rs485 import Rs485Line
+from sondalog.io.rs485 import Mode, Rs485Line
 from sondalog.io.serial_line import SerialLine
 from sondalog.io.tcp import TcpServer, serve_tcp
 from sondalog.world.bus import BusCore
@@ -65,6 +65,11 @@ class BusServer:
         await self.host.stop()
         if self.database is not None:
             self.database.close()
+
+
+def rs485_settings(mode: Mode) -> Rs485Settings:
+    """How ``bus serve --rs485 MODE`` drives its adapter (the other settings: defaults)."""
+    return Rs485Settings(mode)
 
 
 async def start_bus_server(

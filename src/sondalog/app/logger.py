@@ -109,6 +109,17 @@ class Logger:
         self.store.close()
 
 
+def protocol_versions() -> list[str]:
+    """The protocol versions a new logger can speak (``logger serve --protocol``)."""
+    return [v.value for v in Version]
+
+
+def protocol_version(text: str | None) -> Version | None:
+    """``2.10`` as the core's :class:`~sondalog.ala1.Version` (``None``: the default);
+    raises ``ValueError`` for a version not in :func:`protocol_versions`."""
+    return Version(text) if text is not None else None
+
+
 async def start_logger(
     state_dir: Path,
     clock: Clock,

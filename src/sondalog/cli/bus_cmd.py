@@ -18,8 +18,8 @@ from typing import TypeVar, cast
 
 import click
 
-from sondalog.app.bus import DEFAULT_PORT, BusServer, start_bus_server
-from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, Rs485Settings
+from sondalog.app.bus import DEFAULT_PORT, BusServer, rs485_settings, start_bus_server
+from sondalog.app.bus_explain import upper_case_hint, why_no_reply
 from sondalog.cli.common import (
     Refused,
     allow_remote_option,
@@ -37,9 +37,9 @@ from sondalog.client.bus_actions import (
 )
 from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
-from sondalog.hctmps1 import COMMAND_NAMES, CONNECT_COMMANDS
 from sondalog.io import loop as serve_loop
 from sondalog.io.clock import make_clock
+from sondalog.io.rs485 import MODES, Mode, Rs485Error
 from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id
 from sondalog.sitefile import SiteError
 
@@ -141,7 +141,7 @@ def serve(
         serial=serial_device,
         noise=noise,
         seed=seed,
-        rs485=Rs485Settings(cast(Mode, rs485)) if rs485 is not None else None,
+        rs485=rs485_settings(cast(Mode, rs485)) if rs485 is not None else None,
     )
     try:
         serve_loop.run(_serve(start))
@@ -248,28 +248,6 @@ def _log_round(number: int, rounds: int, found: dict[str, str]) -> None:
     log.info("scan round %d/%d: HELLO to *, modules so far: %s", number, rounds, found or "none")
 
 
-def _why_no_reply(module_id: str, command: str, host_id: str) -> str:
-    """What a module needs before it answers ``command`` (hctmps1.md §4)."""
-    if command == "CONNECT":
-        return (
-            f"no reply from {module_id} to CONNECT: a wrong password gets none, and after 5"
-            " wrong ones in 60 s the module ignores CONNECT for 60 s (factory password 0000)"
-        )
-    if command in CONNECT_COMMANDS:
-        return (
-            f"no reply from {module_id} to {command}: {command} is answered only inside"
-            f" <connect>. Open it first with the same --host-id ({host_id}):"
-            f" sondalog bus ask URL {module_id} CONNECT PASSWORD (it lasts 300 s without"
-            " commands), or use: sondalog bus config"
-        )
-    if command not in COMMAND_NAMES:
-        return (
-            f"no reply from {module_id} to {command}: a module ignores commands it does not"
-            f" know; the commands are {', '.join(sorted(COMMAND_NAMES))}"
-        )
-    return f"no reply from {module_id} to {command}, though it answers HELLO"
-
-
 @bus.command()
 @_master_options
 @click.argument("module_id", metavar="ID")
@@ -293,11 +271,9 @@ def ask(
     body = command if param is None else f"{command}.{param}"
     if not command or "." in command or not body.isascii() or "|" in body:
         raise Refused(f"bad command {body!r}: printable ASCII without '|'")
-    if command != command.upper() and command.upper() in COMMAND_NAMES:
-        raise Refused(
-            f"{command!r}: HCTMPS1 commands are upper case, and a module ignores anything"
-            f" else: {command.upper()}"
-        )
+    hint = upper_case_hint(command)
+    if hint is not None:
+        raise Refused(hint)
 
     async def work(master: BusMaster) -> list[str]:
         if module_id == BROADCAST:
@@ -316,7 +292,7 @@ def ask(
                         f"no reply from {module_id} to {command}, nor to HELLO: is {module_id}"
                         " on this bus? (bus scan lists the modules)"
                     ) from None
-            raise click.ClickException(_why_no_reply(module_id, command, host_id)) from None
+            raise click.ClickException(why_no_reply(module_id, command, host_id)) from None
         return [f"R{command}.{reply}"]
 
     try:

@@ -3,18 +3,21 @@
 
 from __future__ import annotations
 
+import functools
 import sys
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import click
 from serial import SerialException
 
-from sondalog.ala1 import Version
-from sondalog.ala1.hardware import Hardware
 from sondalog.app.logger import (
     IdentityConflict,
+    Logger,
     logger_hardware,
+    protocol_version,
+    protocol_versions,
     serve_until,
     start_logger,
     valid_serial_number,
@@ -27,7 +30,7 @@ from sondalog.cli.common import (
     speed_option,
 )
 from sondalog.io import loop as serve_loop
-from sondalog.io.clock import Clock, make_clock
+from sondalog.io.clock import make_clock
 from sondalog.io.tcp import DEFAULT_PORT
 from sondalog.sitefile import SiteError
 
@@ -57,7 +60,7 @@ def logger() -> None:
 )
 @click.option(
     "--protocol",
-    type=click.Choice([v.value for v in Version]),
+    type=click.Choice(protocol_versions()),
     default=None,
     help="Protocol version of a new logger (default 2.10); fixed once the state exists.",
 )
@@ -115,24 +118,27 @@ def serve(
         raise click.BadParameter(
             "1 to 32 printable ASCII characters without spaces", param_hint="--serial-number"
         )
-    version = Version(protocol) if protocol is not None else None
+    version = protocol_version(protocol)
     clock = make_clock(speed)
     try:
         hardware = logger_hardware(site, clock.now(), clock.speed)
     except SiteError as exc:
         raise Refused(str(exc)) from exc
+    lines = _Lines(ptys, serials, line_rate)
+    start = functools.partial(
+        start_logger,
+        state_dir,
+        clock,
+        listen,
+        version,
+        serial_number,
+        hardware=hardware,
+        ptys=lines.ptys,
+        serials=lines.serials,
+        line_rate=lines.line_rate,
+    )
     try:
-        serve_loop.run(
-            _serve(
-                state_dir,
-                listen,
-                version,
-                serial_number,
-                clock,
-                hardware,
-                _Lines(ptys, serials, line_rate),
-            )
-        )
+        serve_loop.run(_serve(start, lines))
     except IdentityConflict as exc:
         raise Refused(str(exc)) from exc
     except _LineError as exc:
@@ -152,15 +158,8 @@ class _Lines:
     line_rate: bool = False
 
 
-async def _serve(
-    state_dir: Path,
-    listen: tuple[str, int],
-    version: Version | None,
-    serial_number: str | None,
-    clock: Clock,
-    hardware: Hardware,
-    lines: _Lines,
-) -> None:
+async def _serve(start: Callable[..., Awaitable[Logger]], lines: _Lines) -> None:
+    """Start the logger (``start(on_listening=...)``) and serve it until a signal."""
     stop = serve_loop.stop_on_signals()
 
     def announce(host: str, port: int) -> None:
@@ -168,18 +167,7 @@ async def _serve(
         sys.stdout.flush()
 
     try:
-        running = await start_logger(
-            state_dir,
-            clock,
-            listen,
-            version,
-            serial_number,
-            on_listening=announce,
-            hardware=hardware,
-            ptys=lines.ptys,
-            serials=lines.serials,
-            line_rate=lines.line_rate,
-        )
+        running = await start(on_listening=announce)
     except (OSError, SerialException) as exc:
         if isinstance(exc, OSError) and not lines.ptys and not lines.serials:
             raise

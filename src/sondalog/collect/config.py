@@ -43,9 +43,9 @@
     [web]                       # the dashboard (default: on, 127.0.0.1:8080)
     listen = "127.0.0.1:8080"   # beyond loopback: allow_remote = true and a token
 
-    [postgres]                  # optional sinks (docs/collector-sinks.md)
-    dsn = "postgresql://..."
-    [mqtt]
+    [postgres]                  # optional sinks (docs/collector-sinks.md): a table of
+    dsn = "postgresql://..."    # every sink registered in sondalog.collect.sinks, checked
+    [mqtt]                      # by the sink's own parse when the file is loaded
     url = "mqtt://127.0.0.1:1883"
 
 Relative paths are relative to the configuration file's directory.
@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -64,10 +64,12 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.collect.message_url import check_message_url
+from sondalog.collect.sinks import SinkError, SinkKind, find_sink, known_names
 from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.sitefile import SiteError, locate, read_site_file
 
-_TOP = {"sqlite", "buffer", "source", "postgres", "mqtt", "web"}
+#: The collector's own tables; any other top-level table is a sink's (``sinks.find_sink``).
+_TOP = {"sqlite", "buffer", "source", "web"}
 _SOURCE = {
     "url",
     "interval",
@@ -90,8 +92,6 @@ _SOURCE = {
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Keys only the message sources (``mailbox``, ``network``) take.
 _MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit", "channels")
-#: Sink tables handed to :func:`sondalog.collect.sinks.load_sink` besides the store.
-SINK_TABLES = ("postgres", "mqtt")
 
 
 class ConfigError(ValueError):
@@ -101,6 +101,10 @@ class ConfigError(ValueError):
         where = f"{path}:{line}" if line is not None else str(path)
         super().__init__(f"{where}: {field}: {message}")
         self.path, self.field, self.line = path, field, line
+
+
+#: ``fail(field, message)``: the :class:`ConfigError` to raise, with the field's line.
+Fail = Callable[[str, str], ConfigError]
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,7 +139,8 @@ class CollectorConfig:
     keep_readings: bool
     buffer: Path
     sources: tuple[SourceConfig, ...]
-    sinks: dict[str, dict[str, Any]]
+    #: Sink name -> the configuration its registration's ``parse`` made of its table.
+    sinks: dict[str, Any]
     sink_lines: dict[str, int | None] = field(default_factory=dict)
     web: WebConfig = field(default_factory=WebConfig)
 
@@ -158,9 +163,7 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
     def fail(where: str, message: str) -> ConfigError:
         return ConfigError(path, where, message, locate(text, where))
 
-    for key in data:
-        if key not in _TOP:
-            raise fail(key, f"unknown table (known: {', '.join(sorted(_TOP))})")
+    kinds = {key: _sink_kind(key, fail) for key in data if key not in _TOP}
     base = path.parent
 
     def table(name: str) -> dict[str, Any]:
@@ -199,10 +202,39 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
         if source.name in seen:
             raise fail(f"source[{i}].name", f"{source.name!r} is used by another source")
         seen.add(source.name)
-    sinks = {name: table(name) for name in SINK_TABLES if name in data}
+    sinks = {name: _sink(kind, table(name), fail) for name, kind in kinds.items()}
     lines = {name: locate(text, name) for name in sinks}
     web = parse_web(table("web"), fail, os.environ)
     return CollectorConfig(path, store, keep, buffer, tuple(sources), sinks, lines, web)
+
+
+def _sink_kind(name: str, fail: Fail) -> SinkKind[Any]:
+    """The sink registered for the top-level table ``name``; an unknown table is refused."""
+    try:
+        kind = find_sink(name)
+    except SinkError as exc:
+        raise fail(name, str(exc)) from None
+    if kind is None:
+        raise fail(name, f"unknown table (known: {', '.join(sorted({*_TOP, *known_names()}))})")
+    return kind
+
+
+def _sink(kind: SinkKind[Any], table: dict[str, Any], fail: Fail) -> Any:
+    """The sink's table parsed by its registration (``report`` -> ``FILE:LINE: NAME.KEY``)."""
+    name = kind.table
+
+    def report(key: str, message: str) -> ConfigError:
+        text = message.removeprefix(f"{name}: ").removeprefix(f"{name}.")
+        if key:
+            return fail(f"{name}.{key}", text)
+        return fail(name, text)
+
+    try:
+        return kind.parse(table, report)
+    except ConfigError:
+        raise
+    except ValueError as exc:  # a parse that raised instead of reporting
+        raise report("", str(exc)) from None
 
 
 def _path(value: object, base: Path, where: str, fail: Any) -> Path:

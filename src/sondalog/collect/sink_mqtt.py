@@ -38,6 +38,7 @@ import aiomqtt
 
 from sondalog.collect.ha_discovery import Device, Topics, discovery_payload, state_payload
 from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.sinks import checking, register_sink
 
 log = logging.getLogger(__name__)
 
@@ -256,3 +257,6 @@ class MqttSink:
 def create(table: dict[str, object]) -> MqttSink:
     """The registry's entry point: an MQTT sink from the ``[mqtt]`` table."""
     return MqttSink(parse_config(table))
+
+
+register_sink("mqtt", MqttSink, checking(parse_config))

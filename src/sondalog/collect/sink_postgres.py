@@ -34,6 +34,7 @@ from psycopg import conninfo
 
 from sondalog.collect.model import Reading, SinkUnavailable
 from sondalog.collect.schema import SCHEMA_VERSION
+from sondalog.collect.sinks import checked_by, register_sink
 
 log = logging.getLogger(__name__)
 
@@ -273,3 +274,6 @@ def create(table: dict[str, object]) -> PostgresSink:
     if not isinstance(timeout, int) or isinstance(timeout, bool) or timeout < 1:
         raise ValueError("postgres: connect_timeout must be a whole number of seconds >= 1")
     return PostgresSink(dsn, timescaledb=setting, connect_timeout=timeout)
+
+
+register_sink("postgres", create, checked_by(create))

@@ -22,12 +22,9 @@ import importlib
 import pkgutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
+from typing import Any, Generic, Protocol, TypeVar, overload
 
 from sondalog.collect.model import Sink
-
-if TYPE_CHECKING:
-    from sondalog.collect.config import CollectorConfig
 
 C = TypeVar("C")
 #: ``report(key, message)``: the error to raise for ``key`` of the sink's table ("" for the
@@ -155,7 +152,18 @@ def load_sink(name: str, table: Mapping[str, Any]) -> Sink:
     return kind.factory(kind.parse(dict(table), report))
 
 
-def build_sinks(config: CollectorConfig) -> list[Sink]:
+class SinkPlan(Protocol):
+    """What :func:`build_sinks` needs of a loaded configuration
+    (:class:`~sondalog.collect.config.CollectorConfig`): the parsed sink tables, and the
+    error for one with the table's line."""
+
+    @property
+    def sinks(self) -> Mapping[str, Any]: ...
+
+    def sink_error(self, name: str, exc: Exception) -> Exception: ...
+
+
+def build_sinks(config: SinkPlan) -> list[Sink]:
     """Every sink of ``config`` built from its parsed configuration (nothing connects yet);
     raises :class:`~sondalog.collect.config.ConfigError` with the table's line for a sink
     whose factory refuses it. ``collect --check`` calls it too, so it finds whatever a start

@@ -63,6 +63,7 @@ def test_help_lists_local_commands_and_its_examples_work(shared_logger: ServedLo
         ("reed date", "reed", "expected read, write or a header keyword"),
         ("write com speed 1234", "1234", "1234 is not one of"),
         ("write global reset read date", "read", "nothing may follow `write global reset`"),
+        ("write channel 1 3 13 name /a/", "13", "channel 13: this logger has channels 1..12"),
     ],
 )
 def test_explain_names_the_rejected_token(

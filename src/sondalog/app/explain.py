@@ -1,10 +1,9 @@
 """Why did the logger answer ``ERROR``? The host's explanation of a rejected command line.
 
-The error response (§3.3.1) says only that a line was refused. :func:`explain` walks the
-line with the logger's own tokenizer and parameter tree (:mod:`sondalog.ala1.tokens`,
-:mod:`sondalog.ala1.params`, :mod:`sondalog.ala1.headers`, used read-only as a library),
-the way the interpreter does (header §8.2, switch and body §5, chaining §7), and reports the
-first token it rejects and what the grammar expected there::
+The error response (§3.3.1) says only that a line was refused. :func:`explain` runs the
+logger's own parser (:func:`sondalog.ala1.parser.parse_line`) over the factory parameters
+and renders the :class:`~sondalog.ala1.rejection.Rejection` it returns: the first token the
+grammar refuses (header §8.2, switch and body §5, chaining §7) and what it takes there::
 
     >>> print(explain("write channel 1 3 5 7 9 11 13 name /a/").render())  # doctest: +SKIP
     write channel 1 3 5 7 9 11 13 name /a/
@@ -17,25 +16,28 @@ Also here: :data:`HELP`, the syntax in short for ``sondalog term``'s ``:help``, 
 
 from __future__ import annotations
 
+import functools
+import time
 import unicodedata
 from dataclasses import dataclass
 
 from sondalog.ala1.headers import HEADER_WORDS, Headers
-from sondalog.ala1.model import Version
-from sondalog.ala1.params import ROOT, IndexSpec, Leaf, Node
+from sondalog.ala1.model import Identity, Limits, Version
+from sondalog.ala1.parser import Command, Parsed, parse_line
+from sondalog.ala1.rejection import Rejection
+from sondalog.ala1.state import ModuleState
 from sondalog.ala1.tokens import Cursor, ParseError
 from sondalog.ala1.values import (
     Choice,
     Date,
     Format,
     Number,
-    ParseCtx,
     Period,
     Text,
     TextRow,
     ValueType,
 )
-from sondalog.app.virtual import VirtualLogger
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.client.ala1_codec import MAX_LINE, edited
 
 _HEADER_HINTS = {
@@ -99,229 +101,103 @@ class Explanation:
         return f"{self.line}\n{marker}\n{where}: {self.message}"
 
 
-class _Rejected(Exception):
-    def __init__(self, column: int, message: str) -> None:
-        super().__init__(message)
-        self.column = column
-        self.message = message
-
-
 def explain(line: str, version: str = "2.10") -> Explanation:
-    """Walk ``line`` as a logger of protocol ``version`` would; see the module docstring."""
+    """Parse ``line`` as a logger of protocol ``version`` would; see the module docstring."""
     text = edited(line)
     if len(line) > MAX_LINE and len(text) == MAX_LINE:
         return Explanation(
             text, MAX_LINE - 1, "a command line is at most 120 characters; the logger cut it"
         )
-    logger = VirtualLogger(version=Version(version))
+    state = _default_state(version)
+    view = state.begin(time.time())
     try:
-        view = logger.engine.state.begin(logger.clock.now())
-        walk = _Walk(text, ParseCtx(view, {}))
-        try:
-            walk.run()
-        finally:
-            view.rollback()
-    except _Rejected as exc:
-        return Explanation(text, exc.column, exc.message)
+        parsed = parse_line(text, view)
     finally:
-        logger.close()
+        view.rollback()
+    found = parsed.rejection
+    if found is not None:
+        return Explanation(text, found.position, _message(found, parsed, text, state))
+    notes = [
+        n for c, end in zip(parsed.commands, parsed.ends, strict=True) if (n := _note(c, end, text))
+    ]
     return Explanation(
         text,
         None,
         f"the local parser (protocol {version}) accepts this line. A logger may still refuse"
         " it: a value its state forbids (record type only while the record is empty, a"
         " read-only parameter, limits of protocol 1.16), a named command it does not have,"
-        " or a feature it does not offer." + "".join(f"\nNote: {n}" for n in walk.notes),
+        " or a feature it does not offer." + "".join(f"\nNote: {n}" for n in notes),
     )
 
 
-class _Walk:
-    """One pass over a line; raises :class:`_Rejected` at the first bad token."""
-
-    def __init__(self, text: str, ctx: ParseCtx) -> None:
-        self.cur = Cursor(text)
-        self.ctx = ctx
-        self.limits = ctx.view.identity.limits
-        self.string_boundary: str | None = None  # the boundary of the last string value
-        #: Doubtful readings of a line that parses (a string boundary that is a letter).
-        self.notes: list[str] = []
-
-    def reject(self, column: int, message: str) -> _Rejected:
-        return _Rejected(column, message)
-
-    def run(self) -> None:
-        cur = self.cur
-        self._headers()
-        switch = self._switch()
-        assert switch is not None
-        node, first = ROOT, None
-        while True:
-            leaf_first = self._command(switch, node, chained=first is not None)
-            first = first or leaf_first
-            if cur.at_end():
-                return
-            start = cur.pos
-            new = self._switch(optional=True)
-            if new is not None:
-                switch, node, first = new, ROOT, None  # §7.1
-            else:
-                assert first is not None
-                cur.pos = start
-                node = ROOT.words[first]  # §7.2: the switch and first keyword carry over
-
-    def _headers(self) -> None:
-        cur, headers = self.cur, Headers()
-        options = [(w,) for w in (*HEADER_WORDS, "read", "write")]
-        while True:
-            cur.skip_spaces()
-            start = cur.pos
-            word = cur.choose_keyword(options)
-            if word is None:
-                if cur.at_end():
-                    raise self.reject(start, "read or write expected after the header keywords")
-                raise self.reject(
-                    start,
-                    "expected read, write or a header keyword (check, sum, crcsum, quiet, pause,"
-                    " ...); or the name of a command stored with `write command N name`"
-                    " (§6.8): names are case-sensitive",
-                )
-            if word[0] in ("read", "write"):
-                cur.pos = start
-                return
-            try:
-                headers.parse_one(word[0], cur)
-            except ParseError as exc:
-                hint = _HEADER_HINTS.get(word[0], "")
-                raise self.reject(cur.pos, f"{exc}; {hint}" if hint else str(exc)) from None
-
-    def _switch(self, optional: bool = False) -> str | None:
-        self.cur.skip_spaces()
-        word = self.cur.choose_keyword([("read",), ("write",)])
-        if word is None and not optional:
-            raise self.reject(self.cur.pos, "read or write expected")
-        return None if word is None else ("R" if word[0] == "read" else "W")
-
-    def _command(self, switch: str, node: Node, *, chained: bool) -> str | None:
-        """One command of the body; returns its first keyword (for §7.2 chaining)."""
-        cur = self.cur
-        first: str | None = None
-        path: list[str] = []
-        if node is not ROOT:
-            path.append(next(w for w, n in ROOT.words.items() if n is node))
-        while True:
-            start = len(cur.text) - len(cur.rest().lstrip(" "))  # spaces stay: a string's
-            word = cur.choose_keyword([(w,) for w in node.words])  # boundary may be one
-            if word is not None:
-                if node is ROOT:
-                    first = word[0]
-                path.append(word[0])
-                node = node.words[word[0]]
-                continue
-            if node.index is not None:
-                spec, child = node.index
-                path.append(self._index(spec))
-                node = child
-                continue
-            break
-        leaf = node.leaves.get(switch)
-        if leaf is None:
-            raise self._no_leaf(node, switch, path, start, chained)
-        while (leaf.dual and cur.try_keyword(("all",))) or (
-            leaf.hexable and cur.try_keyword(("x",))
-        ):
-            pass
-        vtype = leaf.read_arg if switch == "R" else leaf.vtype
-        if vtype is not None:
-            self._value(leaf, vtype)
-        else:
-            self.string_boundary = None
-        if leaf.ends_line and not cur.at_end():
-            raise self.reject(
-                cur.pos, f"nothing may follow `write {leaf.pattern}` on its line (§7)"
-            )
-        return first
-
-    def _index(self, spec: IndexSpec) -> str:
-        cur = self.cur
-        start = cur.pos
-        high = spec.hi(self.limits)
-        if spec.is_list:
-            try:
-                channels = cur.channel_list()
-            except ParseError:
-                raise self.reject(
-                    start, "a channel list is `1 3 4` or `010304` (two digits per channel)"
-                ) from None
-            for ch in channels or []:
-                if not 1 <= ch <= high:
-                    raise self.reject(start, f"channel {ch}: this logger has channels 1..{high}")
-            return " ".join(str(c) for c in channels or [])
-        if not cur.peek_digit():
-            if spec.optional:
-                return ""
-            raise self.reject(start, f"a number expected: {spec.doc}")
-        value = cur.integer()
-        if not spec.lo <= value <= high:
-            raise self.reject(start, f"{value} is out of range: {spec.name} {spec.lo}..{high}")
-        return str(value)
-
-    def _no_leaf(
-        self, node: Node, switch: str, path: list[str], start: int, chained: bool
-    ) -> _Rejected:
-        name = " ".join(p for p in path if p)
-        other = "W" if switch == "R" else "R"
-        verb = "read" if switch == "R" else "written"
-        if other in node.leaves and self.cur.at_end():
-            return self.reject(start, f"`{name}` cannot be {verb}")
-        options = sorted(node.words)
-        if node.index is not None:
-            options.append(f"<{node.index[0].doc}>")
-        if chained and not [p for p in path[1:] if p]:
-            message = (
-                "after a complete command the line ends, or goes on with read/write (§7.1) or"
-                f" with another `{path[0]} ...` parameter (§7.2)"
-            )
-            if self.string_boundary is not None:
-                message += f"; {_STRING_HINT}"
-            return self.reject(start, message)
-        if not options:
-            return self.reject(start, f"`{name}` cannot be {verb}")
-        what = f"after `{name}`" if name else "a parameter name"
-        return self.reject(start, f"{what}: expected one of {', '.join(options)}")
-
-    def _value(self, leaf: Leaf, vtype: ValueType) -> None:
-        cur = self.cur
-        start = cur.pos
-        try:
-            vtype.parse(cur, self.ctx)
-        except ParseError as exc:
-            error = str(exc)
-            if isinstance(vtype, Date) and error.startswith("impossible date"):
-                digits = "".join(cur.rest().lstrip(" ").split(" ")[0:1]).strip()
-                fields = _DATE_FIELDS.get(len(digits), "")
-                error = f"{len(digits)} digits are read as {fields}, which is no calendar date"
-            raise self.reject(start, _expected(leaf, vtype, error, self.limits)) from None
-        self.string_boundary = None
-        if isinstance(vtype, Text | TextRow) and cur.pos > start:
-            used = cur.text[start : cur.pos]
-            if isinstance(vtype, TextRow):
-                used = used.lstrip(" ")
-                used = used[1:] if used[:1] in "123456789" else used
-            boundary = used[:1]
-            if boundary == " " or boundary.isalnum():
-                self.string_boundary = boundary
-                value = used.strip(" ") if boundary == " " else used[1:].removesuffix(boundary)
-                self.notes.append(
-                    f"the string at column {start + 1} took {boundary!r} as its boundary and"
-                    f" reads {value!r}; {_STRING_HINT}"
-                )
+@functools.cache
+def _default_state(version: str) -> ModuleState:
+    """The factory parameters of a logger of ``version``: what the parser checks against."""
+    return ModuleState(Identity(Version(version)), SqliteNvStore(":memory:"), 0.0)
 
 
-def _expected(leaf: Leaf, vtype: ValueType, error: str, limits: object) -> str:
+def _message(found: Rejection, parsed: Parsed, text: str, state: ModuleState) -> str:
+    """The parser's rejection in words, with the hint for its kind."""
+    if found.what == "header" and not found.subject:
+        return (
+            "expected read, write or a header keyword (check, sum, crcsum, quiet, pause,"
+            " ...); or the name of a command stored with `write command N name`"
+            " (§6.8): names are case-sensitive"
+        )
+    if found.what == "header":
+        hint = _HEADER_HINTS.get(found.subject, "")
+        return f"{found.reason}; {hint}" if hint else found.reason
+    if found.what == "value" and found.vtype is not None:
+        reason = found.reason
+        if isinstance(found.vtype, Date) and reason.startswith("impossible date"):
+            digits = found.token
+            fields = _DATE_FIELDS.get(len(digits), "")
+            reason = f"{len(digits)} digits are read as {fields}, which is no calendar date"
+        return _expected(found.subject, found.vtype, reason, state.identity.limits)
+    if found.what == "chain" and parsed.commands:
+        last = parsed.commands[-1]
+        if _string_boundary(last, parsed.ends[-1], text) is not None:
+            return f"{found.reason}; {_STRING_HINT}"
+    return found.reason
+
+
+def _string_used(command: Command, end: int, text: str) -> str | None:
+    """The text of a command's string value (§4.2.3), or None when it takes none."""
+    leaf = command.leaf
+    vtype = leaf.read_arg if command.switch == "R" else leaf.vtype
+    if not isinstance(vtype, Text | TextRow) or end <= command.at:
+        return None
+    used = text[command.at : end]
+    if isinstance(vtype, TextRow):
+        used = used.lstrip(" ")
+        used = used[1:] if used[:1] in "123456789" else used
+    return used
+
+
+def _string_boundary(command: Command, end: int, text: str) -> str | None:
+    """A doubtful boundary of a command's string value: a space or a letter or digit."""
+    used = _string_used(command, end, text)
+    boundary = (used or "")[:1]
+    return boundary if boundary == " " or boundary.isalnum() else None
+
+
+def _note(command: Command, end: int, text: str) -> str | None:
+    boundary = _string_boundary(command, end, text)
+    used = _string_used(command, end, text)
+    if boundary is None or used is None:
+        return None
+    value = used.strip(" ") if boundary == " " else used[1:].removesuffix(boundary)
+    return (
+        f"the string at column {command.at + 1} took {boundary!r} as its boundary and"
+        f" reads {value!r}; {_STRING_HINT}"
+    )
+
+
+def _expected(pattern: str, vtype: ValueType, error: str, limits: Limits) -> str:
     """What a value of ``vtype`` looks like, after the parser's own complaint."""
     if isinstance(vtype, Date):
         return (
-            f"{error}. `{leaf.pattern}` fills from the left: the fields missing on the left come"
+            f"{error}. `{pattern}` fills from the left: the fields missing on the left come"
             " from the logger's clock, so 2, 4, 6, 8 or 10 digits are ss, mmss, hhmmss,"
             " DDhhmmss or MMDDhhmmss; give all 14 (YYYYMMDDhhmmss) to set the year (§4.3.2)"
         )
@@ -334,13 +210,13 @@ def _expected(leaf: Leaf, vtype: ValueType, error: str, limits: object) -> str:
         return f"{error}; {_STRING_HINT}"
     if isinstance(vtype, Format):
         return f"{error}; a number format is three characters w.p, like `5.2` (§4.3.5)"
-    described = vtype.describe(limits)  # type: ignore[arg-type]
+    described = vtype.describe(limits)
     if isinstance(vtype, Choice):
-        return f"{error}; `{leaf.pattern}` takes {described}"
+        return f"{error}; `{pattern}` takes {described}"
     if isinstance(vtype, Number):
         return f"{error}; a number like `10`, `-0.8` or `13.8` ({described})"
     kind = vtype.kind
-    return f"{error}; `{leaf.pattern}` takes {kind} {described}".rstrip()
+    return f"{error}; `{pattern}` takes {kind} {described}".rstrip()
 
 
 def header_words(line: str) -> frozenset[str]:

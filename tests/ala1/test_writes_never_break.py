@@ -191,12 +191,12 @@ def test_unusable_stored_values_are_repaired_at_start(tmp_path: Path) -> None:
     module.ok("write channel 1 type 1")
     module.ok("write channel 1 sampling period 000001")
     factory = module.read("read channel 1 cal mult value")
-    module.store.conn.execute(
-        "INSERT OR REPLACE INTO param (key, value) VALUES (?, ?)",
-        ("channel 1 cal mult value", "10000000000000000000000000000"),
-    )
-    module.store.conn.execute(
-        "INSERT OR REPLACE INTO param (key, value) VALUES (?, ?)", ("channel 2 record change", "x")
+    module.store.conn.executemany(
+        "INSERT OR REPLACE INTO param (logger, key, value) VALUES ('', ?, ?)",
+        [
+            ("channel 1 cal mult value", "10000000000000000000000000000"),
+            ("channel 2 record change", "x"),
+        ],
     )
     module.store.conn.commit()
     module.store.close()

@@ -17,7 +17,7 @@ import pytest
 from sondalog.ala1 import Engine, Identity
 from sondalog.app.site import load_site
 from sondalog.backends.sim.logger import default_hardware
-from sondalog.backends.store.fleet import FleetDatabase
+from sondalog.backends.store.ala1_nv import NvDatabase
 from sondalog.sitefile import SiteError
 
 T0 = 1_000_000_000.0
@@ -123,7 +123,7 @@ def test_errors_name_file_line_and_field(
     assert message in str(caught.value)
 
 
-def _engine(database: FleetDatabase, serial: str) -> Engine:
+def _engine(database: NvDatabase, serial: str) -> Engine:
     engine = Engine(
         Identity(serial_number=serial), database.store(serial), T0, default_hardware(T0)
     )
@@ -138,7 +138,7 @@ def _engine(database: FleetDatabase, serial: str) -> Engine:
 
 def test_group_commit_one_transaction_per_turn_and_writes_durable_at_once(tmp_path: Path) -> None:
     flushes: list[object] = []
-    database = FleetDatabase(tmp_path / "fleet.sqlite", flushes.append)
+    database = NvDatabase(tmp_path / "fleet.sqlite", flushes.append)
     engines = [_engine(database, f"F{n}") for n in range(5)]
     reader = sqlite3.connect(tmp_path / "fleet.sqlite")
 
@@ -235,7 +235,7 @@ def test_log_lines_name_the_logger(tmp_path: Path, caplog: pytest.LogCaptureFixt
     from sondalog.protocol.device import Event
 
     install_log_names()
-    database = FleetDatabase(tmp_path / "fleet.sqlite", lambda flush: None)
+    database = NvDatabase(tmp_path / "fleet.sqlite", lambda flush: None)
     device = NamedDevice(_engine(database, "F7"), "F7")
     with caplog.at_level(logging.WARNING):
         device.handle(Event(), T0)  # the engine logs an event it does not know

@@ -73,6 +73,12 @@ class NvStore(Protocol):
         ``seen`` is the host time of the change."""
         ...
 
+    def commit_scheduled(self, record: RecordChanges, seen: float) -> None:
+        """Rows the module sampled on its own (no command line waits for them): durable by
+        the end of the current turn, so a store may group the commits of many modules in
+        one transaction (group commit, issue 11); a store without it commits at once."""
+        ...
+
 
 class NeedWait(Exception):
     """The line must wait: a measurement needs its switch advance or a DS18B20 conversion
@@ -260,11 +266,7 @@ class ModuleState:
             self.sampler.run_until(target, self.clock_offset, self._store_row)
             changes = self.record.take_changes()
             if changes is not None:
-                scheduled = getattr(self.store, "commit_scheduled", None)
-                if scheduled is not None:  # a fleet's store: group commit (issue 11)
-                    scheduled(changes, host_now)
-                else:
-                    self.store.commit({}, None, changes, seen=host_now)
+                self.store.commit_scheduled(changes, host_now)  # group commit (issue 11)
         except BaseException:
             self.record.rollback(mark)
             raise

@@ -3,10 +3,10 @@
 The wiring of :mod:`sondalog.app.fleet_site`'s ``[[loggers]]``: every logger has its own
 engine, :class:`~sondalog.io.host.DeviceHost` and TCP server on the one event loop, its own
 state directory ``STATE/loggers/SERIAL`` (``identity.json``: protocol and serial number, as
-for ``sondalog logger serve``) and its memory in the fleet's shared database
-``STATE/loggers/fleet.sqlite`` (:mod:`sondalog.backends.store.fleet`): the rows all loggers
-sample in one event-loop turn are committed in one transaction, a command line's changes at
-once, before its ``OK``. Log lines written while a logger works start with
+for ``sondalog logger serve``) and its memory under its serial number in the fleet's shared
+database ``STATE/loggers/fleet.sqlite`` (:mod:`sondalog.backends.store.ala1_nv`): the rows
+all loggers sample in one event-loop turn are committed in one transaction, a command line's
+changes at once, before its ``OK``. Log lines written while a logger works start with
 ``[logger SERIAL]``.
 """
 
@@ -26,7 +26,7 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.app.fleet_site import FleetLogger
 from sondalog.app.logger import IdentityConflict, load_identity
 from sondalog.backends.sim.logger import default_hardware, parse_logger_site
-from sondalog.backends.store.fleet import FleetDatabase
+from sondalog.backends.store.ala1_nv import NvDatabase
 from sondalog.io.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
@@ -120,7 +120,7 @@ class FleetMember:
 class RunningFleet:
     """The loggers of a fleet and their shared database; :meth:`close` stops them all."""
 
-    database: FleetDatabase
+    database: NvDatabase
     members: list[FleetMember] = field(default_factory=list)
 
     async def close(self) -> None:
@@ -155,7 +155,7 @@ async def start_fleet(
     def schedule(callback: Callable[[], None]) -> None:
         loop.call_soon(callback)
 
-    fleet = RunningFleet(FleetDatabase(root / DATABASE_FILE, schedule))
+    fleet = RunningFleet(NvDatabase(root / DATABASE_FILE, schedule))
     worlds: dict[Path, tuple[dict[str, object], str]] = {}
     try:
         for plan in loggers:

@@ -1,37 +1,73 @@
-"""SQLite non-volatile memory of an ALA1 module (DESIGN.md point 5).
+"""SQLite non-volatile memory of ALA1 modules, keyed by logger (DESIGN.md point 5; issue 25).
 
-One database file per instance, in WAL mode with ``synchronous=FULL``: a commit returns only
-when it is on disk, so a parameter is durable before its ``OK`` is sent, a record row is
-durable once written, and a kill -9 at any moment leaves either a whole line (or a whole
-group of sampled rows) applied or none of it.
+One implementation for a single logger (``ala1.sqlite``, one key) and a fleet
+(``fleet.sqlite``, one key per serial number, issue 11): every table carries the logger's key,
+and one :class:`NvDatabase` connection serves every logger of the file. The file is in WAL
+mode with ``synchronous=FULL``: a commit returns only when it is on disk, so a parameter is
+durable before its ``OK`` is sent, a record row is durable once written, and a kill -9 at any
+moment leaves either a whole line (or a whole group of sampled rows) applied or none of it.
+
+Group commit is a capability of the database, reached through the engine's
+:class:`~sondalog.ala1.state.NvStore` (:meth:`LoggerNvStore.commit_scheduled`):
+
+- with a ``schedule_flush`` (a fleet on an event loop), the rows a module samples on its own
+  wait in memory until the end of the event-loop turn, when :meth:`NvDatabase.flush` writes
+  the rows of every logger in **one transaction** (this module has no event loop);
+- without one (a single logger), they are written at once;
+- anything a command line commits (:meth:`LoggerNvStore.commit`) is written at once, in one
+  transaction together with whatever waits, so it is durable before the line's ``OK`` and
+  never overtakes earlier rows.
+
+A file made before issue 25 by the single logger (tables without the ``logger`` column) is
+migrated on open, in one transaction, its rows under the key :data:`SINGLE`.
 """
 
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Callable
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
 from sondalog.io.private import connect_private
 
-SCHEMA = """
-CREATE TABLE IF NOT EXISTS param (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS record (seq INTEGER PRIMARY KEY, row TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS file (area TEXT PRIMARY KEY, data BLOB NOT NULL);
-"""
+#: The key of a logger alone in its file (``ala1.sqlite``).
+SINGLE = ""
+
+_TABLES = (
+    "CREATE TABLE IF NOT EXISTS param (logger TEXT NOT NULL, key TEXT NOT NULL, "
+    "value TEXT NOT NULL, PRIMARY KEY (logger, key))",
+    "CREATE TABLE IF NOT EXISTS meta (logger TEXT NOT NULL, key TEXT NOT NULL, "
+    "value TEXT NOT NULL, PRIMARY KEY (logger, key))",
+    "CREATE TABLE IF NOT EXISTS record (logger TEXT NOT NULL, seq INTEGER NOT NULL, "
+    "row TEXT NOT NULL, PRIMARY KEY (logger, seq))",
+    "CREATE TABLE IF NOT EXISTS file (logger TEXT NOT NULL, area TEXT NOT NULL, "
+    "data BLOB NOT NULL, PRIMARY KEY (logger, area))",
+)
+
+#: The columns of each table in the single-logger schema before issue 25.
+_OLD_COLUMNS = {
+    "param": "key, value",
+    "meta": "key, value",
+    "record": "seq, row",
+    "file": "area, data",
+}
 
 _UPSERT_META = (
-    "INSERT INTO meta (key, value) VALUES (?, ?) "
-    "ON CONFLICT(key) DO UPDATE SET value = excluded.value"
+    "INSERT INTO meta (logger, key, value) VALUES (?, ?, ?) "
+    "ON CONFLICT(logger, key) DO UPDATE SET value = excluded.value"
 )
+
+#: One commit of one logger: (changes, clock offset, record changes, host time seen).
+_Commit = tuple[dict[str, str | None], float | None, RecordChanges | None, float | None]
 
 
 def open_database(path: Path | str) -> sqlite3.Connection:
     """Open (creating if needed) a state database with the durability settings we rely on.
 
     The file (and its ``-wal`` and ``-shm``) is private, 0600 (docs/security.md): it holds
-    the module's ``i address`` and mail ``user:password``."""
+    the module's ``i address`` and mail ``user:password``. The connection is in autocommit
+    mode: every transaction here is explicit (``BEGIN IMMEDIATE`` … ``COMMIT``)."""
     conn = connect_private(path, check_same_thread=False)
     if str(path) != ":memory:":
         conn.execute("PRAGMA journal_mode=WAL")
@@ -39,16 +75,156 @@ def open_database(path: Path | str) -> sqlite3.Connection:
     return conn
 
 
-class SqliteNvStore:
-    """Parameters, clock, record and table files of one ALA1 module in SQLite."""
+def _prepare_schema(conn: sqlite3.Connection) -> None:
+    """Create the keyed tables, migrating a single-logger file of the old schema, in one
+    transaction (a kill -9 leaves the old file or the migrated one)."""
+    conn.execute("BEGIN IMMEDIATE")
+    try:
+        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        old = [
+            table
+            for table in _OLD_COLUMNS
+            if table in tables
+            and "logger" not in {c[1] for c in conn.execute(f"PRAGMA table_info({table})")}
+        ]
+        for table in old:
+            conn.execute(f"ALTER TABLE {table} RENAME TO old_{table}")
+        for statement in _TABLES:
+            conn.execute(statement)
+        for table in old:
+            columns = _OLD_COLUMNS[table]
+            conn.execute(
+                f"INSERT INTO {table} (logger, {columns}) SELECT ?, {columns} FROM old_{table}",
+                (SINGLE,),
+            )
+            conn.execute(f"DROP TABLE old_{table}")
+    except BaseException:
+        conn.execute("ROLLBACK")
+        raise
+    conn.execute("COMMIT")
 
-    def __init__(self, path: Path | str) -> None:
+
+class NvDatabase:
+    """One state file: the connection shared by its loggers and the commits waiting for the
+    end of the turn."""
+
+    def __init__(
+        self,
+        path: Path | str,
+        schedule_flush: Callable[[Callable[[], None]], None] | None = None,
+    ) -> None:
+        """``schedule_flush(callback)``: call ``callback`` once at the end of this turn
+        (``loop.call_soon`` in a fleet's wiring; tests may collect it). None: no group
+        commit, sampled rows are written at once."""
         self.path = path
         self.conn = open_database(path)
-        self.conn.executescript(SCHEMA)
+        try:
+            _prepare_schema(self.conn)
+        except BaseException:
+            self.conn.close()
+            raise
+        self._schedule = schedule_flush
+        self._waiting: list[tuple[str, _Commit]] = []
+        self.transactions = 0  # transactions written (for benchmarks and tests)
+
+    def store(self, logger: str = SINGLE) -> LoggerNvStore:
+        """The memory of ``logger`` (the engine's ``NvStore``); the database stays ours."""
+        return LoggerNvStore(self, logger)
+
+    def defer(self, logger: str, commit: _Commit) -> None:
+        """Write ``commit`` at the end of the turn (at once without a ``schedule_flush``)."""
+        if self._schedule is None:
+            self.write([(logger, commit)])
+            return
+        if not self._waiting:
+            self._schedule(self.flush)
+        self._waiting.append((logger, commit))
+
+    def flush(self) -> None:
+        """Write every waiting commit in one transaction."""
+        self.write([])
+
+    def write(self, commits: list[tuple[str, _Commit]]) -> None:
+        """Write what waits and ``commits`` in one durable transaction."""
+        batch, self._waiting = [*self._waiting, *commits], []
+        if not batch:
+            return
+        conn = self.conn
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            for logger, commit in batch:
+                _apply(conn, logger, *commit)
+        except BaseException:
+            conn.execute("ROLLBACK")
+            raise
+        conn.execute("COMMIT")
+        self.transactions += 1
+
+    def close(self) -> None:
+        self.flush()
+        self.conn.close()
+
+
+def _apply(
+    conn: sqlite3.Connection,
+    logger: str,
+    changes: dict[str, str | None],
+    clock_offset: float | None,
+    record: RecordChanges | None,
+    seen: float | None,
+) -> None:
+    for key, value in changes.items():
+        if value is None:
+            conn.execute("DELETE FROM param WHERE logger = ? AND key = ?", (logger, key))
+        else:
+            conn.execute(
+                "INSERT INTO param (logger, key, value) VALUES (?, ?, ?) "
+                "ON CONFLICT(logger, key) DO UPDATE SET value = excluded.value",
+                (logger, key, value),
+            )
+    if clock_offset is not None:
+        conn.execute(_UPSERT_META, (logger, "clock_offset", repr(clock_offset)))
+    if seen is not None:
+        conn.execute(_UPSERT_META, (logger, "host_seen", repr(seen)))
+    if record is not None:
+        conn.execute("DELETE FROM record WHERE logger = ? AND seq < ?", (logger, record.head_seq))
+        conn.executemany(
+            "INSERT OR REPLACE INTO record (logger, seq, row) VALUES (?, ?, ?)",
+            [(logger, seq, row) for seq, row in record.rows],
+        )
+        conn.execute(_UPSERT_META, (logger, "record_head", str(record.head_seq)))
+        conn.execute(_UPSERT_META, (logger, "record_wrapped", "1" if record.wrapped else "0"))
+        conn.execute(_UPSERT_META, (logger, "record_refused", "1" if record.refused else "0"))
+
+
+class LoggerNvStore:
+    """Parameters, clock, record and table files of one ALA1 module (the engine's
+    ``NvStore``), under its key in an :class:`NvDatabase`."""
+
+    def __init__(self, database: NvDatabase, logger: str = SINGLE) -> None:
+        self.database = database
+        self.logger = logger
+
+    @property
+    def conn(self) -> sqlite3.Connection:
+        return self.database.conn
+
+    @property
+    def path(self) -> Path | str:
+        return self.database.path
+
+    def _meta(self, key: str) -> str | None:
+        row = self.conn.execute(
+            "SELECT value FROM meta WHERE logger = ? AND key = ?", (self.logger, key)
+        ).fetchone()
+        return None if row is None else str(row[0])
 
     def load(self) -> tuple[dict[str, str], float | None]:
-        values = dict(self.conn.execute("SELECT key, value FROM param").fetchall())
+        values = dict(
+            self.conn.execute(
+                "SELECT key, value FROM param WHERE logger = ?", (self.logger,)
+            ).fetchall()
+        )
         offset = self._meta("clock_offset")
         return values, (float(offset) if offset is not None else None)
 
@@ -57,13 +233,11 @@ class SqliteNvStore:
         seen = self._meta("host_seen")
         return None if seen is None else float(seen)
 
-    def _meta(self, key: str) -> str | None:
-        row = self.conn.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
-        return None if row is None else str(row[0])
-
     def load_record(self) -> tuple[list[str], int, bool, bool]:
         """Rows oldest first, the sequence number of the first, and the wrapped/refused flags."""
-        rows = self.conn.execute("SELECT seq, row FROM record ORDER BY seq").fetchall()
+        rows = self.conn.execute(
+            "SELECT seq, row FROM record WHERE logger = ? ORDER BY seq", (self.logger,)
+        ).fetchall()
         head = self._meta("record_head")
         first = rows[0][0] if rows else int(head or 0)
         return (
@@ -74,14 +248,20 @@ class SqliteNvStore:
         )
 
     def load_files(self) -> dict[str, bytes]:
-        return {a: bytes(d) for a, d in self.conn.execute("SELECT area, data FROM file")}
+        return {
+            a: bytes(d)
+            for a, d in self.conn.execute(
+                "SELECT area, data FROM file WHERE logger = ?", (self.logger,)
+            )
+        }
 
     def write_file(self, area: str, data: bytes) -> None:
-        """Replace a file area (``list``, ``data``) durably (§6.16)."""
-        self.conn.execute(
-            "INSERT INTO file (area, data) VALUES (?, ?) "
-            "ON CONFLICT(area) DO UPDATE SET data = excluded.data",
-            (area, data),
+        """Replace a file area (``list``, ``data``) durably (§6.16), after what waits."""
+        self.database.flush()
+        self.conn.execute(  # autocommit: its own durable transaction
+            "INSERT INTO file (logger, area, data) VALUES (?, ?, ?) "
+            "ON CONFLICT(logger, area) DO UPDATE SET data = excluded.data",
+            (self.logger, area, data),
         )
 
     def commit(
@@ -91,34 +271,24 @@ class SqliteNvStore:
         record: RecordChanges | None = None,
         seen: float | None = None,
     ) -> None:
-        conn = self.conn
-        conn.execute("BEGIN IMMEDIATE")
-        try:
-            for key, value in changes.items():
-                if value is None:
-                    conn.execute("DELETE FROM param WHERE key = ?", (key,))
-                else:
-                    conn.execute(
-                        "INSERT INTO param (key, value) VALUES (?, ?) "
-                        "ON CONFLICT(key) DO UPDATE SET value = excluded.value",
-                        (key, value),
-                    )
-            if clock_offset is not None:
-                conn.execute(_UPSERT_META, ("clock_offset", repr(clock_offset)))
-            if seen is not None:
-                conn.execute(_UPSERT_META, ("host_seen", repr(seen)))
-            if record is not None:
-                conn.execute("DELETE FROM record WHERE seq < ?", (record.head_seq,))
-                conn.executemany(
-                    "INSERT OR REPLACE INTO record (seq, row) VALUES (?, ?)", record.rows
-                )
-                conn.execute(_UPSERT_META, ("record_head", str(record.head_seq)))
-                conn.execute(_UPSERT_META, ("record_wrapped", "1" if record.wrapped else "0"))
-                conn.execute(_UPSERT_META, ("record_refused", "1" if record.refused else "0"))
-        except BaseException:
-            conn.execute("ROLLBACK")
-            raise
-        conn.execute("COMMIT")
+        """A command line's changes: durable when this returns (with all that waited)."""
+        self.database.write([(self.logger, (dict(changes), clock_offset, record, seen))])
+
+    def commit_scheduled(self, record: RecordChanges, seen: float) -> None:
+        """Rows the module sampled on its own: durable at the end of the turn (group commit
+        across a fleet), at once when the database has no group commit."""
+        self.database.defer(self.logger, ({}, None, record, seen))
 
     def close(self) -> None:
-        self.conn.close()
+        """The database is shared: :meth:`NvDatabase.close` closes it."""
+
+
+class SqliteNvStore(LoggerNvStore):
+    """A single ALA1 module alone in its own file (``ala1.sqlite``): it owns its database,
+    written at once (no group commit)."""
+
+    def __init__(self, path: Path | str) -> None:
+        super().__init__(NvDatabase(path), SINGLE)
+
+    def close(self) -> None:
+        self.database.close()

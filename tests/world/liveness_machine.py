@@ -239,5 +239,5 @@ class GsmLiveness(RuleBasedStateMachine):
         if self.stalled:
             assert len(got) >= len(expected), (got, expected)
             assert set(got) <= set(expected) or not expected, (got, expected)
-        else:
-            assert got == expected, (got, expected)
+        else:  # each once; replies to one phone may interleave (a retried part comes later)
+            assert sorted(got) == sorted(expected), (got, expected)

@@ -94,7 +94,7 @@ class ModemDriver:
         self._deadline: float | None = None
         self._next_probe = now
         self._probed_at = now - PROBE_QUIET
-        self._heard = False  # modem output seen on the line while it works as local
+        self.heard = False  # modem output seen on the line while it works as local
         self._recent = b""  # the last bytes of a local line: modem output cut in pieces
         self.resync = False
         self.stray_finals = 0
@@ -132,9 +132,9 @@ class ModemDriver:
                 return False
             # a modem speaks on a line that works as local: never command input; it is
             # probably back (§6.11.5.2.1): ask soon, however busy the line
-            if not self._heard:
+            if not self.heard:
                 log.info("modem output on the local line: looking for the modem")
-            self._heard = True
+            self.heard = True
             self._next_probe = min(self._next_probe, max(now, self._probed_at + PROBE_QUIET))
         for line in self.reader.feed(data):
             self._line(line)
@@ -162,7 +162,7 @@ class ModemDriver:
         if self.present is None:
             return self._next_probe
         if self.present is not True:
-            if self._heard:
+            if self.heard:
                 return self._next_probe
             return max(self._next_probe, self.host.line_quiet_since() + PROBE_QUIET)
         if self._urcs or self.listing_due or self.applied != self.device or self.reader.raw:
@@ -193,9 +193,11 @@ class ModemDriver:
         """A reply to go out (now, or again after a failed try)."""
         self.replies.append(reply)
 
-    @property
-    def heard(self) -> bool:
-        return self._heard
+    def keep_looking(self) -> None:
+        """A modem the driver was talking to stopped answering: probe again soon however
+        busy the line is (its traffic may be the modem's data mode talking to the line)."""
+        self.heard = True
+        self._next_probe = self.now + PROBE_QUIET
 
     def drop_urcs(self, exact: str) -> None:
         self._urcs = deque(u for u in self._urcs if u != exact)
@@ -355,7 +357,7 @@ class ModemDriver:
 
     def found(self, answered: bool) -> None:
         """The result of a probe."""
-        self._heard = False
+        self.heard = False
         if answered:
             self.present = True
         else:
@@ -379,7 +381,7 @@ class ModemDriver:
             return None
         if self.present is not True:
             quiet = self.now >= self.host.line_quiet_since() + PROBE_QUIET
-            if self.now >= self._next_probe and (quiet or self.present is None or self._heard):
+            if self.now >= self._next_probe and (quiet or self.present is None or self.heard):
                 self._next_probe = self.now + PROBE_INTERVAL
                 self._probed_at = self.now
                 return "probe", jobs.probe(self)

@@ -59,6 +59,7 @@ def probe(d: ModemDriver) -> Job:
 
     if d.reader.raw and not (yield from leave_data_mode(d)):  # gsm.md §7: no AT in it
         d.found(False)
+        d.keep_looking()
         return
     resync, d.resync = d.resync, False
     if resync:  # a command went unanswered: its late answer passes first, unread
@@ -81,6 +82,8 @@ def probe(d: ModemDriver) -> Job:
             d.out_of_step("an answer after the probe's")
             return
     d.found(reply.final != "")
+    if not reply.final and resync:
+        d.keep_looking()
 
 
 def hang_up(d: ModemDriver) -> Job:

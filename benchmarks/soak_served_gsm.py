@@ -16,10 +16,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 import random
 import re
-import select
 import socket
 import subprocess
 import sys
@@ -32,49 +30,26 @@ from pathlib import Path
 
 from sondalog.client.phone import PhoneApi, PhoneApiError
 
-ROOT = Path(__file__).resolve().parents[1]
-EXAMPLE = ROOT / "examples" / "gsm-site.toml"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "gsm"))
+
+from gsm_served import example_text, free_port, serve
+
 MODEM = "+420600000001"
 PHONES = ("+420700000001", "+420700000002")
 #: SMS commands and the text of their reply (replies are counted per phone and command).
 COMMANDS = {"read i version": "2.10\r\n", "read com speed": "9600\r\n", "read i snumber": "000001"}
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def start(state: Path, speed: float) -> tuple[subprocess.Popen[bytes], dict[str, int]]:
-    text = EXAMPLE.read_text()
-    text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
-    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {free_port()} }}')
+    text = example_text(free_port())
     # a second line into the modem (a Y-cable), only to ask AT+CPMS? at the end
     text = text.replace('# listen = "127.0.0.1:0"', 'listen = "127.0.0.1:0"')
     site = state.parent / "gsm-site.toml"
     site.write_text(text)
-    cmd = [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state)]
-    if speed != 1.0:
-        cmd += ["--speed", str(speed)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
-    assert proc.stdout is not None
-    lines: list[str] = []
-    pending = b""
-    while not any(x.startswith("logger com line joined") for x in lines):
-        ready, _, _ = select.select([proc.stdout], [], [], 30)
-        chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
-        if not chunk:
-            proc.kill()
-            raise SystemExit(f"serve did not start: {lines}")
-        pending += chunk
-        *done, pending = pending.split(b"\n")
-        lines += [x.decode().strip() for x in done]
-
-    def port(prefix: str) -> int:
-        return int(re.findall(r":(\d+)", next(x for x in lines if x.startswith(prefix)))[0])
-
-    return proc, {"cable": port("logger "), "api": port("gsm API"), "modem": port("gsm modem +")}
+    extra = ("--speed", str(speed)) if speed != 1.0 else ()
+    served = serve(site, state, *extra, until="logger com line joined", stderr=subprocess.DEVNULL)
+    ports = {"cable": "logger ", "api": "gsm API", "modem": "gsm modem +"}
+    return served.proc, {name: served.port(prefix) for name, prefix in ports.items()}
 
 
 def ask(sock: socket.socket, command: str) -> bytes:

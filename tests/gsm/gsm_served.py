@@ -31,12 +31,18 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def site_file(tmp_path: Path, pty: Path | None = None) -> tuple[Path, int]:
-    """The example world on free ports; returns the file and the modem's published port."""
+def example_text(published: int) -> str:
+    """``examples/gsm-site.toml`` with every listener on a free port and the modem's port
+    10001 published on ``published``."""
     text = EXAMPLE.read_text()
     text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
+    return text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {published} }}')
+
+
+def site_file(tmp_path: Path, pty: Path | None = None) -> tuple[Path, int]:
+    """The example world on free ports; returns the file and the modem's published port."""
     published = free_port()
-    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {published} }}')
+    text = example_text(published)
     link = pty if pty is not None else tmp_path / "modem-pty"
     # these tests are the modem's DTE themselves: no logger drives it, its lines are served
     text = text.replace('modem = "+420600000001"', "", 1)
@@ -87,23 +93,30 @@ class Served:
         assert self.proc.wait(15) == 0
 
 
-def serve(site: Path, state: Path, *extra: str) -> Served:
-    """Start ``sondalog serve`` and wait until the GSM API and modem lines are announced."""
+def serve(
+    site: Path,
+    state: Path,
+    *extra: str,
+    until: str = "gsm modem pty",
+    stderr: int = subprocess.PIPE,
+) -> Served:
+    """Start ``sondalog serve`` and wait until it announces a line starting with ``until``
+    (by default the modem's pty: the GSM API and modem lines come before it)."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state), *extra],
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
+        stderr=stderr,
     )
     served = Served(proc)
     assert proc.stdout is not None
     pending = b""
-    while not any(x.startswith("gsm modem pty") for x in served.lines):
+    while not any(x.startswith(until) for x in served.lines):
         ready, _, _ = select.select([proc.stdout], [], [], 30)
         chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
         if not chunk:
             proc.kill()
             _, err = proc.communicate()
-            raise AssertionError(f"serve printed only {served.lines}: {err.decode()}")
+            raise AssertionError(f"serve printed only {served.lines}: {(err or b'').decode()}")
         pending += chunk
         *lines, pending = pending.split(b"\n")
         served.lines += [line.decode().strip() for line in lines]

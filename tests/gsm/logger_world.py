@@ -5,30 +5,23 @@ the phones' inboxes; the modem line's trace read while the world runs."""
 
 from __future__ import annotations
 
-import os
 import re
-import select
 import socket
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from gsm_served import EXAMPLE, MODEM, Served, free_port
+from gsm_served import MODEM, Served, example_text, free_port, serve
 
 from sondalog.client.phone import PhoneApi
 
 
 def logger_site(tmp_path: Path) -> Path:
     """The example world on free ports, its logger driving its modem (as shipped)."""
-    text = EXAMPLE.read_text()
-    text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
-    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {free_port()} }}')
     site = tmp_path / "gsm-site.toml"
-    site.write_text(text)
+    site.write_text(example_text(free_port()))
     return site
 
 
@@ -66,24 +59,7 @@ class World:
 def start(tmp_path: Path, *extra: str) -> World:
     """``sondalog serve`` on :func:`logger_site`; returns once the logger's com line joined."""
     state = tmp_path / "state"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sondalog", "serve", str(logger_site(tmp_path)), "--state",
-         str(state), *extra],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )  # fmt: skip
-    served = Served(proc)
-    assert proc.stdout is not None
-    pending = b""
-    while not any(x.startswith("logger com line joined") for x in served.lines):
-        ready, _, _ = select.select([proc.stdout], [], [], 30)
-        chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
-        if not chunk:
-            proc.kill()
-            raise AssertionError(f"serve printed {served.lines}: {proc.communicate()[1].decode()}")
-        pending += chunk
-        *done, pending = pending.split(b"\n")
-        served.lines += [x.decode().strip() for x in done]
+    served = serve(logger_site(tmp_path), state, *extra, until="logger com line joined")
     return World(served, state)
 
 

@@ -5,10 +5,8 @@ mail hub; an SMS command is answered by SMS. Real TCP, HTTP and POP3 on loopback
 from __future__ import annotations
 
 import json
-import os
 import poplib
 import re
-import select
 import signal
 import socket
 import subprocess
@@ -18,7 +16,7 @@ import urllib.request
 from pathlib import Path
 from typing import Any
 
-from gsm_served import EXAMPLE, MODEM, PHONE, PHONE2, free_port
+from gsm_served import MODEM, PHONE, PHONE2, example_text, free_port, serve
 
 LOGIN = "secret"
 ACCOUNT = f"logger@example.net:{LOGIN}"
@@ -27,30 +25,10 @@ ACCOUNT = f"logger@example.net:{LOGIN}"
 def _start(
     tmp_path: Path, published: int | None = None
 ) -> tuple[subprocess.Popen[bytes], list[str]]:
-    text = EXAMPLE.read_text()
-    text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
-    port = published if published is not None else free_port()
-    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {port} }}')
     site = tmp_path / "gsm-site.toml"
-    site.write_text(text)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(tmp_path / "s")],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
-    assert proc.stdout is not None
-    lines: list[str] = []
-    pending = b""
-    while not any(x.startswith("logger com line joined") for x in lines):
-        ready, _, _ = select.select([proc.stdout], [], [], 30)
-        chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
-        if not chunk:
-            proc.kill()
-            raise AssertionError(f"serve printed {lines}: {proc.communicate()[1].decode()}")
-        pending += chunk
-        *done, pending = pending.split(b"\n")
-        lines += [x.decode().strip() for x in done]
-    return proc, lines
+    site.write_text(example_text(published if published is not None else free_port()))
+    served = serve(site, tmp_path / "s", until="logger com line joined")
+    return served.proc, served.lines
 
 
 def _port(lines: list[str], prefix: str, index: int = 0) -> int:

@@ -146,3 +146,44 @@ def test_the_reader_is_bounded() -> None:
     reader.raw = True
     reader.feed(b"y" * 100_000)
     assert len(reader.data) <= 16384
+
+
+def test_input_held_while_local_is_dropped_whole_when_the_modem_takes_the_line() -> None:
+    """A ``pause`` typed on the com line while it worked as local, and flooded past its
+    backlog, leaves nothing behind once the driver has the line again: the next ``pause``
+    on a local line keeps its input (no stale overrun)."""
+    from sondalog.ala1 import Engine, Identity, Version
+    from sondalog.backends.store.ala1_nv import SqliteNvStore
+
+    now = 0.0
+    engine = Engine(Identity(Version.V2_10), SqliteNvStore(":memory:"), now)
+    engine.receive(engine.open_line(), b"write com device wavecom41\r", now)
+    line = engine.attach_modem(now)
+    out = b""
+
+    def run(until: float) -> None:
+        nonlocal now, out
+        while (due := engine.next_deadline()) is not None and due <= until:
+            now = max(now, due)
+            out += b"".join(s.data for s in engine.advance(now) if s.line == line)
+        now = until
+
+    def send(data: bytes) -> None:
+        nonlocal out
+        out += b"".join(s.data for s in engine.receive(line, data, now) if s.line == line)
+
+    run(2.0)  # the first probe went unanswered: the line works as local
+    send(b"pause 30 read i version\r" + b"x" * 8000)  # more than the FIFO holds
+    send(b"\r\nOK\r\n")  # a modem speaks: the driver takes the line
+    assert engine.modem is not None
+    while engine.modem.driver.local:  # it probes soon, however busy the line
+        run(now + 0.5)
+        assert now < 60.0
+    while not engine.modem.driver.local:  # its probes go unanswered: local again
+        run(now + 0.5)
+        assert now < 300.0
+    out = b""
+    send(b"pause 1 read i version\r")
+    send(b"read com speed\r")
+    run(now + 3.0)
+    assert out.endswith(b"9600\r\nOK\r\n"), out

@@ -143,7 +143,8 @@ class Engine:
             line = self._lines[self.modem.line]
             if line.started is not None or line.pending is not None:
                 self._reset(line)
-                line.pending, line.backlog = None, bytearray()
+                line.pending = None
+                line.take_backlog()
 
     def _local_ready(self) -> bool:
         """A cable line is attached and none blocks messages (§6.14.9.2)."""
@@ -323,8 +324,7 @@ class Engine:
             if answer is not None:
                 self._deliver(line, command, answer, now, line.speed)
             if line.pending is None:
-                backlog, line.backlog = bytes(line.backlog), bytearray()
-                overrun, line.overrun = line.overrun, False
+                backlog, overrun = line.take_backlog()
                 if backlog:
                     self._feed(line_id, line, backlog, now)
                 if overrun:

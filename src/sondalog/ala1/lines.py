@@ -52,6 +52,13 @@ class Line:
             self.overrun = True  # and nothing more is kept: no gap inside the backlog
         self.backlog += data
 
+    def take_backlog(self) -> tuple[bytes, bool]:
+        """What was held while a command waited, and whether bytes after it were lost;
+        the line holds nothing after."""
+        held, lost = bytes(self.backlog), self.overrun
+        self.backlog, self.overrun = bytearray(), False
+        return held, lost
+
     def room(self) -> int | None:
         """How many more bytes the line can take without losing any (None: no bound, the
         line discipline bounds what it keeps, §3.4.1)."""

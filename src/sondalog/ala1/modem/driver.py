@@ -127,14 +127,16 @@ class ModemDriver:
         if self.device == LOCAL:
             return False
         if self.local:
-            seen, self._recent = self._recent + data, (self._recent + data)[-16:]
+            seen = self._recent + data
             if MODEM_OUTPUT.search(seen) is None:
+                self._recent = seen[-16:]
                 return False
+            self._recent = b""  # taken: it must not make later input look like the modem's
             # a modem speaks on a line that works as local: never command input; it is
             # probably back (§6.11.5.2.1): ask soon, however busy the line
             if not self.heard:
                 log.info("modem output on the local line: looking for the modem")
-            self.heard = True
+                self.heard = True
             self._next_probe = min(self._next_probe, max(now, self._probed_at + PROBE_QUIET))
         for line in self.reader.feed(data):
             self._line(line)
@@ -189,13 +191,9 @@ class ModemDriver:
         if self.session is not None and self.reader.raw:
             self._out += data
 
-    def keep_reply(self, reply: PendingReply) -> None:
-        """A reply to go out (now, or again after a failed try)."""
-        self.replies.append(reply)
-
     def keep_looking(self) -> None:
-        """A modem the driver was talking to stopped answering: probe again soon however
-        busy the line is (its traffic may be the modem's data mode talking to the line)."""
+        """A modem the driver was talking to stopped answering: probe again soon, however
+        busy the line (its traffic may be the modem's, in data mode)."""
         self.heard = True
         self._next_probe = self.now + PROBE_QUIET
 
@@ -319,10 +317,10 @@ class ModemDriver:
         if isinstance(wait, At | Send):
             self.outstanding += 1  # its answer may still come, late (jobs.probe waits)
             self.last_timeout = self.now
-        if isinstance(wait, At | Send | Await):
-            if isinstance(wait, At | Send) and self._kind != "probe":
+            if self._kind != "probe":
                 log.warning("no answer from the modem to %r: setting it up again", wait)
                 self._lost()
+        if isinstance(wait, At | Send | Await):
             self._resolve(Reply("", tuple(self._lines)))
         elif isinstance(wait, Urc):
             self._resolve(None)

@@ -272,7 +272,7 @@ def read_sms(d: ModemDriver, index: int) -> Job:
     if not answer:
         return
     if found.return_address is not None:
-        d.keep_reply(PendingReply("email", found.return_address, answer, d.now))
+        d.replies.append(PendingReply("email", found.return_address, answer, d.now))
         return
     if not valid_number(sender):
         log.warning("SMS command from %r: no number to answer", sender)
@@ -296,7 +296,7 @@ def send_reply(d: ModemDriver, reply: PendingReply) -> Job:
         log.warning("reply to %s dropped after %d tries: %r", reply.address, reply.tries, reply)
         return
     reply.next_try = d.now + reply_backoff(reply.tries)
-    d.keep_reply(reply)
+    d.replies.append(reply)
 
 
 def call(d: ModemDriver, kind: str, number: str) -> Job:

@@ -196,4 +196,4 @@ def check_mailbox(d: ModemDriver) -> Generator[Request, object, None]:
         return
     answer = yield from execute(d, found.command)
     if answer:
-        d.keep_reply(PendingReply("email", found.reply_to, answer, d.now))
+        d.replies.append(PendingReply("email", found.reply_to, answer, d.now))

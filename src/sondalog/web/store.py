@@ -61,13 +61,6 @@ def connect(path: Path) -> sqlite3.Connection:
     return conn
 
 
-def has_table(conn: sqlite3.Connection, name: str) -> bool:
-    row = conn.execute(
-        "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)
-    ).fetchone()
-    return row is not None
-
-
 def loggers(conn: sqlite3.Connection) -> list[str]:
     """Every logger with readings or a source, sorted (a skip scan over the key)."""
     found = {
@@ -106,8 +99,8 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
     """
     out: dict[int, Channel] = {}
     formats: dict[int, int] = {}
-    if has_table(conn, "channels"):
-        columns = {row[1] for row in conn.execute("PRAGMA table_info(channels)")}
+    columns = {row[1] for row in conn.execute("PRAGMA table_info(channels)")}  # {}: no table
+    if columns:
         fmt = "format" if "format" in columns else "NULL"
         for ch, name, unit, typ, form in conn.execute(
             f"SELECT channel, name, unit, type, {fmt} FROM channels WHERE logger = ?", (logger,)
@@ -124,7 +117,7 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
     for ch, time, value, name, unit in recent:
         if ch <= 0:
             continue
-        if value is not None:
+        if value is not None and ch not in formats:  # the logger's own format wins
             places[ch] = max(places.get(ch, 0), decimals(value))
         old = out.get(ch)
         if old is not None and old.last_time is not None:
@@ -137,7 +130,7 @@ def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
             time,
             value,
         )
-    for ch, n in (places | formats).items():  # the logger's own format wins
+    for ch, n in (places | formats).items():
         if ch in out:
             out[ch] = replace(out[ch], decimals=n)
     return [out[k] for k in sorted(out)]

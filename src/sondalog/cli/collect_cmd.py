@@ -50,10 +50,7 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     collector = Collector(config)
     try:
         collector.open()
-    except StoreError as exc:
-        raise Refused(str(exc)) from None
-    except ConfigError as exc:
-        collector.store.close_sync()
+    except (StoreError, ConfigError) as exc:  # the sinks are built before the store opens
         raise Refused(str(exc)) from None
     try:
         asyncio.run(_run(collector, once))

@@ -176,9 +176,7 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
     for key in sqlite:
         if key not in ("path", "readings"):
             raise fail(f"sqlite.{key}", "unknown key (known: path, readings)")
-    store = _path(sqlite.get("path", "collector.sqlite"), base, "sqlite.path", fail)
-    if store.is_dir():
-        raise fail("sqlite.path", f"{store} is a directory; name the store's file")
+    store = _path(sqlite.get("path", "collector.sqlite"), base, "sqlite.path", fail, "store's")
     keep = sqlite.get("readings", True)
     if not isinstance(keep, bool):
         raise fail("sqlite.readings", "must be true or false")
@@ -187,9 +185,9 @@ def parse_config(data: Mapping[str, Any], path: Path, text: str | None = None) -
         if key != "path":
             raise fail(f"buffer.{key}", "unknown key (known: path)")
     default_buffer = store.with_name(store.stem + ".buffer.sqlite")
-    buffer = _path(buffer_table.get("path", str(default_buffer)), base, "buffer.path", fail)
-    if buffer.is_dir():
-        raise fail("buffer.path", f"{buffer} is a directory; name the buffer's file")
+    buffer = _path(
+        buffer_table.get("path", str(default_buffer)), base, "buffer.path", fail, "buffer's"
+    )
 
     raw_sources = data.get("source", [])
     if not isinstance(raw_sources, list) or not all(isinstance(s, dict) for s in raw_sources):
@@ -237,10 +235,14 @@ def _sink(kind: SinkKind[Any], table: dict[str, Any], fail: Fail) -> Any:
         raise report("", str(exc)) from None
 
 
-def _path(value: object, base: Path, where: str, fail: Any) -> Path:
+def _path(value: object, base: Path, where: str, fail: Any, what: str) -> Path:
+    """A file the collector writes (``what``: whose): a name, not a directory."""
     if not isinstance(value, str) or not value:
         raise fail(where, "must be a file name")
-    return base / Path(value).expanduser()
+    path = base / Path(value).expanduser()
+    if path.is_dir():
+        raise fail(where, f"{path} is a directory; name the {what} file")
+    return path
 
 
 def _number(table: Mapping[str, Any], key: str, default: float, where: str, fail: Any) -> float:
@@ -355,7 +357,7 @@ def _channel_names(value: object, where: str, fail: Any) -> dict[int, str]:
         raise fail(where, shape)
     out: dict[int, str] = {}
     for key, name in value.items():
-        if not str(key).isdigit() or int(key) < 1:
+        if not str(key).isdecimal() or int(key) < 1:  # isdigit would let "²" through
             raise fail(f"{where}.{key}", f"not a channel number; {shape}")
         if not isinstance(name, str) or not name.strip():
             raise fail(f"{where}.{key}", f"must be a name; {shape}")

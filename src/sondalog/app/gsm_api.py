@@ -47,13 +47,13 @@ from starlette.routing import Route
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from sondalog.app.gsm import GsmRuntime
+from sondalog.client.phone import MAX_BODY  # one limit: the client checks it before sending
 from sondalog.gsm.network import MODEM, PHONE
 from sondalog.gsm.sms import Sms, joined, normalize
 
 #: The longest text ``POST /sms`` takes (a concatenated SMS of at most 255 parts is far more).
 MAX_TEXT = 4000
 #: The largest request body read, in bytes; a larger one gets 413.
-MAX_BODY = 64 * 1024
 #: The deepest nesting of a request body (objects and arrays); a request needs 1.
 MAX_DEPTH = 32
 

@@ -19,7 +19,8 @@ from typing import Any, TypeVar
 from urllib.parse import quote, unquote, urlsplit
 
 DEFAULT_API = "http://127.0.0.1:8025"
-#: The largest request body the API reads (``sondalog.app.gsm_api.MAX_BODY``, docs/gsm.md).
+#: The largest request body the API reads (``sondalog.app.gsm_api`` takes it from here;
+#: docs/gsm.md).
 MAX_BODY = 64 * 1024
 #: How long a data call may ring before ``sondalog term`` gives up (the network: 60 s).
 ANSWER_TIMEOUT = 65.0

@@ -15,8 +15,9 @@ Each entry is one logger, or a numbered range of them::
     listen = "127.0.0.1:12000"        # the first's port; logger n listens on port + n - first
 
 A serial number names the logger's state directory (``STATE/loggers/SERIAL``) and its log
-lines, so it is made of letters, digits, ``-``, ``_`` and ``.``. Serial numbers and ports are
-unique across the file (port 0: each logger any free port). Errors name the file, the line
+lines, so it is made of letters, digits, ``-``, ``_`` and ``.``. Serial numbers are unique
+across the file; so are ports, with every other listener of the file (``app.site`` checks them
+all; port 0: each logger any free port). Errors name the file, the line
 and the field (``loggers[1].listen``), like every site-file error.
 """
 
@@ -64,7 +65,6 @@ def parse_fleet(
         raise fail("loggers", "must be an array of tables ([[loggers]])")
     fleet: list[FleetLogger] = []
     serials: dict[str, str] = {}
-    ports: dict[tuple[str, int], str] = {}
     for i, entry in enumerate(raw):
         where = f"loggers[{i}]"
         if not isinstance(entry, Mapping):
@@ -78,13 +78,6 @@ def parse_fleet(
                     f"{logger.serial_number} is also declared by {serials[logger.serial_number]}",
                 )
             serials[logger.serial_number] = where
-            if logger.listen[1] != 0:
-                if logger.listen in ports:
-                    raise fail(
-                        f"{where}.listen",
-                        f"port {logger.listen[1]} is already used by {ports[logger.listen]}",
-                    )
-                ports[logger.listen] = where
             fleet.append(logger)
     return fleet
 

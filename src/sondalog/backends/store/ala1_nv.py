@@ -209,10 +209,6 @@ class LoggerNvStore:
     def conn(self) -> sqlite3.Connection:
         return self.database.conn
 
-    @property
-    def path(self) -> Path | str:
-        return self.database.path
-
     def _meta(self, key: str) -> str | None:
         row = self.conn.execute(
             "SELECT value FROM meta WHERE logger = ? AND key = ?", (self.logger, key)

@@ -255,7 +255,7 @@ class MqttSink:
 
 
 def create(table: dict[str, object]) -> MqttSink:
-    """The registry's entry point: an MQTT sink from the ``[mqtt]`` table."""
+    """An MQTT sink straight from an ``[mqtt]`` table (the registry parses, then builds)."""
     return MqttSink(parse_config(table))
 
 

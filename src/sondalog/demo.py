@@ -58,7 +58,7 @@ from sondalog.app.serve import RunningSite, start_site
 from sondalog.app.site import load_site
 from sondalog.backends.sim.logger import SimHardware
 from sondalog.client import Ala1Client
-from sondalog.io.address import format_address, parse_listen
+from sondalog.config.address import format_address, parse_listen
 from sondalog.io.clock import AcceleratedClock, RealClock
 from sondalog.io.loop import stop_on_signals
 

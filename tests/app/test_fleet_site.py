@@ -18,7 +18,7 @@ from sondalog.ala1 import Engine, Identity
 from sondalog.app.site import load_site
 from sondalog.backends.sim.logger import default_hardware
 from sondalog.backends.store.ala1_nv import NvDatabase
-from sondalog.sitefile import SiteError
+from sondalog.config import ConfigError
 
 T0 = 1_000_000_000.0
 
@@ -115,7 +115,7 @@ def test_errors_name_file_line_and_field(
     tmp_path: Path, body: str, field: str, line: int, message: str
 ) -> None:
     site = _write(tmp_path, body)
-    with pytest.raises(SiteError) as caught:
+    with pytest.raises(ConfigError) as caught:
         load_site(site)
     assert caught.value.field == field
     assert caught.value.line == line

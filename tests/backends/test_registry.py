@@ -12,7 +12,7 @@ from sondalog.backends import registry
 from sondalog.backends.registry import BackendContext, UnknownBackend
 from sondalog.backends.sim.logger import SimHardware
 from sondalog.backends.store.ala1_nv import SqliteNvStore
-from sondalog.sitefile import read_site_file
+from sondalog.config import read_site_file
 
 T0 = 1_000_000_000.0
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from sondalog.backends.sim.signals import SignalError, build_signal
-from sondalog.backends.sim.site_bus import SiteError, default_bus_site, load_bus_site
+from sondalog.backends.sim.site_bus import ConfigError, default_bus_site, load_bus_site
 from sondalog.backends.store.eeprom import FILE_NAME, EepromDatabase
 from sondalog.hctmps1 import EepromImage, Kind
 
@@ -133,7 +133,7 @@ def test_site_errors_name_file_field_and_line(
     path = tmp_path / "site.toml"
     assert old in SITE
     path.write_text(SITE.replace(old, new, 1))
-    with pytest.raises(SiteError) as info:
+    with pytest.raises(ConfigError) as info:
         load_bus_site(path, S)
     assert str(info.value).startswith(f"{path}{where}")
 
@@ -141,12 +141,12 @@ def test_site_errors_name_file_field_and_line(
 def test_site_needs_a_bus_with_modules(tmp_path: Path) -> None:
     path = tmp_path / "site.toml"
     path.write_text("[logger]\n")
-    with pytest.raises(SiteError, match="needs a \\[bus\\] table"):
+    with pytest.raises(ConfigError, match="needs a \\[bus\\] table"):
         load_bus_site(path, S)
     path.write_text("[bus]\nbaud = 9600\n")
-    with pytest.raises(SiteError, match=r":1: bus\.modules"):
+    with pytest.raises(ConfigError, match=r":1: bus\.modules"):
         load_bus_site(path, S)
-    with pytest.raises(SiteError, match="cannot read"):
+    with pytest.raises(ConfigError, match="cannot read"):
         load_bus_site(tmp_path / "missing.toml", S)
 
 

@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 
 from sondalog.app.gsm_site import parse_gsm_site
+from sondalog.config import ConfigError
 from sondalog.gsm import events as ev
 from sondalog.gsm.modem import Modem
 from sondalog.gsm.network import Network
 from sondalog.protocol.device import LineSend
-from sondalog.sitefile import SiteError
 from sondalog.world.gsm_devices import (
     FromNetwork,
     ModemDevice,
@@ -117,7 +117,7 @@ def test_site_table_with_serve_keys_and_logger_models() -> None:
 )
 def test_site_table_errors_name_the_field(change: tuple[str, str], field: str) -> None:
     text = SITE.replace(*change)
-    with pytest.raises(SiteError) as error:
+    with pytest.raises(ConfigError) as error:
         _plan(text)
     assert field in str(error.value)
 

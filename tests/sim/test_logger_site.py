@@ -8,7 +8,7 @@ import pytest
 
 from sondalog.ala1.hardware import rom_valid
 from sondalog.backends.sim.logger import load_logger_site
-from sondalog.backends.sim.site_bus import SiteError
+from sondalog.backends.sim.site_bus import ConfigError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -68,7 +68,7 @@ def test_a_wrong_site_file_names_file_line_and_field(
 ) -> None:
     path = tmp_path / "site.toml"
     path.write_text(text)
-    with pytest.raises(SiteError) as info:
+    with pytest.raises(ConfigError) as info:
         load_logger_site(path, 1e9)
     message = str(info.value)
     assert message.startswith(f"{path}:{line}: " if line else f"{path}")
@@ -77,5 +77,5 @@ def test_a_wrong_site_file_names_file_line_and_field(
 
 
 def test_a_missing_site_file(tmp_path: Path) -> None:
-    with pytest.raises(SiteError, match="cannot read"):
+    with pytest.raises(ConfigError, match="cannot read"):
         load_logger_site(tmp_path / "nope.toml", 1e9)

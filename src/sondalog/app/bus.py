@@ -86,7 +86,7 @@ async def start_bus_server(
     rs485: Rs485Settings | None = None,
     root: Path = Path("/"),
 ) -> BusServer:
-    """Start a bus; raises :class:`~sondalog.sitefile.SiteError` for a bad site file.
+    """Start a bus; raises :class:`~sondalog.config.ConfigError` for a bad site file.
 
     ``serial`` with ``rs485`` opens the port as an RS-485 adapter (:func:`open_rs485`);
     modules with a real ``source`` read sysfs under ``root``."""

@@ -301,7 +301,7 @@ def simulated_sensors(state: Path, logger: DemoLogger, origin: float) -> SimHard
     backend), the signals starting at ``origin``: what :func:`fast_forward` records the
     history with, and what the served logger samples live. With the history's origin, a
     random walk goes on live from its last recorded value instead of starting over.
-    Raises :class:`~sondalog.sitefile.SiteError`."""
+    Raises :class:`~sondalog.config.ConfigError`."""
     return load_logger_site(state / f"{logger.key}.toml", origin)
 
 

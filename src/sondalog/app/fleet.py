@@ -27,13 +27,13 @@ from sondalog.app.fleet_site import FleetLogger
 from sondalog.app.logger import IdentityConflict, load_identity
 from sondalog.backends.sim.logger import default_hardware, parse_logger_site
 from sondalog.backends.store.ala1_nv import NvDatabase
-from sondalog.io.address import format_address
+from sondalog.config import ConfigError, read_site_file
+from sondalog.config.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import private_dir
 from sondalog.io.tcp import TcpServer, serve_tcp
 from sondalog.protocol.device import Effect, Event
-from sondalog.sitefile import SiteError, read_site_file
 
 DATABASE_FILE = "fleet.sqlite"
 
@@ -145,7 +145,7 @@ async def start_fleet(
     path: Path | None,
     announce: Callable[[str], None] = lambda line: None,
 ) -> RunningFleet:
-    """Start every logger of ``loggers`` (state under ``state``); raises SiteError/OSError."""
+    """Start every logger of ``loggers`` (state under ``state``); raises ConfigError/OSError."""
     install_log_names()
     _raise_open_files(len(loggers) + 1024)
     root = state / "loggers"
@@ -174,7 +174,7 @@ async def start_fleet(
                     root / plan.serial_number, version, plan.serial_number
                 )
             except IdentityConflict as exc:
-                raise SiteError(path, f"{plan.where}.protocol", str(exc)) from exc
+                raise ConfigError(path, f"{plan.where}.protocol", str(exc)) from exc
             store = fleet.database.store(plan.serial_number)
             engine = Engine(identity, store, now, hardware, line_time_scale=clock.speed)
             host = DeviceHost(NamedDevice(engine, plan.serial_number), clock)

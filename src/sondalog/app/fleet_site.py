@@ -28,10 +28,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.io.address import parse_listen
-from sondalog.sitefile import SiteError, locate
+from sondalog.config import ConfigError, locate
+from sondalog.config.address import parse_listen
 
-_Fail = Callable[[str, str], SiteError]
+_Fail = Callable[[str, str], ConfigError]
 
 #: The most loggers one site file may declare (docs/scaling.md: shard beyond that).
 MAX_FLEET = 20_000
@@ -55,8 +55,8 @@ def parse_fleet(
 ) -> list[FleetLogger]:
     """Every logger of the file's ``[[loggers]]`` (empty when it has none)."""
 
-    def fail(where: str, message: str) -> SiteError:
-        return SiteError(path, where, message, locate(text, where))
+    def fail(where: str, message: str) -> ConfigError:
+        return ConfigError(path, where, message, locate(text, where))
 
     raw = data.get("loggers")
     if raw is None:

@@ -29,10 +29,10 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.backends.sim.signals import Signal, SignalError, build_signal
+from sondalog.config import ConfigError, Fail, locate, serve_table
+from sondalog.config.address import parse_listen
 from sondalog.gsm.config import GsmConfig, GsmConfigError, parse
 from sondalog.gsm.sms import normalize
-from sondalog.io.address import parse_listen
-from sondalog.sitefile import Fail, SiteError, locate, serve_table
 
 DEFAULT_API = ("127.0.0.1", 8025)
 _SERVE = {"api"}
@@ -60,10 +60,10 @@ class GsmPlan:
 def parse_gsm_site(
     data: Mapping[str, object], path: Path, text: str, start: float = 0.0
 ) -> GsmPlan:
-    """Check ``data["gsm"]``; raises :class:`SiteError`. Signal models start at ``start``."""
+    """Check ``data["gsm"]``; raises :class:`ConfigError`. Signal models start at ``start``."""
 
-    def fail(where: str, message: str) -> SiteError:
-        return SiteError(path, where, message, locate(text, where))
+    def fail(where: str, message: str) -> ConfigError:
+        return ConfigError(path, where, message, locate(text, where))
 
     table = data.get("gsm")
     if not isinstance(table, Mapping):

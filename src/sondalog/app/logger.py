@@ -22,13 +22,13 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.backends import registry
 from sondalog.backends.registry import Acquiring, BackendContext
 from sondalog.backends.store.ala1_nv import SqliteNvStore
+from sondalog.config import ConfigError, locate, read_site_file
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import open_private, private_dir
 from sondalog.io.pty import PtyLine
 from sondalog.io.serial_line import SerialLine
 from sondalog.io.tcp import TcpServer, serve_tcp
-from sondalog.sitefile import SiteError, locate, read_site_file
 
 IDENTITY_FILE = "identity.json"
 DATABASE_FILE = "ala1.sqlite"
@@ -180,7 +180,7 @@ async def serve_until(stop: asyncio.Event, logger: Logger) -> None:
 def logger_hardware(site: Path | None, start: float, speed: float = 1.0) -> Hardware:
     """The hardware of ``logger serve --site FILE``: the backend the site file names
     (``[logger] backend``, default ``sim``); without a file, a 12 V supply and nothing else.
-    Raises :class:`~sondalog.sitefile.SiteError`."""
+    Raises :class:`~sondalog.config.ConfigError`."""
     if site is None:
         return registry.create("sim", BackendContext(start=start))
     data, text = read_site_file(site)
@@ -199,10 +199,10 @@ def sensor_root() -> Path:
 
 def create_hardware(backend: str, context: BackendContext) -> Hardware:
     """Backend ``backend`` built for ``context``; an unknown one is a
-    :class:`~sondalog.sitefile.SiteError` at ``logger.backend`` of the site file ``context``
+    :class:`~sondalog.config.ConfigError` at ``logger.backend`` of the site file ``context``
     was read from."""
     try:
         return registry.create(backend, context)
     except registry.UnknownBackend as exc:
         where = locate(context.text, "logger.backend")
-        raise SiteError(context.path, "logger.backend", str(exc), where) from exc
+        raise ConfigError(context.path, "logger.backend", str(exc), where) from exc

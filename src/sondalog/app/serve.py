@@ -25,10 +25,10 @@ from sondalog.app.mailhub import MailHub, config_from_mapping
 from sondalog.app.site import SitePlan
 from sondalog.backends.linux.rs485 import Rs485Error
 from sondalog.backends.registry import BackendContext
-from sondalog.io.address import format_address
+from sondalog.config import ConfigError, locate
+from sondalog.config.address import format_address
 from sondalog.io.clock import Clock, RealClock
 from sondalog.io.private import private_dir
-from sondalog.sitefile import SiteError, locate
 
 #: Called with a line to show the user once each part is ready.
 Announce = Callable[[str], None]
@@ -68,7 +68,7 @@ async def start_site(
     announce: Announce = lambda line: None,
     trace: Path | None = None,
 ) -> RunningSite:
-    """Start every part of ``plan``; raises :class:`SiteError` or OSError.
+    """Start every part of ``plan``; raises :class:`ConfigError` or OSError.
 
     The environment variable ``SONDALOG_ROOT`` prefixes every sysfs and ``/dev`` path the
     real sensors are read from (a fake kernel tree in tests, a chroot). ``trace``
@@ -119,7 +119,7 @@ async def start_site(
                     if isinstance(serve, Mapping) and "rs485" in serve
                     else "board.rs485"
                 )
-                raise SiteError(plan.path, where, str(exc), locate(plan.text, where)) from exc
+                raise ConfigError(plan.path, where, str(exc), locate(plan.text, where)) from exc
             announce(f"bus listening on {format_address(*running.bus.address)}")
             if running.bus.serial is not None and bus.rs485 is not None:
                 announce(f"bus RS-485 ({bus.rs485.mode}) on {bus.serial}")
@@ -127,7 +127,7 @@ async def start_site(
             try:
                 config = config_from_mapping(plan.mail, state / "mail")
             except ValueError as exc:
-                raise SiteError(plan.path, "mail", str(exc), locate(plan.text, "mail")) from exc
+                raise ConfigError(plan.path, "mail", str(exc), locate(plan.text, "mail")) from exc
             running.mail = MailHub(config)
             await running.mail.start()
             announce(

@@ -27,7 +27,7 @@ delays) serves the bus on that adapter.
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
 hub when it has ``[mail]``; a GSM network when it has ``[gsm]`` (:mod:`sondalog.app.gsm_site`);
 a fleet of loggers for its ``[[loggers]]`` (:mod:`sondalog.app.fleet_site`).
-Errors name the file, line and field (:class:`SiteError`).
+Errors name the file, line and field (:class:`ConfigError`).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from sondalog.backends.linux.board import board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
-from sondalog.sitefile import Fail, SiteError, locate, read_site_file, serve_table, unknown
+from sondalog.config import ConfigError, Fail, locate, read_site_file, serve_table, unknown
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
@@ -92,11 +92,11 @@ class SitePlan:
 
 
 def load_site(path: Path) -> SitePlan:
-    """Read ``path`` and check its ``serve`` tables; raises :class:`SiteError`."""
+    """Read ``path`` and check its ``serve`` tables; raises :class:`ConfigError`."""
     data, text = read_site_file(path)
 
-    def fail(where: str, message: str) -> SiteError:
-        return SiteError(path, where, message, locate(text, where))
+    def fail(where: str, message: str) -> ConfigError:
+        return ConfigError(path, where, message, locate(text, where))
 
     def table(name: str) -> Mapping[str, object] | None:
         found = data.get(name)
@@ -161,7 +161,7 @@ def _check_worlds(fleet: list[FleetLogger], fail: Fail) -> None:
         seen.add(member.world)
         try:
             data, text = read_site_file(member.world)
-        except SiteError as exc:
+        except ConfigError as exc:
             if exc.field != "file" or exc.path != member.world:
                 raise
             where = f" (line {exc.line})" if exc.line is not None else ""

@@ -37,11 +37,11 @@ from sondalog.client.bus_actions import (
 )
 from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.config import ConfigError
 from sondalog.io import loop as serve_loop
 from sondalog.io.clock import make_clock
 from sondalog.io.rs485 import MODES, Mode, Rs485Error
 from sondalog.protocol.hctmps1_frames import BROADCAST, FrameError, is_valid_id
-from sondalog.sitefile import SiteError
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)
@@ -145,7 +145,7 @@ def serve(
     )
     try:
         serve_loop.run(_serve(start))
-    except (SiteError, FileExistsError, Rs485Error) as exc:
+    except (ConfigError, FileExistsError, Rs485Error) as exc:
         raise Refused(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve the bus: {exc}") from exc

@@ -14,10 +14,11 @@ import click
 
 from sondalog.app.collector import WebUnavailable, run_collector
 from sondalog.cli.common import Refused
-from sondalog.collect.config import ConfigError, load_config
+from sondalog.collect.config import load_config
 from sondalog.collect.runner import Collector
 from sondalog.collect.sinks import build_sinks
 from sondalog.collect.store_sqlite import SqliteStore, StoreError
+from sondalog.config import ConfigError
 from sondalog.io.loop import stop_on_signals
 
 

@@ -7,7 +7,7 @@ from typing import Any, TypeVar
 
 import click
 
-from sondalog.io.address import format_address, is_loopback, parse_listen
+from sondalog.config.address import format_address, is_loopback, parse_listen
 
 F = TypeVar("F", bound=Callable[..., Any])
 

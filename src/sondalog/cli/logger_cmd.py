@@ -29,10 +29,10 @@ from sondalog.cli.common import (
     listen_option,
     speed_option,
 )
+from sondalog.config import ConfigError
 from sondalog.io import loop as serve_loop
 from sondalog.io.clock import make_clock
 from sondalog.io.tcp import DEFAULT_PORT
-from sondalog.sitefile import SiteError
 
 
 @click.group()
@@ -122,7 +122,7 @@ def serve(
     clock = make_clock(speed)
     try:
         hardware = logger_hardware(site, clock.now(), clock.speed)
-    except SiteError as exc:
+    except ConfigError as exc:
         raise Refused(str(exc)) from exc
     lines = _Lines(ptys, serials, line_rate)
     start = functools.partial(

@@ -54,11 +54,11 @@ def serve(
     See docs/architecture.md and docs/simulation.md for the site file.
     """
     from sondalog.app.site import load_site
-    from sondalog.sitefile import SiteError
+    from sondalog.config import ConfigError
 
     try:
         plan = load_site(site)
-    except SiteError as exc:
+    except ConfigError as exc:
         raise Refused(str(exc)) from exc
     for field, (host, _port) in plan.listens:
         if refuses_remote(ctx, host):
@@ -72,7 +72,7 @@ def serve(
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
         serve_loop.run(_serve(plan, state, speed, trace))
-    except SiteError as exc:
+    except ConfigError as exc:
         raise Refused(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve {site}: {exc}") from exc

@@ -66,7 +66,7 @@ from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.collect.message_url import check_message_url
 from sondalog.collect.sinks import SinkError, SinkKind, find_sink, known_names
 from sondalog.collect.web_config import WebConfig, parse_web
-from sondalog.sitefile import SiteError, locate, read_site_file
+from sondalog.config import ConfigError, locate, read_site_file
 
 #: The collector's own tables; any other top-level table is a sink's (``sinks.find_sink``).
 _TOP = {"sqlite", "buffer", "source", "web"}
@@ -92,15 +92,6 @@ _SOURCE = {
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Keys only the message sources (``mailbox``, ``network``) take.
 _MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit", "channels")
-
-
-class ConfigError(ValueError):
-    """``FILE:LINE: field: message``."""
-
-    def __init__(self, path: Path, field: str, message: str, line: int | None = None) -> None:
-        where = f"{path}:{line}" if line is not None else str(path)
-        super().__init__(f"{where}: {field}: {message}")
-        self.path, self.field, self.line = path, field, line
 
 
 #: ``fail(field, message)``: the :class:`ConfigError` to raise, with the field's line.
@@ -154,7 +145,7 @@ def load_config(path: Path) -> CollectorConfig:
     """Read and check ``path``; raises :class:`ConfigError`."""
     try:
         data, text = read_site_file(path)  # a regular UTF-8 file, size-limited, finite numbers
-    except SiteError as exc:
+    except ConfigError as exc:
         raise ConfigError(path, exc.field, exc.message, exc.line) from None
     return parse_config(data, path, text)
 

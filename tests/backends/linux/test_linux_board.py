@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from sondalog.backends.linux import load_board
-from sondalog.sitefile import SiteError
+from sondalog.config import ConfigError
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 
@@ -82,7 +82,7 @@ def test_mistakes_name_file_line_and_field(
 ) -> None:
     path = tmp_path / "site.toml"
     path.write_text(text)
-    with pytest.raises(SiteError) as info:
+    with pytest.raises(ConfigError) as info:
         load_board(path)
     assert info.value.line == line, str(info.value)
     assert field in info.value.field and message in str(info.value)
@@ -92,5 +92,5 @@ def test_mistakes_name_file_line_and_field(
 def test_an_unreadable_board_file(tmp_path: Path) -> None:
     site = tmp_path / "site.toml"
     site.write_text('board = "missing.toml"\n')
-    with pytest.raises(SiteError, match=r"site\.toml:1: board: .*missing\.toml: cannot read"):
+    with pytest.raises(ConfigError, match=r"site\.toml:1: board: .*missing\.toml: cannot read"):
         load_board(site)

@@ -15,8 +15,8 @@ import pytest
 from sondalog.app.logger import start_logger
 from sondalog.backends.linux.board import load_board
 from sondalog.backends.linux.hardware import LinuxHardware
+from sondalog.config import ConfigError
 from sondalog.io.clock import RealClock
-from sondalog.sitefile import SiteError
 
 BOARD = """\
 [board]
@@ -121,7 +121,7 @@ def test_a_file_left_where_the_pipe_goes_is_replaced(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("line", "message"), [("'SPI0'", "no line 'SPI0'"), ("54", "no line 54")])
 def test_a_line_the_chip_does_not_have(tmp_path: Path, line: str, message: str) -> None:
-    with pytest.raises(SiteError) as info:
+    with pytest.raises(ConfigError) as info:
         _board(tmp_path, BOARD.replace('"GPIO17"', line))
     assert info.value.line == 5 and info.value.field == "board.pulses[0].line"
     assert message in str(info.value)

@@ -14,7 +14,7 @@ from sondalog.backends.linux import NAME, open_board, parse_board
 from sondalog.backends.linux.fakegpio import FakeChip
 from sondalog.backends.linux.hardware import LinuxHardware
 from sondalog.backends.linux.w1 import rom_from_slave
-from sondalog.sitefile import SiteError
+from sondalog.config import ConfigError
 
 BOARD = """\
 [board]
@@ -192,15 +192,15 @@ def test_missing_resources_are_named_in_the_board_file(tmp_path: Path) -> None:
     path = tmp_path / "board.toml"
     board = parse_board(tomllib.loads(text), path, text)
     FakeW1(tmp_path)
-    with pytest.raises(SiteError, match=r"board.toml:5: .*master.*found: w1_bus_master1"):
+    with pytest.raises(ConfigError, match=r"board.toml:5: .*master.*found: w1_bus_master1"):
         open_board(board, root=tmp_path)
     text = '[board]\n[[board.analog]]\naddress = 16\niio = "ads1015"\nchannel = 0\n'
     board = parse_board(tomllib.loads(text), path, text)
-    with pytest.raises(SiteError, match=r":4: board.analog\[0\].iio: no IIO device named"):
+    with pytest.raises(ConfigError, match=r":4: board.analog\[0\].iio: no IIO device named"):
         open_board(board, root=tmp_path)
     text = '[board]\n[[board.outputs]]\noutput = 1\nchip = "gpiochip0"\nline = 3\n'
     board = parse_board(tomllib.loads(text), path, text)
-    with pytest.raises(SiteError, match=r":4: board.outputs\[0\].chip: cannot open"):
+    with pytest.raises(ConfigError, match=r":4: board.outputs\[0\].chip: cannot open"):
         open_board(board, root=tmp_path)
     assert NAME == "linux"
 
@@ -211,7 +211,7 @@ def test_busy_lines_are_named_and_close_switches_outputs_off(tmp_path: Path) -> 
     text = '[board]\n[[board.outputs]]\noutput = 5\nchip = "gpiochip0"\nline = 27\n'
     path = tmp_path / "other.toml"
     board = parse_board(tomllib.loads(text), path, text)
-    with pytest.raises(SiteError, match=r"other.toml:5: board.outputs\[0\].line: .*busy"):
+    with pytest.raises(ConfigError, match=r"other.toml:5: board.outputs\[0\].line: .*busy"):
         LinuxHardware(board, root=tmp_path, chips={"gpiochip0": world.chip})
     world.hw.close()
     assert world.chip.history[-1] == (27, False)

@@ -19,8 +19,8 @@ from sondalog.app.site import load_site
 from sondalog.backends.linux.__main__ import main as check_board
 from sondalog.backends.linux.hardware import LinuxHardware
 from sondalog.cli.main import cli
+from sondalog.config import ConfigError
 from sondalog.io.clock import AcceleratedClock, Clock
-from sondalog.sitefile import SiteError
 
 SENSOR = "28-000008d5e4fd"
 SITE = """\
@@ -56,11 +56,11 @@ def site(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 def test_speed_is_refused_with_a_real_board(site: Path) -> None:
     """Under --speed the core asks for readings at accelerated times that the cache, filled
     in real time, never holds: every channel would read "no valid value" for good."""
-    with pytest.raises(SiteError) as info:  # sondalog serve SITE --speed 10
+    with pytest.raises(ConfigError) as info:  # sondalog serve SITE --speed 10
         asyncio.run(_start(site, AcceleratedClock(10.0)))
     assert str(info.value).startswith(f"{site}:2: logger.backend: --speed 10: ")
     assert "keep real time" in str(info.value)
-    with pytest.raises(SiteError, match="--speed 600: "):  # sondalog logger serve --site
+    with pytest.raises(ConfigError, match="--speed 600: "):  # sondalog logger serve --site
         logger_hardware(site, time.time(), 600.0)
     hardware = logger_hardware(site, time.time(), 1.0)
     assert isinstance(hardware, LinuxHardware)

@@ -29,8 +29,8 @@ from sondalog.client.bus_links import (
     open_link,
     parse_bus_url,
 )
+from sondalog.config import ConfigError, read_site_file
 from sondalog.hctmps1 import encode_frame
-from sondalog.sitefile import SiteError, read_site_file
 
 SLAVE = "28-000008d5e4fd"
 
@@ -128,7 +128,7 @@ def test_bad_sources_name_the_field(tmp_path: Path, old: str, new: str, message:
     site = tmp_path / "site.toml"
     site.write_text(SITE.replace(old, new))
     data, raw = read_site_file(site)
-    with pytest.raises(SiteError, match=r"bus\.modules\[0\]") as caught:
+    with pytest.raises(ConfigError, match=r"bus\.modules\[0\]") as caught:
         parse_bus_site(data, 0.0, site, raw)
     assert message in str(caught.value)
 
@@ -137,14 +137,14 @@ def test_a_signal_and_a_source_together_are_refused(tmp_path: Path) -> None:
     site = tmp_path / "site.toml"
     site.write_text(SITE + 'signal = { model = "constant", value = 1.0 }\n')
     data, raw = read_site_file(site)
-    with pytest.raises(SiteError, match=r"signal or a source, not both"):
+    with pytest.raises(ConfigError, match=r"signal or a source, not both"):
         parse_bus_site(data, 0.0, site, raw)
 
 
 def _plan_error(tmp_path: Path, serve: str) -> str:
     site = tmp_path / "site.toml"
     site.write_text(SITE + "\n[bus.serve]\n" + serve + "\n")
-    with pytest.raises(SiteError) as caught:
+    with pytest.raises(ConfigError) as caught:
         load_site(site)
     return str(caught.value)
 

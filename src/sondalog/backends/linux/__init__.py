@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from sondalog.backends.linux.board import BoardConfig, board_of_site, load_board, parse_board
 from sondalog.backends.linux.hardware import LinuxHardware
-from sondalog.sitefile import SiteError, locate
+from sondalog.config import ConfigError, locate
 
 if TYPE_CHECKING:
     from sondalog.backends.registry import BackendContext
@@ -29,7 +29,7 @@ def open_board(board: BoardConfig, *, root: Path = Path("/")) -> LinuxHardware:
 def create(context: BackendContext) -> LinuxHardware:
     """The registry's entry (``backend = "linux"``): the site file's board, on ``root``."""
     if context.speed != 1:  # the cached readings would be stamped on one clock, read on another
-        raise SiteError(
+        raise ConfigError(
             context.path,
             "logger.backend",
             f"--speed {context.speed:g}: a real board's sensors, conversions and pulses keep "
@@ -39,7 +39,7 @@ def create(context: BackendContext) -> LinuxHardware:
     path = context.path if context.path is not None else Path("site.toml")
     board = board_of_site(context.site, path, context.text)
     if board is None:
-        raise SiteError(
+        raise ConfigError(
             context.path, "board", 'backend "linux" needs a [board] table or board = "FILE"'
         )
     return open_board(board, root=context.root)

@@ -19,7 +19,7 @@ from sondalog.backends.linux.board import load_board
 from sondalog.backends.linux.hardware import LinuxHardware
 from sondalog.backends.linux.iio import INTERNAL_REFERENCE
 from sondalog.backends.linux.w1 import slave_from_rom
-from sondalog.sitefile import SiteError
+from sondalog.config import ConfigError
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,9 +31,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         board = load_board(args.site)
         if board is None:
-            raise SiteError(args.site, "board", "no [board] table and no board = FILE")
+            raise ConfigError(args.site, "board", "no [board] table and no board = FILE")
         hw = LinuxHardware(board, root=args.root)
-    except SiteError as exc:
+    except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     try:

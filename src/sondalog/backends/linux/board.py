@@ -51,7 +51,7 @@ site file (relative to it)::
     [board.serial]                  # the logger's own line(s): real UARTs, 8N1
     ports = ["/dev/ttyAMA0"]
 
-Mistakes are :class:`~sondalog.backends.sim.site_bus.SiteError` naming file, line and field.
+Mistakes are :class:`~sondalog.backends.sim.site_bus.ConfigError` naming file, line and field.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ from typing import Protocol, cast
 from sondalog.ala1.hardware import ANALOG_ADDRESSES, pin_of
 from sondalog.backends.linux.gpio import BiasKind, EdgeKind
 from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, check_delays
-from sondalog.sitefile import SiteError, locate, read_site_file
+from sondalog.config import ConfigError, locate, read_site_file
 
 _KEYS = {
     "board": {
@@ -159,9 +159,9 @@ class BoardConfig:
     path: Path | None = None
     text: str | None = None
 
-    def error(self, where: str, message: str) -> SiteError:
+    def error(self, where: str, message: str) -> ConfigError:
         """A problem found later (a missing device) reported at the field that names it."""
-        return SiteError(self.path, where, message, locate(self.text, where))
+        return ConfigError(self.path, where, message, locate(self.text, where))
 
 
 def load_board(site: Path) -> BoardConfig | None:
@@ -182,14 +182,14 @@ def board_of_site(
         path = site.parent / board
         try:
             data, text = read_site_file(path)
-        except SiteError as exc:
+        except ConfigError as exc:
             if exc.field != "file" or exc.path != path:
                 raise
-            raise SiteError(
+            raise ConfigError(
                 site, "board", f"{path}: {exc.message}", locate(text, "board")
             ) from None
         if not isinstance(data.get("board"), Mapping):
-            raise SiteError(path, "board", "the board file needs a [board] table", None)
+            raise ConfigError(path, "board", "the board file needs a [board] table", None)
         return parse_board(data, path, text)
     return parse_board(data, site, text)
 
@@ -199,8 +199,8 @@ def parse_board(
 ) -> BoardConfig:
     """Check the ``[board]`` table of a parsed TOML document."""
 
-    def fail(where: str, message: str, at: str | None = None) -> SiteError:
-        return SiteError(path, where, message, locate(text, at or where))
+    def fail(where: str, message: str, at: str | None = None) -> ConfigError:
+        return ConfigError(path, where, message, locate(text, at or where))
 
     board = data.get("board")
     if not isinstance(board, Mapping):
@@ -380,7 +380,7 @@ def parse_board(
 
 
 class _Fail(Protocol):
-    def __call__(self, where: str, message: str, at: str | None = None) -> SiteError: ...
+    def __call__(self, where: str, message: str, at: str | None = None) -> ConfigError: ...
 
 
 def _known(table: Mapping[str, object], kind: str, where: str, fail: _Fail) -> None:

@@ -11,7 +11,7 @@ if TYPE_CHECKING:
 
 def create(context: BackendContext) -> Hardware:
     """Simulated hardware from the site file's ``[logger]`` table (a 12 V supply and nothing
-    else without one); raises :class:`~sondalog.sitefile.SiteError` naming file, line and field."""
+    else without one); raises :class:`~sondalog.config.ConfigError` naming file, line and field."""
     from sondalog.backends.sim.logger import parse_logger_site
 
     return parse_logger_site(context.site, context.start, context.path, context.text)

@@ -28,7 +28,7 @@ The ``[logger]`` part of a site file (TOML) describes what is wired to the modul
     credit = { model = "ramp", start = 250, rate = -0.001 }  # channel type 11
 
 Signals are those of :mod:`sondalog.backends.sim.signals`, evaluated at host-clock time. A
-wrong file is rejected with a :class:`~sondalog.sitefile.SiteError` naming file, line and field.
+wrong file is rejected with a :class:`~sondalog.config.ConfigError` naming file, line and field.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ from sondalog.ala1.hardware import (
     rom_valid,
 )
 from sondalog.backends.sim.signals import Signal, SignalError, build_signal, constant
-from sondalog.sitefile import SiteError, locate, read_site_file
+from sondalog.config import ConfigError, locate, read_site_file
 
 
 @dataclass
@@ -248,8 +248,8 @@ def parse_logger_site(
 ) -> SimHardware:
     """Build the simulated hardware from an already parsed site file."""
 
-    def fail(where: str, message: str) -> SiteError:
-        return SiteError(path, where, message, locate(text, where))
+    def fail(where: str, message: str) -> ConfigError:
+        return ConfigError(path, where, message, locate(text, where))
 
     logger = data.get("logger")
     if logger is None:

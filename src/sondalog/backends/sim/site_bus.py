@@ -20,7 +20,7 @@ A site file is TOML. The bus reads its ``[bus]`` table and ignores other top-lev
     source = "w1:28-000008d5e4fd"   # or "iio:DEVICE:CHANNEL" with scale and offset
 
 The signal tables are those of :mod:`sondalog.backends.sim.signals`. A wrong file is rejected with a
-:class:`SiteError` naming the file, the field and, where it can be found, the line.
+:class:`ConfigError` naming the file, the field and, where it can be found, the line.
 """
 
 from __future__ import annotations
@@ -31,10 +31,10 @@ from pathlib import Path
 
 from sondalog.backends.linux.sources import SourceError, SourceSpec, parse_source
 from sondalog.backends.sim.signals import Signal, SignalError, build_signal
+from sondalog.config import ConfigError, locate, read_site_file
 from sondalog.hctmps1.module import DEFAULT_CYCLE
 from sondalog.hctmps1.variants import Kind, variant_for
 from sondalog.protocol.hctmps1_frames import is_valid_id
-from sondalog.sitefile import SiteError, locate, read_site_file
 
 _BUS_KEYS = {"baud", "noise", "seed", "modules", "serve"}  # serve: app/site.py
 _MODULE_KEYS = {"id", "kind", "cycle", "signal", "source", "scale", "offset"}
@@ -95,8 +95,8 @@ def parse_bus_site(
 ) -> BusSite:
     """Check the ``[bus]`` table of an already parsed site file."""
 
-    def fail(field: str, message: str) -> SiteError:
-        return SiteError(path, field, message, locate(text, field))
+    def fail(field: str, message: str) -> ConfigError:
+        return ConfigError(path, field, message, locate(text, field))
 
     bus = data.get("bus")
     if not isinstance(bus, Mapping):
@@ -163,7 +163,7 @@ def parse_bus_site(
 
 
 def _source(
-    raw: Mapping[str, object], kind: Kind, where: str, fail: Callable[[str, str], SiteError]
+    raw: Mapping[str, object], kind: Kind, where: str, fail: Callable[[str, str], ConfigError]
 ) -> SourceSpec:
     """A module's real sensor: ``source`` with its ``scale`` and ``offset``."""
     if "signal" in raw:

@@ -1,4 +1,4 @@
-"""Site files (TOML): reading them, and errors that name the file, line and field.
+"""Configuration files (TOML): reading them safely, and finding a field's line.
 
 One loader and one line locator serve every part of a site file (the logger, the bus, and
 what later issues add) and every other TOML file of sondalog (collector, board files).
@@ -15,26 +15,14 @@ import tomllib
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
+from .errors import ConfigError
+
 #: The largest configuration file read (a site file of a 20,000-logger fleet is far smaller).
 MAX_FILE_BYTES = 1 << 20
 
 
-class SiteError(ValueError):
-    """A site file is wrong: ``path``, the dotted ``field`` and the ``line`` if known."""
-
-    def __init__(self, path: Path | None, field: str, message: str, line: int | None = None):
-        where = str(path) if path is not None else "<site>"
-        if line is not None:
-            where += f":{line}"
-        super().__init__(f"{where}: {field}: {message}")
-        self.message = message
-        self.path = path
-        self.field = field
-        self.line = line
-
-
-#: ``fail(field, message)``: the :class:`SiteError` to raise for a field of the file.
-Fail = Callable[[str, str], SiteError]
+#: ``fail(field, message)``: the :class:`ConfigError` to raise for a field of the file.
+Fail = Callable[[str, str], ConfigError]
 
 
 def serve_table(
@@ -51,29 +39,29 @@ def serve_table(
 
 
 def read_text(path: Path, limit: int = MAX_FILE_BYTES) -> str:
-    """The UTF-8 text of the configuration file ``path``; raises :class:`SiteError`.
+    """The UTF-8 text of the configuration file ``path``; raises :class:`ConfigError`.
 
     Only a regular file (after symlinks) of at most ``limit`` bytes is read: a FIFO, a
     device (``/dev/zero``) or a directory is refused before it is opened."""
     try:
         info = os.stat(path)
         if not stat.S_ISREG(info.st_mode):
-            raise SiteError(path, "file", "not a regular file")
+            raise ConfigError(path, "file", "not a regular file")
         if info.st_size > limit:
-            raise SiteError(path, "file", f"larger than {limit} bytes ({info.st_size})")
+            raise ConfigError(path, "file", f"larger than {limit} bytes ({info.st_size})")
         with path.open("rb") as f:
             raw = f.read(limit + 1)
     except OSError as exc:
-        raise SiteError(path, "file", f"cannot read: {exc.strerror or exc}") from None
+        raise ConfigError(path, "file", f"cannot read: {exc.strerror or exc}") from None
     if len(raw) > limit:
-        raise SiteError(path, "file", f"larger than {limit} bytes")
+        raise ConfigError(path, "file", f"larger than {limit} bytes")
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         bad = raw[exc.start : exc.start + 1].hex()
         message = f"not UTF-8 text (byte 0x{bad} at offset {exc.start}); save it as UTF-8"
-        raise SiteError(path, "file", message, line) from None
+        raise ConfigError(path, "file", message, line) from None
 
 
 def read_site_file(path: Path) -> tuple[dict[str, object], str]:
@@ -85,11 +73,11 @@ def read_site_file(path: Path) -> tuple[dict[str, object], str]:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SiteError(path, "toml", str(exc)) from None
+        raise ConfigError(path, "toml", str(exc)) from None
     found = _non_finite(data, "")
     if found is not None:
         where, value = found
-        raise SiteError(path, where, f"{value} is not a finite number", locate(text, where))
+        raise ConfigError(path, where, f"{value} is not a finite number", locate(text, where))
     return data, text
 
 

@@ -47,10 +47,14 @@ class Source:
 
     path: Path | None = None
     text: str | None = None
+    #: The directory relative paths are relative to, if not the file's own.
+    root: Path | None = None
 
     @property
     def base(self) -> Path | None:
         """The directory relative paths of the file are relative to."""
+        if self.root is not None:
+            return self.root
         return self.path.parent if self.path is not None else None
 
     def fail(self, field: str, message: str) -> ConfigError:
@@ -74,10 +78,16 @@ def loads(text: str, path: Path | None = None) -> Table:
 
 
 def of(
-    data: Mapping[str, object], path: Path | None = None, text: str | None = None, where: str = ""
+    data: Mapping[str, object],
+    path: Path | None = None,
+    text: str | None = None,
+    where: str = "",
+    *,
+    root: Path | None = None,
 ) -> Table:
-    """A table over already parsed ``data`` (a JSON request body, a TOML document)."""
-    return Table(Source(path, text), where, data)
+    """A table over already parsed ``data`` (a JSON request body, a TOML document); relative
+    paths in it are relative to ``root`` (default: ``path``'s directory)."""
+    return Table(Source(path, text, root), where, data)
 
 
 def _kind(value: object) -> str:

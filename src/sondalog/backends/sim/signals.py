@@ -19,7 +19,8 @@ csv        ``path`` (relative to the site file), ``interpolate`` (default true),
            ``loop`` (default false); rows ``time,value``, an optional header line
 ========== ===========================================================================
 
-Every model accepts ``origin``. A bad table raises :class:`SignalError` naming the field.
+Every model accepts ``origin``. A bad table raises :class:`ConfigError` naming the field
+(:func:`read_signal` reads a table of a configuration file, with its file and line).
 """
 
 from __future__ import annotations
@@ -31,63 +32,21 @@ import random
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from sondalog.config import ConfigError, Table, of
+
 Signal = Callable[[float], float]
 
 
-class SignalError(ValueError):
-    """A signal table is wrong; ``field`` is the key at fault (dotted, relative to the table)."""
-
-    def __init__(self, field: str, message: str) -> None:
-        super().__init__(f"{field}: {message}")
-        self.field = field
-        self.message = message
+#: A bad signal table (its ``field`` is dotted, relative to the table passed in).
+SignalError = ConfigError
 
 
-class _Table:
-    """Typed, checked access to one signal table."""
-
-    def __init__(self, table: Mapping[str, object]) -> None:
-        self.table = table
-
-    def number(self, key: str, default: float | None = None, *, positive: bool = False) -> float:
-        raw = self.table.get(key)
-        if raw is None:
-            if default is None:
-                raise SignalError(key, "required number missing")
-            return default
-        if isinstance(raw, bool) or not isinstance(raw, int | float) or not math.isfinite(raw):
-            raise SignalError(key, f"must be a number, not {raw!r}")
-        if positive and raw <= 0:
-            raise SignalError(key, f"must be positive, not {raw!r}")
-        return float(raw)
-
-    def optional(self, key: str) -> float | None:
-        return self.number(key) if key in self.table else None
-
-    def integer(self, key: str, default: int) -> int:
-        raw = self.table.get(key, default)
-        if isinstance(raw, bool) or not isinstance(raw, int):
-            raise SignalError(key, f"must be an integer, not {raw!r}")
-        return raw
-
-    def boolean(self, key: str, default: bool) -> bool:
-        raw = self.table.get(key, default)
-        if not isinstance(raw, bool):
-            raise SignalError(key, f"must be true or false, not {raw!r}")
-        return raw
-
-    def string(self, key: str) -> str:
-        raw = self.table.get(key)
-        if not isinstance(raw, str) or not raw:
-            raise SignalError(key, f"required text missing or not text: {raw!r}")
-        return raw
-
-
-def _clamp(low: float | None, high: float | None) -> Callable[[float], float]:
+def _clamp(t: Table) -> Callable[[float], float]:
+    low, high = t.opt_number("min"), t.opt_number("max")
     lo = -math.inf if low is None else low
     hi = math.inf if high is None else high
     if lo > hi:
-        raise SignalError("min", f"min {lo} is above max {hi}")
+        raise t.fail("min", f"min {lo} is above max {hi}")
     return lambda v: min(max(v, lo), hi)
 
 
@@ -192,7 +151,7 @@ class Schedule:
 
 def _points(raw: object, field: str) -> list[tuple[float, float]]:
     if not isinstance(raw, list) or not raw:
-        raise SignalError(field, "must be a non-empty list of [time, value] pairs")
+        raise ConfigError(None, field, "must be a non-empty list of [time, value] pairs")
     points: list[tuple[float, float]] = []
     for i, pair in enumerate(raw):
         where = f"{field}[{i}]"
@@ -201,9 +160,9 @@ def _points(raw: object, field: str) -> list[tuple[float, float]]:
             or len(pair) != 2
             or any(isinstance(x, bool) or not isinstance(x, int | float) for x in pair)
         ):
-            raise SignalError(where, f"must be a [time, value] pair of numbers, not {pair!r}")
+            raise ConfigError(None, where, f"must be a [time, value] pair of numbers, not {pair!r}")
         if points and pair[0] <= points[-1][0]:
-            raise SignalError(where, "times must be strictly ascending")
+            raise ConfigError(None, where, "times must be strictly ascending")
         points.append((float(pair[0]), float(pair[1])))
     return points
 
@@ -213,7 +172,7 @@ def read_csv_points(path: Path) -> list[tuple[float, float]]:
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise SignalError("path", f"cannot read {path}: {exc.strerror or exc}") from exc
+        raise ConfigError(None, "path", f"cannot read {path}: {exc.strerror or exc}") from exc
     rows: list[list[float]] = []
     for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
         if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
@@ -223,13 +182,13 @@ def read_csv_points(path: Path) -> list[tuple[float, float]]:
         except (ValueError, IndexError):
             if lineno == 1 and not rows:
                 continue  # header
-            raise SignalError("path", f"{path} line {lineno}: expected time,value") from None
+            raise ConfigError(None, "path", f"{path} line {lineno}: expected time,value") from None
     if not rows:
-        raise SignalError("path", f"{path} holds no time,value rows")
+        raise ConfigError(None, "path", f"{path} holds no time,value rows")
     try:
         return _points(rows, "path")
-    except SignalError as exc:
-        raise SignalError("path", f"{path}: {exc.message}") from None
+    except ConfigError as exc:
+        raise ConfigError(None, "path", f"{path}: {exc.message}") from None
 
 
 #: Every model and the keys its table may hold (besides ``model`` and ``origin``).
@@ -245,17 +204,16 @@ MODELS = tuple(MODEL_KEYS)
 
 
 def build_signal(table: Mapping[str, object], start: float, base_dir: Path | None = None) -> Signal:
-    """The signal described by ``table`` (see the module docstring)."""
+    """The signal described by the plain ``table`` (relative paths against ``base_dir``)."""
     if not isinstance(table, Mapping):
-        raise SignalError("model", f"a signal must be a table, not {table!r}")
-    t = _Table(table)
-    model = table.get("model")
-    if not isinstance(model, str) or model not in MODEL_KEYS:
-        raise SignalError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
-    for key in table:
-        if key not in MODEL_KEYS[model] | {"model", "origin"}:
-            known = ", ".join(sorted(MODEL_KEYS[model] | {"origin"}))
-            raise SignalError(key, f"unknown key for model {model} (known: {known})")
+        raise ConfigError(None, "model", f"a signal must be a table, not {table!r}")
+    return read_signal(of(table, root=base_dir), start)
+
+
+def read_signal(t: Table, start: float) -> Signal:
+    """The signal described by the table ``t`` (see the module docstring)."""
+    model = t.text("model", choices=MODELS)
+    t.keys(MODEL_KEYS[model] | {"model", "origin"})
     origin = t.number("origin", start)
     signal: Signal
     if model == "constant":
@@ -264,30 +222,34 @@ def build_signal(table: Mapping[str, object], start: float, base_dir: Path | Non
         signal = sine(
             t.number("mean"),
             t.number("amplitude"),
-            t.number("period", positive=True),
+            t.number("period", above=0),
             t.number("phase", 0.0),
             origin,
         )
     elif model == "ramp":
-        clamp = _clamp(t.optional("min"), t.optional("max"))
-        signal = ramp(t.number("start"), t.number("rate"), origin, clamp)
+        signal = ramp(t.number("start"), t.number("rate"), origin, _clamp(t))
     elif model == "random_walk":
-        clamp = _clamp(t.optional("min"), t.optional("max"))
+        clamp = _clamp(t)
         signal = RandomWalk(
             t.number("start"),
-            t.number("step", positive=True),
-            t.number("interval", 60.0, positive=True),
+            t.number("step", above=0),
+            t.number("interval", 60.0, above=0),
             t.integer("seed", 0),
             origin,
             clamp,
         )
     elif model == "steps":
-        signal = Schedule(_points(table.get("schedule"), "schedule"), origin, False, False)
+        try:
+            signal = Schedule(_points(t.raw("schedule"), "schedule"), origin, False, False)
+        except ConfigError as exc:
+            raise t.source.fail(t.field(exc.field), exc.message) from None
     else:
-        path = Path(t.string("path"))
-        if not path.is_absolute() and base_dir is not None:
-            path = base_dir / path
-        interpolate = t.boolean("interpolate", True)
-        loop = t.boolean("loop", False)
-        signal = Schedule(read_csv_points(path), origin, interpolate, loop)
+        path = t.path("path")
+        interpolate = t.flag("interpolate", True)
+        loop = t.flag("loop", False)
+        try:
+            points = read_csv_points(path)
+        except ConfigError as exc:
+            raise t.fail("path", exc.message) from None
+        signal = Schedule(points, origin, interpolate, loop)
     return signal

@@ -1,4 +1,4 @@
-"""Configuration: one typed reader for every file format of sondalog (§ docs/config.md).
+"""Configuration: one typed reader for every file format of sondalog (docs/config-files.md).
 
 - :mod:`.reader`: :class:`Table`, typed getters that know file, line and field;
 - :mod:`.files`: reading a file safely (regular, size-limited, UTF-8, finite numbers) and

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import tomllib
-
 import pytest
 
-from sondalog.gsm.config import GsmConfigError, build, parse
+from sondalog.config import ConfigError, loads
+from sondalog.gsm.config import build, parse
 
 WORLD = """
 [gsm]
@@ -31,7 +30,7 @@ number = "+420700000002"
 
 
 def test_example_world_builds() -> None:
-    config = parse(tomllib.loads(WORLD)["gsm"])
+    config = parse(loads(WORLD).table("gsm"))
     system = build(config, 0.0)
     net = system.network
     assert set(net.subscribers) == {"+420600000001", "+420700000001", "+420700000002"}
@@ -65,6 +64,6 @@ def test_example_world_builds() -> None:
     ],
 )
 def test_mistakes_name_their_field(toml: str, field: str) -> None:
-    with pytest.raises(GsmConfigError) as caught:
-        parse(tomllib.loads(toml).get("gsm", {}))
+    with pytest.raises(ConfigError) as caught:
+        parse(loads(toml).table("gsm"))
     assert caught.value.field == field

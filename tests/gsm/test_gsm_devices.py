@@ -3,13 +3,12 @@
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 import pytest
 
 from sondalog.app.gsm_site import parse_gsm_site
-from sondalog.config import ConfigError
+from sondalog.config import ConfigError, loads
 from sondalog.gsm import events as ev
 from sondalog.gsm.modem import Modem
 from sondalog.gsm.network import Network
@@ -89,11 +88,11 @@ number = "+420700000001"
 
 
 def _plan(text: str, start: float = T0) -> object:
-    return parse_gsm_site(tomllib.loads(text), Path("site.toml"), text, start)
+    return parse_gsm_site(loads(text, Path("site.toml")), start)
 
 
 def test_site_table_with_serve_keys_and_logger_models() -> None:
-    plan = parse_gsm_site(tomllib.loads(SITE), Path("site.toml"), SITE, T0)
+    plan = parse_gsm_site(loads(SITE, Path("site.toml")), T0)
     assert plan.api == ("127.0.0.1", 8125)
     (modem,) = plan.modems
     assert (modem.pty, modem.listen, modem.trace) == (
@@ -130,7 +129,7 @@ def test_runtime_dte_link_in_process(tmp_path: Path) -> None:
     from sondalog.io.clock import RealClock
 
     text = SITE.replace('pty = "/tmp/x-modem"\n', "").replace('listen = "127.0.0.1:0"\n', "")
-    plan = parse_gsm_site(tomllib.loads(text), tmp_path / "site.toml", text, T0)
+    plan = parse_gsm_site(loads(text, tmp_path / "site.toml"), T0)
 
     async def run() -> bytes:
         runtime = GsmRuntime(plan, tmp_path / "gsm", RealClock())

@@ -24,7 +24,8 @@ from mail_servers import (
     run,
 )
 
-from sondalog.app.mailhub import MailHub, MailHubConfig, config_from_mapping, example_config
+from sondalog.app.mailhub import MailHub, MailHubConfig, example_config, parse_mail
+from sondalog.config import ConfigError, loads, of
 
 RAW = [
     b"From: a@x.cz\nSubject: one\n\nfirst\n.leading dot\n",
@@ -200,17 +201,17 @@ def test_hub_binds_requested_ports_and_stops(tmp_path: Path) -> None:
 
 
 def test_site_file_mail_table(tmp_path: Path) -> None:
-    import tomllib
-
-    data = tomllib.loads(
+    site = loads(
         """
+        [mail]
         smtp = "127.0.0.1:2526"
         pop3 = "127.0.0.1:1111"
-        [accounts]
+        [mail.accounts]
         "logger@example.net" = "secret"
-        """
+        """,
+        tmp_path / "site.toml",
     )
-    cfg = config_from_mapping(data, tmp_path)
+    cfg = parse_mail(site.table("mail"), tmp_path)
     assert (cfg.smtp_port, cfg.pop3_port, dict(cfg.accounts)) == (
         2526,
         1111,
@@ -219,11 +220,12 @@ def test_site_file_mail_table(tmp_path: Path) -> None:
     assert example_config(tmp_path).smtp_port == 2525
     assert example_config(tmp_path).pop3_port == 1110
     for bad, match in (
-        ({"smtp": "2525"}, "host:port"),
-        ({"pop3": "h:99999"}, "host:port"),
-        ({"accounts": {"nobody": "x"}}, "not an e-mail address"),
-        ({"accounts": {LOGGER: 1}}, "table of"),
-        ({"smpt": "h:1"}, "unknown keys smpt"),
+        ({"smtp": "2525"}, "mail.smtp: expected HOST:PORT"),
+        ({"pop3": "h:99999"}, "mail.pop3: port must be a number"),
+        ({"accounts": {"nobody": "x"}}, "mail.accounts.nobody: .*not an e-mail address"),
+        ({"accounts": {LOGGER: 1}}, f"mail.accounts.{LOGGER}: must be a password"),
+        ({"smpt": "h:1"}, "mail.smpt: unknown table or key 'smpt' .did you mean smtp"),
+        ({"smtp_auth_required": "yes"}, "mail.smtp_auth_required: must be true or false"),
     ):
-        with pytest.raises(ValueError, match=match):
-            config_from_mapping(bad, tmp_path)
+        with pytest.raises(ConfigError, match=match):
+            parse_mail(of(bad, where="mail"), tmp_path)

@@ -23,16 +23,12 @@ way (errors name file, line and field)::
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
-from sondalog.backends.sim.signals import Signal, SignalError, build_signal
-from sondalog.config import ConfigError, Fail, locate, serve_table
-from sondalog.config.address import parse_listen
-from sondalog.gsm.config import GsmConfig, GsmConfigError, parse
-from sondalog.gsm.sms import normalize
+from sondalog.backends.sim.signals import Signal, read_signal
+from sondalog.config import Table, format_address
+from sondalog.gsm.config import GsmConfig, entries, parse, phone_number
 
 DEFAULT_API = ("127.0.0.1", 8025)
 _SERVE = {"api"}
@@ -57,111 +53,57 @@ class GsmPlan:
     credits: dict[str, Signal] = field(default_factory=dict)
 
 
-def parse_gsm_site(
-    data: Mapping[str, object], path: Path, text: str, start: float = 0.0
-) -> GsmPlan:
-    """Check ``data["gsm"]``; raises :class:`ConfigError`. Signal models start at ``start``."""
-
-    def fail(where: str, message: str) -> ConfigError:
-        return ConfigError(path, where, message, locate(text, where))
-
-    table = data.get("gsm")
-    if not isinstance(table, Mapping):
-        raise fail("gsm", "must be a table")
-    core: dict[str, Any] = {k: v for k, v in table.items() if k not in ("serve", "logger_modem")}
-    serve = serve_table(table, "gsm", _SERVE, fail)
-    api = listen_address(serve["api"], "gsm.serve.api", fail) if "api" in serve else DEFAULT_API
-
-    def model(value: object, where: str) -> Signal:
-        assert isinstance(value, Mapping)
-        try:
-            return build_signal(value, start, path.parent)
-        except SignalError as exc:
-            raise fail(f"{where}.{exc.field}", exc.message) from None
-
-    raw_modems = core.get("modem", [])
-    modems: list[ModemServe] = []
+def parse_gsm_site(site: Table, start: float = 0.0) -> GsmPlan:
+    """Check the ``[gsm]`` table of the site file ``site`` (its root table); raises
+    :class:`~sondalog.config.ConfigError` naming file, line and field. Signal models start
+    at ``start``."""
+    gsm = site.table("gsm", required=True)
+    api = gsm.table("serve", _SERVE).address("api", format_address(*DEFAULT_API))
     signals: dict[str, Signal] = {}
     credits: dict[str, Signal] = {}
-    if isinstance(raw_modems, list):
-        stripped = []
-        for i, entry in enumerate(raw_modems):
-            if not isinstance(entry, Mapping):
-                stripped.append(entry)
-                continue
-            where = f"gsm.modem[{i}]"
-            entry = dict(entry)
-            number = normalize(str(entry.get("number", "")))
-            for key, models in (("signal", signals), ("credit", credits)):
-                if isinstance(entry.get(key), Mapping):
-                    models[number] = model(entry[key], f"{where}.{key}")
-                    entry[key] = round(models[number](start)) if key == "signal" else 0.0
-            modems.append(_modem_serve(number, entry, where, fail))
-            entry.pop("serve", None)
-            stripped.append(entry)
-        core["modem"] = stripped
-    try:
-        config = parse(core)
-    except GsmConfigError as exc:
-        raise fail(exc.field, str(exc).split(": ", 1)[-1]) from None
-    numbers = {m.number for m in config.modems}
+
+    def model(modem: Table, key: str, number: str) -> float:
+        signal = read_signal(modem.table(key), start)
+        (signals if key == "signal" else credits)[number] = signal
+        return signal(start) if key == "signal" else 0.0
+
+    config = parse(gsm, keys={"serve", "logger_modem"}, modem_keys={"serve"}, model=model)
+    modems = tuple(
+        _modem_serve(spec.number, entry.table("serve", _MODEM_SERVE))
+        for spec, entry in zip(config.modems, entries(gsm, "modem"), strict=True)
+    )
     logger_modem = None
-    if "logger_modem" in table:
-        value = table["logger_modem"]
-        logger_modem = normalize(value) if isinstance(value, str) else None
-        if logger_modem not in numbers:
-            raise fail("gsm.logger_modem", f"{value!r} is not the number of a [[gsm.modem]]")
-        _logger_models(data, logger_modem, signals, credits, model)
-    return GsmPlan(config, api, tuple(modems), logger_modem, signals, credits)
+    if "logger_modem" in gsm:
+        logger_modem = phone_number(gsm, "logger_modem")
+        if logger_modem not in {m.number for m in config.modems}:
+            raise gsm.fail("logger_modem", f"{logger_modem} is not the number of a [[gsm.modem]]")
+        _logger_models(site, logger_modem, signals, credits, start)
+    return GsmPlan(config, api, modems, logger_modem, signals, credits)
 
 
 def _logger_models(
-    data: Mapping[str, object],
-    number: str,
-    signals: dict[str, Signal],
-    credits: dict[str, Signal],
-    model: Callable[[object, str], Signal],
+    site: Table, number: str, signals: dict[str, Signal], credits: dict[str, Signal], start: float
 ) -> None:
     """``[logger.gsm]`` ``signal`` and ``credit`` drive the logger's modem (unless the modem
-    has its own model)."""
-    logger = data.get("logger")
-    gsm = logger.get("gsm") if isinstance(logger, Mapping) else None
-    if not isinstance(gsm, Mapping):
+    has its own model); the rest of ``[logger]`` is the logger's to check."""
+    logger = site.table("logger")
+    if not logger.is_table("gsm"):
         return
-    if isinstance(gsm.get("signal"), Mapping) and number not in signals:
-        signals[number] = model(gsm["signal"], "logger.gsm.signal")
-    if isinstance(gsm.get("credit"), Mapping) and number not in credits:
-        credits[number] = model(gsm["credit"], "logger.gsm.credit")
+    gsm = logger.table("gsm")
+    for key, models in (("signal", signals), ("credit", credits)):
+        if gsm.is_table(key) and number not in models:
+            models[number] = read_signal(gsm.table(key), start)
 
 
-def _modem_serve(number: str, entry: Mapping[str, object], where: str, fail: Fail) -> ModemServe:
+def _modem_serve(number: str, serve: Table) -> ModemServe:
     """How a ``[[gsm.modem]]`` entry is served (its ``serve`` table)."""
-    serve = serve_table(entry, where, _MODEM_SERVE, fail)
 
     def a_path(key: str) -> Path | None:
-        value = serve.get(key)
-        if value is None:
-            return None
-        if not isinstance(value, str) or not value:
-            raise fail(f"{where}.serve.{key}", "must be a path in quotes")
-        return Path(value)
+        value = serve.opt_text(key, what="a path in quotes")
+        return Path(value) if value is not None else None
 
-    listen = (
-        listen_address(serve["listen"], f"{where}.serve.listen", fail)
-        if "listen" in serve
-        else None
-    )
+    listen = serve.address("listen") if "listen" in serve else None
     return ModemServe(number, a_path("pty"), listen, a_path("trace"))
-
-
-def listen_address(value: object, where: str, fail: Fail) -> tuple[str, int]:
-    """A ``listen = "HOST:PORT"`` field of a ``serve`` table (``site.py`` uses it too)."""
-    if not isinstance(value, str):
-        raise fail(where, 'must be "HOST:PORT"')
-    try:
-        return parse_listen(value)
-    except ValueError as exc:
-        raise fail(where, str(exc)) from None
 
 
 def traced(plan: GsmPlan, trace: Path) -> GsmPlan:

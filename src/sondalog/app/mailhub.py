@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
 
+from ..config import Table
 from ..io.mail.maildirs import MaildirAccounts
 from ..io.mail.pop3_server import Pop3Server, start_pop3_server
 from ..io.mail.smtp_server import SmtpServer, start_smtp_server
@@ -34,42 +35,27 @@ class MailHubConfig:
     pop3_timeout: float = 600.0
 
 
-def _listen(value: object, what: str) -> tuple[str, int]:
-    if not isinstance(value, str):
-        raise ValueError(f"mail {what}: expected 'host:port', got {value!r}")
-    host, sep, port = value.rpartition(":")
-    if not sep or not host or not port.isdigit() or int(port) > 65535:
-        raise ValueError(f"mail {what}: expected 'host:port', got {value!r}")
-    return host, int(port)
+_MAIL = {"smtp", "pop3", "hostname", "smtp_auth_required", "accounts"}
 
 
-def config_from_mapping(data: Mapping[str, object], root: Path) -> MailHubConfig:
+def parse_mail(table: Table, root: Path) -> MailHubConfig:
     """A site file's ``[mail]`` table: ``smtp``/``pop3`` as ``"host:port"``, ``hostname``,
-    ``smtp_auth_required`` and ``[mail.accounts]`` ``"address" = "password"``. Raises
-    ``ValueError`` naming the bad key."""
-    known = {"smtp", "pop3", "hostname", "smtp_auth_required", "accounts"}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise ValueError(f"mail: unknown keys {', '.join(unknown)}")
-    accounts = data.get("accounts", {})
-    if not isinstance(accounts, Mapping) or not all(
-        isinstance(k, str) and isinstance(v, str) for k, v in accounts.items()
-    ):
-        raise ValueError('mail accounts: expected a table of "address" = "password"')
-    for address in accounts:
+    ``smtp_auth_required`` and ``[mail.accounts]`` ``"address" = "password"``; the Maildirs
+    under ``root``. Raises :class:`~sondalog.config.ConfigError` naming the field."""
+    table.keys(_MAIL)
+    accounts_table = table.table("accounts")
+    accounts = {}
+    for address in accounts_table:
         try:
             check_address(address)
         except MailAddressError as exc:
-            raise ValueError(f"mail accounts: {exc}") from None
-    smtp = _listen(data.get("smtp", "127.0.0.1:2525"), "smtp")
-    pop3 = _listen(data.get("pop3", "127.0.0.1:1110"), "pop3")
-    hostname = data.get("hostname", "mail.example.net")
-    required = data.get("smtp_auth_required", False)
-    if not isinstance(hostname, str) or not isinstance(required, bool):
-        raise ValueError("mail: hostname must be text, smtp_auth_required true or false")
-    return MailHubConfig(
-        root, dict(accounts), smtp[0], smtp[1], pop3[0], pop3[1], hostname, required
-    )
+            raise accounts_table.fail(address, str(exc)) from None
+        accounts[address] = accounts_table.text(address, what="a password in quotes", empty=True)
+    smtp = table.address("smtp", "127.0.0.1:2525")
+    pop3 = table.address("pop3", "127.0.0.1:1110")
+    hostname = table.text("hostname", "mail.example.net")
+    required = table.flag("smtp_auth_required", False)
+    return MailHubConfig(root, accounts, smtp[0], smtp[1], pop3[0], pop3[1], hostname, required)
 
 
 def example_config(root: Path) -> MailHubConfig:

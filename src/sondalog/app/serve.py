@@ -21,11 +21,11 @@ from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
 from sondalog.app.gsm_site import parse_gsm_site, traced
 from sondalog.app.logger import Logger, create_hardware, sensor_root, start_logger
-from sondalog.app.mailhub import MailHub, config_from_mapping
+from sondalog.app.mailhub import MailHub, parse_mail
 from sondalog.app.site import SitePlan
 from sondalog.backends.linux.rs485 import Rs485Error
 from sondalog.backends.registry import BackendContext
-from sondalog.config import ConfigError, locate
+from sondalog.config import ConfigError, locate, of
 from sondalog.config.address import format_address
 from sondalog.io.clock import Clock, RealClock
 from sondalog.io.private import private_dir
@@ -124,10 +124,7 @@ async def start_site(
             if running.bus.serial is not None and bus.rs485 is not None:
                 announce(f"bus RS-485 ({bus.rs485.mode}) on {bus.serial}")
         if plan.mail is not None:
-            try:
-                config = config_from_mapping(plan.mail, state / "mail")
-            except ValueError as exc:
-                raise ConfigError(plan.path, "mail", str(exc), locate(plan.text, "mail")) from exc
+            config = parse_mail(of(plan.mail, plan.path, plan.text, "mail"), state / "mail")
             running.mail = MailHub(config)
             await running.mail.start()
             announce(
@@ -137,7 +134,7 @@ async def start_site(
         if plan.gsm is not None:
             # the network and its modems are lines: they keep real time under --speed
             gsm_clock = clock if clock.speed == 1 else RealClock()
-            gsm = parse_gsm_site(plan.data, plan.path, plan.text, gsm_clock.now())
+            gsm = parse_gsm_site(of(plan.data, plan.path, plan.text), gsm_clock.now())
             if trace is not None:
                 gsm = traced(gsm, trace)
             running.gsm = GsmRuntime(gsm, state / "gsm", gsm_clock)

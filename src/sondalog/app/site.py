@@ -37,13 +37,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from sondalog.app.fleet_site import FleetLogger, parse_fleet
-from sondalog.app.gsm_site import GsmPlan, listen_address, parse_gsm_site
-from sondalog.app.mailhub import config_from_mapping
+from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
+from sondalog.app.mailhub import parse_mail
 from sondalog.backends.linux.board import board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.logger import parse_logger_site
 from sondalog.backends.sim.site_bus import parse_bus_site
-from sondalog.config import ConfigError, Fail, locate, read_site_file, serve_table, unknown
+from sondalog.config import ConfigError, Fail, locate, of, read_site_file, serve_table, unknown
+from sondalog.config.address import parse_listen
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
@@ -117,10 +118,7 @@ def load_site(path: Path) -> SitePlan:
         listens.append(("bus.serve.listen", bus.listen))
     mail = table("mail")
     if mail is not None:
-        try:
-            hub = config_from_mapping(mail, path.parent)  # (its directory is the state's)
-        except ValueError as exc:
-            raise fail("mail", str(exc)) from exc
+        hub = parse_mail(of(mail, path, text, "mail"), path.parent)  # (dir: the state's)
         listens.append(("mail.smtp", (hub.smtp_host, hub.smtp_port)))
         listens.append(("mail.pop3", (hub.pop3_host, hub.pop3_port)))
     if bus is not None:
@@ -129,7 +127,7 @@ def load_site(path: Path) -> SitePlan:
             bus = _board_rs485(bus, data, path, text)
     if logger is not None and logger.backend == "sim":
         parse_logger_site(data, 0.0, path, text)
-    gsm = parse_gsm_site(data, path, text) if "gsm" in data else None
+    gsm = parse_gsm_site(of(data, path, text)) if "gsm" in data else None
     if gsm is not None:
         listens.append(("gsm.serve.api", gsm.api))
         listens += [
@@ -183,6 +181,16 @@ def _check_ports(listens: list[tuple[str, tuple[str, int]]], fail: Fail) -> None
         used.setdefault(port, []).append((where, host))
 
 
+def _listen(value: object, where: str, fail: Fail) -> tuple[str, int]:
+    """A ``listen = "HOST:PORT"`` field of a ``serve`` table."""
+    if not isinstance(value, str):
+        raise fail(where, 'must be "HOST:PORT"')
+    try:
+        return parse_listen(value)
+    except ValueError as exc:
+        raise fail(where, str(exc)) from None
+
+
 def _text(value: object, where: str, fail: Fail) -> str:
     if not isinstance(value, str) or not value:
         raise fail(where, "must be a non-empty string")
@@ -211,7 +219,7 @@ def _logger_plan(table: Mapping[str, object], fail: Fail) -> LoggerPlan:
         raise fail("logger.serve.line_rate", "must be true or false")
     return LoggerPlan(
         backend=backend,
-        listen=listen_address(serve["listen"], "logger.serve.listen", fail)
+        listen=_listen(serve["listen"], "logger.serve.listen", fail)
         if "listen" in serve
         else DEFAULT_LOGGER_LISTEN,
         protocol=str(protocol) if protocol is not None else None,
@@ -266,7 +274,7 @@ def _bus_plan(table: Mapping[str, object], fail: Fail) -> BusPlan:
             raise fail(f"bus.serve.{key}", 'driver delays need an RS-485 mode (rs485 = "...")')
     return BusPlan(
         rs485=rs485,
-        listen=listen_address(serve["listen"], "bus.serve.listen", fail)
+        listen=_listen(serve["listen"], "bus.serve.listen", fail)
         if "listen" in serve
         else DEFAULT_BUS_LISTEN,
         pty=Path(_text(serve["pty"], "bus.serve.pty", fail)) if "pty" in serve else None,

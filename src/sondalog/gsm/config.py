@@ -26,22 +26,19 @@ The runtime reads the site file; this module turns its ``[gsm]`` table into a
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import ipaddress
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
 
+from sondalog.config import Table
 from sondalog.gsm.modem import Modem, ModemConfig
 from sondalog.gsm.network import DEFAULT_USSD, Network
 from sondalog.gsm.sms import DEFAULT_SMSC, normalize
 from sondalog.gsm.system import GsmSystem
 
-
-class GsmConfigError(ValueError):
-    """A wrong ``[gsm]`` table: ``field`` is the dotted path of the mistake."""
-
-    def __init__(self, field: str, message: str) -> None:
-        super().__init__(f"{field}: {message}")
-        self.field = field
+#: ``model(modem, key, number)``: the value at the start of a model table given for a
+#: modem's ``signal`` or ``credit`` (``app/gsm_site.py``: the served world's models).
+Model = Callable[[Table, str, str], float]
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,127 +65,125 @@ _TOP = {"smsc", "sms_price", "hosts", "modem", "phone", "outage"}
 _MODEM = {"number", "credit", "signal", "publish", "ussd", "store_size", "imei", "imsi"}
 
 
-def _known(table: Mapping[str, Any], keys: set[str], where: str) -> None:
-    for key in table:
-        if key not in keys:
-            raise GsmConfigError(
-                f"{where}.{key}", f"unknown key (known: {', '.join(sorted(keys))})"
-            )
-
-
-def _number(value: Any, where: str) -> str:
-    if not isinstance(value, str):
-        raise GsmConfigError(where, "must be a phone number in quotes")
+def phone_number(t: Table, key: str, default: str | None = None) -> str:
+    """The E.164 number ``t[key]`` (``00420 ...`` normalized to ``+420...``)."""
+    what = "a phone number in quotes"
+    value = t.text(key, what=what) if default is None else t.text(key, default, what=what)
     number = normalize(value)
     if not (number.startswith("+") and number[1:].isdigit() and 4 <= len(number) <= 16):
-        raise GsmConfigError(where, f"{value!r} is not an E.164 number like +420600000001")
+        raise t.fail(key, f"{value!r} is not an E.164 number like +420600000001")
     return number
 
 
-def _get(table: Mapping[str, Any], key: str, kind: type, default: Any, where: str) -> Any:
-    value = table.get(key, default)
-    if kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if not isinstance(value, kind) or isinstance(value, bool) != (kind is bool):
-        raise GsmConfigError(f"{where}.{key}", f"must be {kind.__name__}")
-    return value
+def entries(t: Table, key: str, keys: Iterable[str] | None = None) -> list[Table]:
+    """``[[gsm.KEY]]`` tables (a single ``[gsm.KEY]`` table counts as one), each checked to
+    hold only ``keys`` if given."""
+    return [t.table(key, keys)] if t.is_table(key) else t.tables(key, keys)
 
 
-def _port(value: Any, where: str) -> int:
+def _ipv4(value: str) -> str:
     try:
-        port = int(value)
-    except (TypeError, ValueError):
-        raise GsmConfigError(where, f"{value!r} is not a port number") from None
-    if not 1 <= port <= 65535:
-        raise GsmConfigError(where, f"{port} is not a port number (1..65535)")
-    return port
+        return str(ipaddress.IPv4Address(value))
+    except ValueError:
+        raise ValueError(f"must be an IPv4 address in quotes, not {value!r}") from None
 
 
-def _tables(value: Any, where: str) -> list[Mapping[str, Any]]:
-    if isinstance(value, Mapping):
-        value = [value]
-    if not isinstance(value, list) or not all(isinstance(v, Mapping) for v in value):
-        raise GsmConfigError(where, "must be a table or an array of tables")
-    return value
+def _port(t: Table, key: str) -> int:
+    """The port a ``publish`` key names (TOML keys are strings)."""
+    if not key.isdigit() or not 1 <= int(key) <= 65535:
+        raise t.fail(None, f"{key!r} is not a port number (1..65535)")
+    return int(key)
 
 
-def parse(table: Mapping[str, Any], where: str = "gsm") -> GsmConfig:
-    """Check a ``[gsm]`` table; raises :class:`GsmConfigError` naming the field."""
-    _known(table, _TOP, where)
-    hosts_raw = _get(table, "hosts", dict, {}, where)
-    hosts = {}
-    for name, ip in hosts_raw.items():
-        if not isinstance(ip, str) or len(ip.split(".")) != 4:
-            raise GsmConfigError(f"{where}.hosts.{name}", "must be an IPv4 address in quotes")
-        hosts[str(name).lower()] = ip
+def _ussd(m: Table) -> dict[str, str]:
+    ussd = dict(DEFAULT_USSD)
+    answers = m.table("ussd")
+    for code in answers:
+        text = answers.text(code, what="text", empty=True)
+        try:
+            text.format(credit=0.0)
+        except (KeyError, IndexError, ValueError) as exc:
+            raise answers.fail(code, f"bad placeholder: {exc}") from None
+        ussd[code] = text
+    return ussd
+
+
+def _value(m: Table, key: str, number: str, model: Model | None) -> float | None:
+    """A model's value at the start if ``m[key]`` is a model table (and models are allowed)."""
+    return model(m, key, number) if model is not None and m.is_table(key) else None
+
+
+def _modem(m: Table, number: str, smsc: Callable[[], str], model: Model | None) -> ModemSpec:
+    signal = _value(m, "signal", number, model)
+    rssi = m.integer("signal", 18) if signal is None else round(signal)
+    if not (0 <= rssi <= 31 or rssi == 99):
+        raise m.fail("signal", f"must be 0..31 (or 99, unknown), not {rssi}")
+    publish_table = m.table("publish")
+    publish = {
+        _port(publish_table, k): publish_table.integer(k, lo=1, hi=65535, what="a port 1..65535")
+        for k in publish_table
+    }
+    ussd = _ussd(m)
+    defaults = ModemConfig()
+    config = ModemConfig(
+        store_size=m.integer("store_size", 30, lo=1, hi=255),
+        imei=m.text("imei", defaults.imei),
+        imsi=m.text("imsi", defaults.imsi),
+        smsc=smsc(),
+    )
+    credit = _value(m, "credit", number, model)
+    if credit is None:
+        credit = m.number("credit", 0.0)
+    return ModemSpec(number, credit, rssi, publish, ussd, config)
+
+
+def parse(
+    table: Table,
+    *,
+    keys: Iterable[str] = (),
+    modem_keys: Iterable[str] = (),
+    model: Model | None = None,
+) -> GsmConfig:
+    """Check a ``[gsm]`` table; raises :class:`~sondalog.config.ConfigError` naming the file,
+    line and field. ``keys`` and ``modem_keys`` are further keys allowed in ``[gsm]`` and in
+    each ``[[gsm.modem]]`` (what serving adds); with ``model``, a modem's ``signal`` or
+    ``credit`` may be a model table (``model`` gives its value at the start)."""
+    table.keys(_TOP | set(keys))
+    hosts_table = table.table("hosts")
+    hosts = {name.lower(): hosts_table.convert(name, _ipv4) for name in hosts_table}
     parsed_smsc: list[str] = []  # parsed once, where it is first needed (the errors' order)
 
     def smsc() -> str:
         if not parsed_smsc:
-            parsed_smsc.append(_number(table.get("smsc", DEFAULT_SMSC), f"{where}.smsc"))
+            parsed_smsc.append(phone_number(table, "smsc", DEFAULT_SMSC))
         return parsed_smsc[0]
 
     seen: set[str] = set()
 
-    def unique(number: str, at: str) -> str:
+    def subscriber(t: Table) -> str:
+        number = phone_number(t, "number")
         if number in seen:
-            raise GsmConfigError(at, f"{number} is already a subscriber")
+            raise t.fail("number", f"{number} is already a subscriber")
         seen.add(number)
         return number
 
-    modems = []
-    for i, m in enumerate(_tables(table.get("modem", []), f"{where}.modem")):
-        at = f"{where}.modem[{i}]"
-        _known(m, _MODEM, at)
-        number = unique(_number(m.get("number"), f"{at}.number"), f"{at}.number")
-        signal = _get(m, "signal", int, 18, at)
-        if not (0 <= signal <= 31 or signal == 99):
-            raise GsmConfigError(f"{at}.signal", "must be 0..31 (or 99, unknown)")
-        publish = {
-            _port(k, f"{at}.publish"): _port(v, f"{at}.publish.{k}")
-            for k, v in _get(m, "publish", dict, {}, at).items()
-        }
-        ussd = dict(DEFAULT_USSD)
-        for code, text in _get(m, "ussd", dict, {}, at).items():
-            if not isinstance(text, str):
-                raise GsmConfigError(f"{at}.ussd.{code}", "must be text")
-            try:
-                text.format(credit=0.0)
-            except (KeyError, IndexError, ValueError) as exc:
-                raise GsmConfigError(f"{at}.ussd.{code}", f"bad placeholder: {exc}") from None
-            ussd[str(code)] = text
-        size = _get(m, "store_size", int, 30, at)
-        if not 1 <= size <= 255:
-            raise GsmConfigError(f"{at}.store_size", "must be 1..255")
-        defaults = ModemConfig()
-        modem_config = ModemConfig(
-            store_size=size,
-            imei=_get(m, "imei", str, defaults.imei, at),
-            imsi=_get(m, "imsi", str, defaults.imsi, at),
-            smsc=smsc(),
-        )
-        credit = _get(m, "credit", float, 0.0, at)
-        modems.append(ModemSpec(number, credit, signal, publish, ussd, modem_config))
-    phones = []
-    for i, p in enumerate(_tables(table.get("phone", []), f"{where}.phone")):
-        at = f"{where}.phone[{i}]"
-        _known(p, {"number"}, at)
-        phones.append(unique(_number(p.get("number"), f"{at}.number"), f"{at}.number"))
+    modems = [
+        _modem(m, subscriber(m), smsc, model)
+        for m in entries(table, "modem", _MODEM | set(modem_keys))
+    ]
+    phones = [subscriber(p) for p in entries(table, "phone", {"number"})]
     outages = []
-    for i, o in enumerate(_tables(table.get("outage", []), f"{where}.outage")):
-        at = f"{where}.outage[{i}]"
-        _known(o, {"start", "end", "number"}, at)
-        start = _get(o, "start", float, None, at)
-        end = _get(o, "end", float, None, at)
+    for o in entries(table, "outage", {"start", "end", "number"}):
+        start, end = o.number("start"), o.number("end")
         if end <= start:
-            raise GsmConfigError(f"{at}.end", "must be after start")
-        target = _number(o["number"], f"{at}.number") if "number" in o else None
+            raise o.fail("end", "must be after start")
+        target = phone_number(o, "number") if "number" in o else None
         if target is not None and target not in seen:
-            raise GsmConfigError(f"{at}.number", f"{target} is not a subscriber")
+            raise o.fail("number", f"{target} is not a subscriber")
         outages.append((start, end, target))
     return GsmConfig(
         smsc=smsc(),
-        sms_price=_get(table, "sms_price", float, 0.0, where),
+        sms_price=table.number("sms_price", 0.0),
         hosts=hosts,
         modems=tuple(modems),
         phones=tuple(phones),

@@ -119,3 +119,13 @@ def test_address_parser_never_raises_anything_but_value_error(text: str) -> None
 def test_loopback() -> None:
     assert is_loopback("127.0.0.2") and is_loopback("::1") and is_loopback("localhost")
     assert not is_loopback("0.0.0.0") and not is_loopback("example.net")
+
+
+def test_lines_of_whole_arrays_and_quoted_keys() -> None:
+    text = '[gsm]\nx = 1\n\n[[gsm.phones]]\nnumber = "1"\n\n[loggers]\n"a@b.net" = 5\n'
+    root = loads(text, Path("s.toml"))
+    error = _error(text, lambda r: r.table("gsm").keys({"x"}))
+    assert str(error).startswith("site.toml:4: gsm.phones: unknown")
+    error = _error(text, lambda r: r.table("loggers").text("a@b.net"))
+    assert str(error) == 'site.toml:8: loggers."a@b.net": must be a string, not an integer'
+    assert root.table("loggers").field("a@b.net") == 'loggers."a@b.net"'

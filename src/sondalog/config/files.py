@@ -104,7 +104,9 @@ def unknown(name: str, known: Iterable[str]) -> str:
     return f"unknown table or key {name!r} ({hint}known: {', '.join(options)})"
 
 
-_HEADER = re.compile(r"^\s*(\[\[?)\s*([A-Za-z0-9_.\s\"]+?)\s*\]\]?")
+#: One part of a dotted field: a bare or quoted key and an optional ``[index]``.
+_PART = re.compile(r'(?:"((?:[^"\\]|\\.)*)"|([A-Za-z0-9_-]+))(?:\[(\d+)\])?')
+_HEADER = re.compile(r"^\s*(\[\[?)\s*([^\[\]#]+?)\s*\]\]?")
 
 
 def locate(text: str | None, where: str) -> int | None:
@@ -121,12 +123,19 @@ def locate(text: str | None, where: str) -> int | None:
         for n, line in enumerate(lines)
         if (m := _HEADER.match(line))
     ]
+    parts = [
+        (quoted if quoted else bare, index)
+        for quoted, bare, index in _PART.findall(where)
+        if quoted or bare
+    ]
     lo, hi, found, prefix = 0, len(lines), None, ""
-    for name, index in re.findall(r"([A-Za-z0-9_]+)(?:\[(\d+)\])?", where):
+    for name, index in parts:
         full = f"{prefix}.{name}" if prefix else name
         matches = [
             n for n, array, h in headers if lo <= n < hi and h == full and array == bool(index)
         ]
+        if not matches and not index:  # a whole array of tables ([[name]] headers)
+            matches = [n for n, array, h in headers if lo <= n < hi and h == full and array]
         pick = int(index) if index else 0
         if (
             not matches
@@ -140,7 +149,8 @@ def locate(text: str | None, where: str) -> int | None:
             if found is not None:
                 own_end = next((n for n, _, _ in headers if found < n < hi), hi)
             start = found + 1 if found is not None else lo
-            pattern = re.compile(rf"(^|[\s{{,]){re.escape(name)}\s*=")
+            key = rf"(?:{re.escape(name)}|\"{re.escape(name)}\"|'{re.escape(name)}')"
+            pattern = re.compile(rf"(^|[\s{{,]){key}\s*=")
             for n in range(start, own_end):
                 if pattern.search(lines[n]):
                     return n + 1

@@ -18,6 +18,7 @@ tables with a "did you mean". Nothing outside this package checks a value's type
 
 from __future__ import annotations
 
+import json
 import re
 import tomllib
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -30,6 +31,9 @@ from .errors import ConfigError
 from .files import locate, read_site_file, unknown
 
 T = TypeVar("T")
+
+#: A TOML bare key; any other key is written quoted in a dotted field (``loggers."a@b.net"``).
+_BARE = re.compile(r"[A-Za-z0-9_-]+")
 
 
 class _Missing:
@@ -123,7 +127,8 @@ class Table:
         """The dotted name of ``key`` (of the table itself without one)."""
         if key is None:
             return self.where
-        return f"{self.where}.{key}" if self.where else key
+        name = key if _BARE.fullmatch(key) else json.dumps(key, ensure_ascii=False)
+        return f"{self.where}.{name}" if self.where else name
 
     def fail(self, key: str | None, message: str) -> ConfigError:
         """The :class:`ConfigError` for ``key`` (the whole table without one)."""

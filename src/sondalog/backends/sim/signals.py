@@ -240,9 +240,10 @@ def read_signal(t: Table, start: float) -> Signal:
         )
     elif model == "steps":
         try:
-            signal = Schedule(_points(t.raw("schedule"), "schedule"), origin, False, False)
+            points = _points(t.raw("schedule"), t.field("schedule"))
         except ConfigError as exc:
-            raise t.source.fail(t.field(exc.field), exc.message) from None
+            raise t.source.fail(exc.field, exc.message) from None
+        signal = Schedule(points, origin, False, False)
     else:
         path = t.path("path")
         interpolate = t.flag("interpolate", True)

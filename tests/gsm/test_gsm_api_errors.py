@@ -178,7 +178,7 @@ def test_the_phone_client_reports_the_refusal(world: Served) -> None:
     phone = PhoneApi(world.api)
     with pytest.raises(PhoneApiError) as refused:
         phone.sms(PHONE, PHONE2, "bad \udc80 byte")  # what a shell's invalid UTF-8 becomes
-    assert refused.value.status == 400 and "'text' has a lone surrogate U+DC80" in str(
+    assert refused.value.status == 400 and "body.text: has a lone surrogate U+DC80" in str(
         refused.value
     )
     with pytest.raises(PhoneApiError) as refused:  # refused before sending: not "cannot reach"
@@ -272,7 +272,8 @@ def test_random_json_never_gets_5xx(world: Served, method: str, path: str) -> No
         assert 200 <= status < 500, (body, status, answer)
         if status >= 400:
             assert isinstance(answer["error"], str) and answer["error"]
-            assert answer["field"] is None or answer["field"] in FIELDS
+            unknown = "unknown table or key" in answer["error"]  # named, whatever it is
+            assert answer["field"] is None or answer["field"] in FIELDS or unknown
 
     post()
     if path in VALID:  # valid requests were applied, the others refused

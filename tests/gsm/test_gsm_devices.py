@@ -10,6 +10,7 @@ import pytest
 from sondalog.app.gsm_site import parse_gsm_site
 from sondalog.config import ConfigError, loads
 from sondalog.gsm import events as ev
+from sondalog.gsm.gateway import ModemEvent
 from sondalog.gsm.modem import Modem
 from sondalog.gsm.network import Network
 from sondalog.protocol.device import LineSend
@@ -18,12 +19,17 @@ from sondalog.world.gsm_devices import (
     ModemDevice,
     ModemSaid,
     NetworkDevice,
-    ToModem,
+    NetworkSaid,
     ToNetwork,
 )
 
 T0 = 1_764_460_800.0
 NUMBER = "+420600000001"
+
+
+def to_modem(number: str, event: ev.Event) -> NetworkSaid:
+    """The network device's effect carrying an event for a modem."""
+    return NetworkSaid(ModemEvent(number, event))
 
 
 def test_modem_device_answers_every_line_and_speaks_to_the_network() -> None:
@@ -56,15 +62,15 @@ def test_network_device_routes_and_follows_the_models() -> None:
     )
     assert device.next_deadline() == T0
     effects = device.advance(T0)
-    assert ToModem(NUMBER, ev.Signal(10)) in effects
+    assert to_modem(NUMBER, ev.Signal(10)) in effects
     assert device.next_deadline() == T0 + 1.0
-    assert device.advance(T0 + 1.0) == [ToModem(NUMBER, ev.Signal(11))]
+    assert device.advance(T0 + 1.0) == [to_modem(NUMBER, ev.Signal(11))]
     device.handle(ModemSaid(NUMBER, ev.SendSms("+420700000001", "x", 1)), T0 + 1.5)
     assert network.subscriber(NUMBER).credit == 98.5
     device.advance(T0 + 2.0)  # the model says 100, the network took 1.5 for the SMS
     assert network.subscriber(NUMBER).credit == 98.5
     effects = device.handle(ModemSaid(NUMBER, ev.Ussd("*101#")), T0 + 2.5)
-    assert effects == [ToModem(NUMBER, ev.UssdAnswer("Your credit is 98.50 CZK."))]
+    assert effects == [to_modem(NUMBER, ev.UssdAnswer("Your credit is 98.50 CZK."))]
 
 
 SITE = """
@@ -157,7 +163,7 @@ def test_network_device_wakes_for_a_scheduled_outage() -> None:
     network.schedule_outage(T0 + 10, T0 + 20, NUMBER)
     device = NetworkDevice(network, T0)
     assert device.next_deadline() == T0 + 10
-    assert ToModem(NUMBER, ev.Registration(False)) in device.advance(T0 + 10)
+    assert to_modem(NUMBER, ev.Registration(False)) in device.advance(T0 + 10)
     assert device.next_deadline() == T0 + 20
-    assert ToModem(NUMBER, ev.Registration(True)) in device.advance(T0 + 20)
+    assert to_modem(NUMBER, ev.Registration(True)) in device.advance(T0 + 20)
     assert device.next_deadline() is None

@@ -3,11 +3,16 @@
 Wiring only: the pure cores (:mod:`sondalog.gsm`) adapted to the Device contract
 (:mod:`sondalog.world.gsm_devices`) and served by the one runtime, one
 :class:`~sondalog.io.host.DeviceHost` per modem (its DTE lines: a pty, TCP) and one for the
-network (its timers: outages, unanswered calls, signal and credit models). Effects cross
-between them through handlers; the IP gateway's effects become real TCP
-(:class:`~sondalog.io.sockets.SocketPool`); the network's durable state is written to
-``STATE/network.json`` after every change and read back at start (SMS survive a restart).
-The HTTP API (:mod:`sondalog.app.gsm_api`) and data-call bridges work on :class:`GsmRuntime`.
+network (its timers: outages, unanswered calls, signal and credit models). A modem's effects
+are posted to the network's host; what the network says is carried by the one router
+(:func:`sondalog.gsm.routing.route`, as in the pure :class:`~sondalog.gsm.system.GsmSystem`)
+to the destinations :class:`GsmRuntime` implements: events posted to the modems' hosts,
+phone events to the call bridges (:mod:`sondalog.app.gsm_calls`), the IP gateway's effects
+to real TCP (:class:`~sondalog.io.sockets.SocketPool`). The phone side (the HTTP API,
+:mod:`sondalog.app.gsm_api`, and the call bridges) posts its requests to the network's host
+and gets the ids the network gave back in its output. The network's durable state is
+written to ``STATE/network.json`` after every change and read back at start (SMS survive a
+restart).
 """
 
 from __future__ import annotations
@@ -17,16 +22,29 @@ import contextlib
 import json
 import logging
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
-from typing import IO
+from typing import IO, TypeVar
 
 from sondalog.app.gsm_calls import CallBridges
 from sondalog.app.gsm_site import GsmPlan
+from sondalog.gsm import events as ev
 from sondalog.gsm import gateway as gw
 from sondalog.gsm import netstate
 from sondalog.gsm.config import build
 from sondalog.gsm.network import Network
+from sondalog.gsm.phones import (
+    CallPlaced,
+    Coverage,
+    PhoneCall,
+    PhoneData,
+    PhoneEvent,
+    PhoneHangUp,
+    PhoneSms,
+    Request,
+    SmsSubmitted,
+)
+from sondalog.gsm.routing import NetOutput, route
 from sondalog.gsm.trace import trace_line
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost, LocalLink
@@ -34,20 +52,19 @@ from sondalog.io.private import open_private, private_dir, private_parents
 from sondalog.io.pty import PtyLine
 from sondalog.io.sockets import SocketPool
 from sondalog.io.tcp import TcpServer, serve_tcp
-from sondalog.protocol.device import Effect, Event
+from sondalog.protocol.device import Effect
 from sondalog.world.gsm_devices import (
-    ForPhone,
     FromNetwork,
-    IpAction,
     IpHappened,
     ModemDevice,
     ModemSaid,
     NetworkDevice,
-    ToModem,
+    NetworkSaid,
+    Requested,
     ToNetwork,
-    wrap,
 )
 
+T = TypeVar("T")
 log = logging.getLogger(__name__)
 
 STATE_FILE = "network.json"
@@ -96,6 +113,8 @@ class GsmRuntime:
         self._traces: list[IO[str]] = []
         self._save_handle: asyncio.TimerHandle | None = None
         self._tasks: set[asyncio.Task[None]] = set()
+        self._submitted: list[SmsSubmitted] = []  # answers to the request being posted
+        self._placed: list[CallPlaced] = []
         self.network = Network()
         self.net_host: DeviceHost
 
@@ -105,16 +124,14 @@ class GsmRuntime:
         now = self.clock.now()
         system = build(self.plan.config, now, trace=self._tracer)
         self.network = system.network
-        restored: list[object] = []
+        restored: list[NetOutput] = []
         path = self.state / STATE_FILE
         if path.exists():
             data = json.loads(path.read_text(encoding="utf-8"))
             restored = netstate.load(self.network, data, now)
         device = NetworkDevice(self.network, now, self.plan.signals, self.plan.credits)
         self.net_host = DeviceHost(device, self.clock)
-        self.net_host.on_effect(ToModem, self._to_modem)
-        self.net_host.on_effect(ForPhone, self._for_phone)
-        self.net_host.on_effect(IpAction, self._ip_action)
+        self.net_host.on_effect(NetworkSaid, self._network_said)
         for number, modem in system.modems.items():
             modem_device = ModemDevice(number, modem)
             host = DeviceHost(modem_device, self.clock)
@@ -123,7 +140,8 @@ class GsmRuntime:
             self.modem_hosts[number] = host
             host.start()
         self.net_host.start()
-        self.route(wrap(restored))
+        route(restored, self)
+        self.changed()
         for serve in self.plan.modems:
             host = self.modem_hosts[serve.number]
             if serve.pty is not None:
@@ -174,52 +192,71 @@ class GsmRuntime:
 
         return hook
 
-    # -- routing ---------------------------------------------------------------------------
-    def route(self, effects: Sequence[Effect]) -> None:
-        """Carry what a network call produced to modems, phones and sockets."""
-        for effect in effects:
-            if isinstance(effect, ToModem):
-                self._to_modem(effect)
-            elif isinstance(effect, ForPhone):
-                self._for_phone(effect)
-            elif isinstance(effect, IpAction):
-                self._ip_action(effect)
-        self.changed()
+    # -- the phone side: requests posted to the network's host ------------------------------
+    def send_sms(self, sender: str, to: str, text: str) -> SmsSubmitted:
+        """A phone sends an SMS; the answer carries the ids the SMS centre gave it."""
+        self._submitted.clear()
+        return _answer(self._submitted, self._post(PhoneSms(sender, to, text)))
 
-    def network_call(self, items: list[object]) -> None:
-        """Route what a :class:`Network` method called by the API returned."""
-        self.route(wrap(items))
-        self.net_host.post(_Nudge())  # its next deadline may have moved
+    def place_call(self, caller: str, callee: str, kind: str) -> CallPlaced:
+        """A phone calls; the answer carries the call's id (the call bridges knew it first)."""
+        self._placed.clear()
+        return _answer(self._placed, self._post(PhoneCall(caller, callee, kind)))
+
+    def hang_up(self, call_id: int) -> None:
+        self._post(PhoneHangUp(call_id))
+
+    def call_data(self, call_id: int, data: bytes) -> None:
+        self._post(PhoneData(call_id, data))
+
+    def set_coverage(self, number: str | None, covered: bool) -> None:
+        self._post(Coverage(number, covered))
+
+    def _post(self, request: Request) -> Request:
+        """``request`` for the network's host, which runs it at once (routing its output, an
+        answer among it) and looks at its next deadline again."""
+        self.net_host.post(Requested(request))
+        self.changed()
+        return request
+
+    # -- routing: the destinations of the network's output ----------------------------------
+    def _network_said(self, effect: Effect) -> None:
+        assert isinstance(effect, NetworkSaid)
+        route((effect.output,), self)
 
     def _to_network(self, effect: Effect) -> None:
         assert isinstance(effect, ToNetwork)
         self.net_host.post(ModemSaid(effect.number, effect.effect))
         self.changed()
 
-    def _to_modem(self, effect: Effect) -> None:
-        assert isinstance(effect, ToModem)
-        host = self.modem_hosts.get(effect.number)
+    def to_modem(self, number: str, event: ev.Event) -> None:
+        host = self.modem_hosts.get(number)
         if host is not None:
-            host.post(FromNetwork(effect.event))
+            host.post(FromNetwork(event))
 
-    def _for_phone(self, effect: Effect) -> None:
-        assert isinstance(effect, ForPhone)
-        self.calls.phone_event(effect.event)
+    def to_phone(self, event: PhoneEvent) -> None:
+        self.calls.phone_event(event)
         self.changed()
 
-    def _ip_action(self, effect: Effect) -> None:
-        assert isinstance(effect, IpAction)
-        action = effect.effect
-        if isinstance(action, gw.Connect):
-            self.sockets.connect(action.conn, action.host, action.port)
-        elif isinstance(action, gw.Send):
-            self.sockets.send(action.conn, action.data)
-        elif isinstance(action, gw.Close):
-            self.sockets.close(action.conn)
-        elif isinstance(action, gw.Listen):
-            self.spawn(self.sockets.listen(action.listener, action.host, action.port))
-        elif isinstance(action, gw.Unlisten):
-            self.sockets.unlisten(action.listener)
+    def sms_submitted(self, reply: SmsSubmitted) -> None:
+        self._submitted.append(reply)
+
+    def call_placed(self, reply: CallPlaced) -> None:
+        self.calls.placed(reply)
+        self._placed.append(reply)
+
+    def to_ip(self, effect: gw.IpEffect) -> None:
+        match effect:
+            case gw.Connect(conn, host, port):
+                self.sockets.connect(conn, host, port)
+            case gw.Send(conn, data):
+                self.sockets.send(conn, data)
+            case gw.Close(conn):
+                self.sockets.close(conn)
+            case gw.Listen(listener, host, port):
+                self.spawn(self.sockets.listen(listener, host, port))
+            case gw.Unlisten(listener):
+                self.sockets.unlisten(listener)
 
     def spawn(self, coro: object) -> None:
         task: asyncio.Task[None] = asyncio.get_running_loop().create_task(coro)  # type: ignore[arg-type]
@@ -245,7 +282,8 @@ class GsmRuntime:
         os.replace(tmp, path)
 
 
-class _Nudge(Event):
-    """An event the network ignores: makes its host look at the next deadline again."""
-
-    __slots__ = ()
+def _answer(answers: list[T], request: Request) -> T:
+    """The network's answer to ``request``."""
+    if not answers:
+        raise RuntimeError(f"the network did not answer {request!r} (see the log)")
+    return answers.pop()

@@ -21,9 +21,15 @@ Served on loopback by uvicorn inside the ``sondalog serve`` event loop (default
 
 Every error is JSON, ``{"error": "...", "field": NAME | null}`` (``field``: the body's field at
 fault): a body that is not a JSON object, nests deeper than :data:`MAX_DEPTH`, lacks a field,
-has a field of the wrong type or a string that is not text (a lone surrogate such as
-``"\\ud800"``) gets 400 and changes nothing; an unknown number 404; a body larger than
-:data:`MAX_BODY` bytes 413 (no more than that is read; the connection closes).
+has an unknown field, a field of the wrong type or a string that is not text (a lone surrogate
+such as ``"\\ud800"``) gets 400 and changes nothing; an unknown number 404; a body larger than
+:data:`MAX_BODY` bytes 413 (no more than that is read; the connection closes). A body is read
+through the configuration reader (:func:`sondalog.config.of`, the fields named ``body.NAME``
+in messages).
+
+Requests are posted to the network's host through :class:`~sondalog.app.gsm.GsmRuntime`
+(``send_sms``, ``set_coverage``, the call bridges); the ids in an answer are the ones the
+network gave in its output.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import re
 import socket
 from collections.abc import Iterator
 from datetime import UTC, datetime
@@ -48,6 +55,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from sondalog.app.gsm import GsmRuntime
 from sondalog.client.phone import MAX_BODY  # one limit: the client checks it before sending
+from sondalog.config import ConfigError, Table, of
 from sondalog.gsm.network import MODEM, PHONE
 from sondalog.gsm.sms import Sms, joined, normalize
 
@@ -68,12 +76,17 @@ class ApiError(Exception):
         self.field = field
 
 
+def _safe(text: str) -> str:
+    """``text`` with lone surrogates as backslash escapes: it always encodes."""
+    return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
 def error_response(status: int, message: str, field: str | None = None) -> JSONResponse:
-    """``{"error": message, "field": field}``; a message quoting a lone surrogate still
-    encodes (backslash escapes), so an error never becomes a 500."""
-    safe = message.encode("utf-8", "backslashreplace").decode("utf-8")
+    """``{"error": message, "field": field}``; a message (or an unknown field's name) with a
+    lone surrogate still encodes (backslash escapes), so an error never becomes a 500."""
     headers = {"connection": "close"} if status == 413 else None
-    return JSONResponse({"error": safe, "field": field}, status_code=status, headers=headers)
+    body = {"error": _safe(message), "field": None if field is None else _safe(field)}
+    return JSONResponse(body, status_code=status, headers=headers)
 
 
 class BodyLimit:
@@ -138,55 +151,54 @@ def _no_constant(name: str) -> Any:
     raise ValueError(f"{name} is not JSON")
 
 
-def _depth(value: Any) -> int:
-    """How deep objects and arrays nest in ``value`` (0: a scalar), without recursion."""
-    deepest = 0
-    stack: list[tuple[Any, int]] = [(value, 0)]
-    while stack:
-        item, depth = stack.pop()
-        if isinstance(item, dict):
-            item = list(item.values())
-        if isinstance(item, list):
-            deepest = max(deepest, depth + 1)
-            stack += [(x, depth + 1) for x in item if isinstance(x, (dict, list))]
+#: A JSON string (its escapes included) or anything that is not a bracket.
+_NOT_BRACKET = re.compile(r'"(?:[^"\\]|\\.)*"?|[^\[\]{}"]+')
+
+
+def _nesting(text: str) -> int:
+    """How deep objects and arrays nest in the JSON ``text`` (0: a scalar), counted on the
+    text before it is parsed (no recursion, and the parser never sees a deeper one)."""
+    deepest = depth = 0
+    for bracket in _NOT_BRACKET.sub("", text):
+        if bracket in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif bracket in "]}":
+            depth -= 1
     return deepest
 
 
-async def _body(request: Request) -> dict[str, Any]:
-    """The request's JSON object (UTF-8, no NaN or Infinity, nesting <= :data:`MAX_DEPTH`)."""
+async def _body(request: Request, keys: set[str]) -> Table:
+    """The request's JSON object (UTF-8, no NaN or Infinity, nesting <= :data:`MAX_DEPTH`)
+    as a reader's table holding only ``keys``: its fields are read through typed getters."""
     raw = await request.body()  # BodyLimit has read it: at most MAX_BODY bytes
     not_object = ApiError(400, "the body must be a JSON object")
-    too_deep = ApiError(400, f"the body nests deeper than {MAX_DEPTH} levels")
     try:
-        data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
-    except RecursionError:  # the parser's own limit, far deeper than MAX_DEPTH
-        raise too_deep from None
-    except ValueError:  # not UTF-8 (UnicodeDecodeError), not JSON, an int too long
+        text = raw.decode("utf-8")
+        if _nesting(text) > MAX_DEPTH:
+            raise ApiError(400, f"the body nests deeper than {MAX_DEPTH} levels")
+        data = json.loads(text, parse_constant=_no_constant)
+        return of({"body": data}).table("body").keys(keys)
+    except ApiError:
+        raise
+    except ConfigError as exc:
+        if exc.field != "body":
+            raise  # an unknown key: named
         raise not_object from None
-    if _depth(data) > MAX_DEPTH:
-        raise too_deep
-    if not isinstance(data, dict):
-        raise not_object
-    return data
+    except (ValueError, RecursionError):  # not UTF-8, not JSON, an int too long
+        raise not_object from None
 
 
-def _string(value: str, key: str) -> str:
-    """``value`` if it is text: a lone surrogate (``"\\ud800"``) cannot be sent or stored."""
+def _text(body: Table, key: str, what: str | None = None) -> str:
+    """A non-empty string of characters: a lone surrogate (``"\\ud800"``) cannot be sent
+    or stored."""
+    value = body.text(key, what=what)
     try:
         value.encode("utf-8")
     except UnicodeEncodeError as exc:
         bad = f"U+{ord(value[exc.start]):04X}"
-        raise ApiError(400, f"{key!r} has a lone surrogate {bad}: not a character", key) from None
+        raise body.fail(key, f"has a lone surrogate {bad}: not a character") from None
     return value
-
-
-def _text(data: dict[str, Any], key: str) -> str:
-    if key not in data:
-        raise ApiError(400, f"{key!r} is missing", key)
-    value = data[key]
-    if not isinstance(value, str) or not value:
-        raise ApiError(400, f"{key!r} must be a non-empty string", key)
-    return _string(value, key)
 
 
 def build_app(runtime: GsmRuntime) -> Starlette:
@@ -229,16 +241,14 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         return JSONResponse(out)
 
     async def send_sms(request: Request) -> JSONResponse:
-        data = await _body(request)
-        sender, to, text = (_text(data, k) for k in ("from", "to", "text"))
+        body = await _body(request, {"from", "to", "text"})
+        sender, to, text = (_text(body, k) for k in ("from", "to", "text"))
         if len(text) > MAX_TEXT:
-            raise ApiError(400, f"'text' is longer than {MAX_TEXT} characters", "text")
+            raise body.fail("text", f"is longer than {MAX_TEXT} characters")
         sender, to = subscriber(sender, "from", (PHONE,)), subscriber(to, "to")
-        before = runtime.network._next_sms
-        runtime.network_call(runtime.network.phone_sms(sender, to, text, runtime.clock.now()))
-        ids = list(range(before, runtime.network._next_sms))
-        queued = any(s.sms_id in ids for s in runtime.network.queued(to))
-        return JSONResponse({"ids": ids, "queued": queued}, status_code=201)
+        submitted = runtime.send_sms(sender, to, text)
+        answer = {"ids": list(submitted.sms_ids), "queued": submitted.queued}
+        return JSONResponse(answer, status_code=201)
 
     async def list_sms(request: Request) -> JSONResponse:
         to = request.query_params.get("to")
@@ -254,11 +264,9 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         return JSONResponse([_sms_json(s) for s in messages])
 
     async def call(request: Request) -> JSONResponse:
-        data = await _body(request)
-        caller, callee = _text(data, "from"), _text(data, "to")
-        kind = data.get("kind", "voice")
-        if not isinstance(kind, str) or kind not in ("voice", "data"):
-            raise ApiError(400, '\'kind\' must be "voice" or "data"', "kind")
+        body = await _body(request, {"from", "to", "kind"})
+        caller, callee = _text(body, "from"), _text(body, "to")
+        kind = body.text("kind", "voice", choices=("voice", "data"))
         caller, callee = subscriber(caller, "from", (PHONE,)), subscriber(callee, "to")
         info = await runtime.calls.place(caller, callee, kind)
         return JSONResponse(info.as_json(), status_code=201)
@@ -283,24 +291,23 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         return JSONResponse(runtime.calls.calls[number].as_json())
 
     async def coverage(request: Request) -> JSONResponse:
-        data = await _body(request)
-        if "number" not in data:  # a misspelt key must not cut the whole network
-            raise ApiError(400, "'number' is missing (null: the whole network)", "number")
-        number = data["number"]
-        covered = data.get("covered")
-        if not isinstance(covered, bool):
-            raise ApiError(400, "'covered' must be true or false", "covered")
-        if number is not None:
-            if not isinstance(number, str):
-                raise ApiError(400, "'number' must be a phone number or null", "number")
-            number = subscriber(_string(number, "number"), "number")
-        now = runtime.clock.now()
-        runtime.network_call(runtime.network.set_coverage(number, covered, now))
+        body = await _body(request, {"number", "covered"})
+        if "number" not in body:  # a misspelt key must not cut the whole network
+            raise body.fail("number", "required (null: the whole network)")
+        number = None
+        if body.raw("number") is not None:
+            number = subscriber(_text(body, "number", "a phone number or null"), "number")
+        covered = body.flag("covered")
+        runtime.set_coverage(number, covered)
         return JSONResponse({"number": number, "covered": covered})
 
     async def error(request: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, ApiError)
         return error_response(exc.status, exc.message, exc.field)
+
+    async def bad_body(request: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, ConfigError)  # from the reader: field "body.NAME"
+        return error_response(400, f"{exc.field}: {exc.message}", exc.field.removeprefix("body."))
 
     async def http_error(request: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, HTTPException)  # an unknown path (404), a wrong method (405)
@@ -321,7 +328,12 @@ def build_app(runtime: GsmRuntime) -> Starlette:
         Route("/calls/{call_id}", hang_up, methods=["DELETE"]),
         Route("/coverage", coverage, methods=["POST"]),
     ]
-    handlers = {ApiError: error, HTTPException: http_error, Exception: internal}
+    handlers = {
+        ApiError: error,
+        ConfigError: bad_body,
+        HTTPException: http_error,
+        Exception: internal,
+    }
     return Starlette(routes=routes, middleware=[Middleware(BodyLimit)], exception_handlers=handlers)
 
 

@@ -5,6 +5,11 @@ A data call's bytes reach the person who placed it through a **bridge**: a TCP p
 the phone's side of the call: bytes written there go to the modem once it answered (earlier
 ones wait), the modem's bytes come back on it; closing it hangs up, and the call ending
 closes it. ``sondalog term gsm://...`` is such a connection (docs/gsm.md).
+
+The bridges reach the running network only through :class:`PhoneSide` (the served world,
+:class:`sondalog.app.gsm.GsmRuntime`, is one); it tells them each call's id as the network
+gives it (:meth:`CallBridges.placed`) and what the phones hear
+(:meth:`CallBridges.phone_event`).
 """
 
 from __future__ import annotations
@@ -12,12 +17,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
-from sondalog.gsm.network import PhoneEvent
-
-if TYPE_CHECKING:
-    from sondalog.app.gsm import GsmRuntime
+from sondalog.gsm.phones import CallPlaced, PhoneEvent
 
 #: Ended calls remembered for ``GET /calls``.
 KEEP_ENDED = 100
@@ -54,29 +56,41 @@ class CallInfo:
         return out
 
 
+class PhoneSide(Protocol):
+    """What the bridges ask of the running network."""
+
+    def place_call(self, caller: str, callee: str, kind: str) -> CallPlaced:
+        """Place a call; its id comes back (after :meth:`CallBridges.placed` was told)."""
+        ...
+
+    def hang_up(self, call_id: int) -> None: ...
+
+    def call_data(self, call_id: int, data: bytes) -> None:
+        """Bytes from the phone's side of an answered data call."""
+        ...
+
+
 class CallBridges:
     """The calls phones placed, by id."""
 
-    def __init__(self, runtime: GsmRuntime) -> None:
-        self.runtime = runtime
+    def __init__(self, network: PhoneSide) -> None:
+        self.network = network
         self.calls: dict[int, CallInfo] = {}
 
     async def place(self, caller: str, callee: str, kind: str) -> CallInfo:
-        """A phone calls a modem; a data call gets its bridge port before it rings."""
-        network = self.runtime.network
-        call_id, items = network.phone_call(caller, callee, kind, self.runtime.clock.now())
-        info = CallInfo(call_id, network.subscriber(caller).number, callee, kind)
-        self.calls[call_id] = info
-        if kind == "data" and call_id in network.calls:
+        """A phone calls a modem; a data call that rings gets its bridge port."""
+        info = self.calls[self.network.place_call(caller, callee, kind).call_id]
+        if kind == "data" and info.state != "ended":
             await self._open_bridge(info)
-        self.runtime.network_call(items)
         self._forget_old()
         return info
 
+    def placed(self, reply: CallPlaced) -> None:
+        """The network gave a call its id: known from now on, before its ring or its end."""
+        self.calls[reply.call_id] = CallInfo(reply.call_id, reply.caller, reply.callee, reply.kind)
+
     def hang_up(self, call_id: int) -> None:
-        self.runtime.network_call(
-            self.runtime.network.phone_hang_up(call_id, self.runtime.clock.now())
-        )
+        self.network.hang_up(call_id)
         info = self.calls.get(call_id)
         if info is not None and info.state != "ended":
             self._ended(info, "hangup")
@@ -100,7 +114,7 @@ class CallBridges:
 
     def _to_far_end(self, info: CallInfo, data: bytes) -> None:
         if info.state == "connected":
-            self.runtime.network_call(self.runtime.network.phone_data(info.call_id, data))
+            self.network.call_data(info.call_id, data)
         elif info.state == "ringing":
             info._waiting += data[: MAX_EARLY - len(info._waiting)]
 
@@ -132,8 +146,12 @@ class CallBridges:
                 if info.state != "ended":
                     self.hang_up(info.call_id)
 
-        info._server = await asyncio.start_server(client, "127.0.0.1", 0)
-        info.bridge = int(info._server.sockets[0].getsockname()[1])
+        server = await asyncio.start_server(client, "127.0.0.1", 0)
+        info.bridge = int(server.sockets[0].getsockname()[1])
+        if info.state == "ended":  # it ended while the port opened
+            server.close()
+        else:
+            info._server = server
 
     def _forget_old(self) -> None:
         ended = [c for c in self.calls.values() if c.state == "ended"]

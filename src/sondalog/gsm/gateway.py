@@ -93,6 +93,10 @@ class ModemEvent:
     event: ev.Event
 
 
+#: What the gateway says: events for modems, socket effects for the runtime.
+GatewayOutput = ModemEvent | IpEffect
+
+
 def _is_ipv4(host: str) -> bool:
     parts = host.split(".")
     return len(parts) == 4 and all(p.isdigit() and int(p) < 256 for p in parts)
@@ -129,7 +133,7 @@ class IpGateway:
         return next((c for c, key in self._conns.items() if key == (number, handle)), None)
 
     # -- from modems ---------------------------------------------------------------------
-    def open(self, number: str, handle: int, host: str, port: int) -> list[object]:
+    def open(self, number: str, handle: int, host: str, port: int) -> list[GatewayOutput]:
         ip = self.resolve(host)
         if ip is None:
             return [ModemEvent(number, ev.TcpFailed(handle, HOST_UNREACHABLE))]
@@ -137,18 +141,18 @@ class IpGateway:
         self._conns[conn] = (number, handle)
         return [Connect(conn, ip, port)]
 
-    def send(self, number: str, handle: int, data: bytes) -> list[object]:
+    def send(self, number: str, handle: int, data: bytes) -> list[GatewayOutput]:
         conn = self._conn_of(number, handle)
         return [] if conn is None else [Send(conn, data)]
 
-    def close(self, number: str, handle: int) -> list[object]:
+    def close(self, number: str, handle: int) -> list[GatewayOutput]:
         conn = self._conn_of(number, handle)
         if conn is None:
             return []
         del self._conns[conn]
         return [Close(conn)]
 
-    def listen(self, number: str, port: int) -> list[object]:
+    def listen(self, number: str, port: int) -> list[GatewayOutput]:
         host_port = self.published.get((number, port))
         if host_port is None or (number, port) in self._listeners.values():
             return []
@@ -156,15 +160,15 @@ class IpGateway:
         self._listeners[listener] = (number, port)
         return [Listen(listener, self.listen_host, host_port)]
 
-    def unlisten(self, number: str, port: int) -> list[object]:
+    def unlisten(self, number: str, port: int) -> list[GatewayOutput]:
         found = [lid for lid, key in self._listeners.items() if key == (number, port)]
         for lid in found:
             del self._listeners[lid]
         return [Unlisten(lid) for lid in found]
 
-    def drop(self, number: str) -> list[object]:
+    def drop(self, number: str) -> list[GatewayOutput]:
         """The modem detached or lost coverage: close everything it had."""
-        out: list[object] = []
+        out: list[GatewayOutput] = []
         for conn in [c for c, (n, _) in self._conns.items() if n == number]:
             del self._conns[conn]
             out.append(Close(conn))
@@ -178,7 +182,7 @@ class IpGateway:
         return sorted(p for n, p in self._listeners.values() if n == number)
 
     # -- from the runtime ----------------------------------------------------------------
-    def ip_event(self, event: IpEvent) -> list[object]:
+    def ip_event(self, event: IpEvent) -> list[GatewayOutput]:
         if isinstance(event, Accepted):
             key = self._listeners.get(event.listener)
             if key is None:

@@ -14,6 +14,7 @@ from typing import Any
 
 from sondalog.gsm.network import Network, Outage
 from sondalog.gsm.pdu import Concat
+from sondalog.gsm.routing import NetOutput
 from sondalog.gsm.sms import Sms
 
 VERSION = 1
@@ -68,7 +69,7 @@ def dump(network: Network) -> dict[str, Any]:
     }
 
 
-def load(network: Network, data: dict[str, Any], now: float) -> list[object]:
+def load(network: Network, data: dict[str, Any], now: float) -> list[NetOutput]:
     """Put dumped state into a freshly built ``network`` (its subscribers already added);
     returns the outputs of re-evaluating coverage (queued SMS go out if reachable)."""
     if data.get("version") != VERSION:
@@ -80,7 +81,7 @@ def load(network: Network, data: dict[str, Any], now: float) -> list[object]:
     for number, covered in data.get("coverage", {}).items():
         if number in network.subscribers:
             network._manual_cover[number] = bool(covered)
-    out: list[object] = []
+    out: list[NetOutput] = []
     for number, state in data.get("subscribers", {}).items():
         sub = network.subscribers.get(number)
         if sub is None:

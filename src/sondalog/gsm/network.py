@@ -8,9 +8,13 @@ bytes between its ends; USSD codes answer per subscriber, their text formatted w
 subscriber's credit; signal and credit are set by the caller; coverage can be taken away on
 demand or on a schedule. IP goes through :class:`~sondalog.gsm.gateway.IpGateway`.
 
-Every method takes ``now`` (POSIX seconds) where time matters and returns a list of outputs:
-:class:`~sondalog.gsm.gateway.ModemEvent` for a modem, :class:`PhoneEvent` for a phone,
-gateway effects for the runtime's sockets.
+Every method takes ``now`` (POSIX seconds) where time matters and returns a list of typed
+outputs (:data:`~sondalog.gsm.routing.NetOutput`): :class:`~sondalog.gsm.gateway.ModemEvent`
+for a modem, :class:`~sondalog.gsm.phones.PhoneEvent` for a phone, gateway effects for the
+runtime's sockets; :func:`sondalog.gsm.routing.route` carries them. The phone side's requests
+(:data:`~sondalog.gsm.phones.Request`) go in through :meth:`Network.request`, which also
+answers with the ids it gave (:class:`~sondalog.gsm.phones.SmsSubmitted`,
+:class:`~sondalog.gsm.phones.CallPlaced`).
 """
 
 from __future__ import annotations
@@ -21,6 +25,18 @@ from dataclasses import dataclass, field
 from sondalog.gsm import events as ev
 from sondalog.gsm.gateway import IpEvent, IpGateway, ModemEvent
 from sondalog.gsm.pdu import GSM7, UCS2, Concat
+from sondalog.gsm.phones import (
+    CallPlaced,
+    Coverage,
+    PhoneCall,
+    PhoneData,
+    PhoneEvent,
+    PhoneHangUp,
+    PhoneSms,
+    Request,
+    SmsSubmitted,
+)
+from sondalog.gsm.routing import NetOutput
 from sondalog.gsm.sms import DEFAULT_SMSC, Sms, normalize, parts_of
 from sondalog.protocol import gsm7
 
@@ -29,18 +45,6 @@ PHONE = "phone"
 #: A call nobody answers ends after this many seconds.
 NO_ANSWER_TIME = 60.0
 DEFAULT_USSD = {"*101#": "Your credit is {credit:.2f} CZK."}
-
-
-@dataclass(frozen=True, slots=True)
-class PhoneEvent:
-    """Something for a phone: ``kind`` is ``sms``, ``answered``, ``ended``, ``data``."""
-
-    number: str
-    kind: str
-    call_id: int = 0
-    data: bytes = b""
-    reason: str = ""
-    sms: Sms | None = None
 
 
 @dataclass(slots=True)
@@ -101,7 +105,7 @@ class Network:
         self._concat_ref = 0
 
     # -- subscribers ---------------------------------------------------------------------
-    def add_modem(self, number: str, now: float, **kw: object) -> list[object]:
+    def add_modem(self, number: str, now: float, **kw: object) -> list[NetOutput]:
         """A modem subscriber (radio on, like a modem just powered)."""
         sub = self._add(number, MODEM, kw)
         return self._update(sub, now)
@@ -122,7 +126,7 @@ class Network:
     def subscriber(self, number: str) -> Subscriber:
         return self.subscribers[normalize(number)]
 
-    def set_signal(self, number: str, rssi: int, now: float) -> list[object]:
+    def set_signal(self, number: str, rssi: int, now: float) -> list[NetOutput]:
         sub = self.subscriber(number)
         sub.rssi = max(0, min(31, int(rssi))) if rssi != 99 else 99
         return [ModemEvent(sub.number, ev.Signal(sub.rssi))] if sub.kind == MODEM else []
@@ -130,10 +134,10 @@ class Network:
     def set_credit(self, number: str, credit: float) -> None:
         self.subscriber(number).credit = float(credit)
 
-    def set_coverage(self, number: str | None, covered: bool, now: float) -> list[object]:
+    def set_coverage(self, number: str | None, covered: bool, now: float) -> list[NetOutput]:
         """Coverage on demand: one subscriber, or everyone (``None``)."""
         targets = [self.subscriber(number)] if number else list(self.subscribers.values())
-        out: list[object] = []
+        out: list[NetOutput] = []
         for sub in targets:
             self._manual_cover[sub.number] = covered
             out += self._update(sub, now)
@@ -150,8 +154,8 @@ class Network:
         return list(self.subscriber(number).queue)
 
     # -- time ----------------------------------------------------------------------------
-    def advance(self, now: float) -> list[object]:
-        out: list[object] = []
+    def advance(self, now: float) -> list[NetOutput]:
+        out: list[NetOutput] = []
         for sub in self.subscribers.values():
             out += self._update(sub, now)
         for call in list(self.calls.values()):
@@ -171,11 +175,11 @@ class Network:
             o.start <= now < o.end and o.number in (None, sub.number) for o in self.outages
         )
 
-    def _update(self, sub: Subscriber, now: float) -> list[object]:
+    def _update(self, sub: Subscriber, now: float) -> list[NetOutput]:
         """Re-evaluate coverage and registration; deliver or drop on a change."""
         sub.covered = self._covered(sub, now)
         registered = sub.reachable
-        out: list[object] = []
+        out: list[NetOutput] = []
         if registered != sub.registered:
             sub.registered = registered
             if sub.kind == MODEM:
@@ -192,8 +196,37 @@ class Network:
             out += self._deliver(sub, now)
         return out
 
+    # -- the phone side ------------------------------------------------------------------
+    def request(self, request: Request, now: float) -> list[NetOutput]:
+        """A request of the phone side (the HTTP API, ``sondalog phone``); a submitted SMS
+        is answered with its ids (:class:`SmsSubmitted`, after its deliveries), a placed
+        call with its id (:class:`CallPlaced`, before its ring or its end)."""
+        match request:
+            case PhoneSms(sender, to, text):
+                before = self._next_sms
+                out = self.phone_sms(sender, to, text, now)
+                ids = tuple(range(before, self._next_sms))
+                queued = self._waits(to, ids)
+                return [*out, SmsSubmitted(normalize(sender), normalize(to), ids, queued)]
+            case PhoneCall(caller, callee, kind):
+                call_id, out = self.phone_call(caller, callee, kind, now)
+                placed = CallPlaced(call_id, normalize(caller), normalize(callee), kind)
+                return [placed, *out]
+            case PhoneHangUp(call_id):
+                return self.phone_hang_up(call_id, now)
+            case PhoneData(call_id, data):
+                return self.phone_data(call_id, data)
+            case Coverage(number, covered):
+                return self.set_coverage(number, covered, now)
+
+    def _waits(self, to: str, ids: tuple[int, ...]) -> bool:
+        """Whether any of the SMS ``ids`` waits at the centre (not on its way to a modem)."""
+        sub = self.subscribers.get(normalize(to))
+        waiting = [] if sub is None else [s for s in sub.queue if s.sms_id not in sub.in_flight]
+        return any(s.sms_id in ids for s in waiting)
+
     # -- SMS centre ----------------------------------------------------------------------
-    def phone_sms(self, sender: str, to: str, text: str, now: float) -> list[object]:
+    def phone_sms(self, sender: str, to: str, text: str, now: float) -> list[NetOutput]:
         """A phone (or the HTTP API) sends an SMS: GSM-7 when the text allows, else UCS2;
         a text longer than one SMS goes as a concatenated SMS (parts of 153 septets or 67
         UCS2 characters, 23.040 §9.2.3.24.1)."""
@@ -202,7 +235,7 @@ class Network:
         if len(parts) == 1:
             return self._submit(normalize(sender), to, text, now, alphabet, None)
         self._concat_ref = (self._concat_ref + 1) % 256
-        out: list[object] = []
+        out: list[NetOutput] = []
         for seq, part in enumerate(parts, 1):
             concat = Concat(self._concat_ref, len(parts), seq)
             out += self._submit(normalize(sender), to, part, now, alphabet, concat)
@@ -210,7 +243,7 @@ class Network:
 
     def _submit(
         self, sender: str, to: str, text: str, now: float, alphabet: str, concat: Concat | None
-    ) -> list[object]:
+    ) -> list[NetOutput]:
         sms = Sms(self._next_sms, sender, normalize(to), text, int(now), alphabet, concat)
         self._next_sms += 1
         sub = self.subscribers.get(sms.to)
@@ -220,9 +253,9 @@ class Network:
         sub.queue.append(sms)
         return self._deliver(sub, now) if sub.registered else []
 
-    def _deliver(self, sub: Subscriber, now: float) -> list[object]:
+    def _deliver(self, sub: Subscriber, now: float) -> list[NetOutput]:
         if sub.kind == PHONE:
-            out: list[object] = []
+            out: list[NetOutput] = []
             while sub.queue:
                 sms = sub.queue.popleft()
                 sub.delivered.append(sms)
@@ -241,7 +274,7 @@ class Network:
         return out
 
     # -- from modems ---------------------------------------------------------------------
-    def from_modem(self, number: str, effect: ev.Effect, now: float) -> list[object]:
+    def from_modem(self, number: str, effect: ev.Effect, now: float) -> list[NetOutput]:
         """An effect of subscriber ``number``'s modem."""
         sub = self.subscriber(number)
         if isinstance(effect, ev.Radio):
@@ -273,27 +306,27 @@ class Network:
             return [ModemEvent(sub.number, ev.UssdAnswer(text))]
         if isinstance(effect, ev.Attach | ev.Detach):
             sub.attached = isinstance(effect, ev.Attach) and sub.registered
-            return [] if sub.attached else self.gateway.drop(sub.number)
+            return [] if sub.attached else [*self.gateway.drop(sub.number)]
         if isinstance(effect, ev.TcpOpen):
-            return self.gateway.open(sub.number, effect.handle, effect.host, effect.port)
+            return [*self.gateway.open(sub.number, effect.handle, effect.host, effect.port)]
         if isinstance(effect, ev.TcpSend):
-            return self.gateway.send(sub.number, effect.handle, effect.data)
+            return [*self.gateway.send(sub.number, effect.handle, effect.data)]
         if isinstance(effect, ev.TcpClose):
-            return self.gateway.close(sub.number, effect.handle)
+            return [*self.gateway.close(sub.number, effect.handle)]
         if isinstance(effect, ev.TcpListen):
-            return self.gateway.listen(sub.number, effect.port) if sub.attached else []
+            return [*self.gateway.listen(sub.number, effect.port)] if sub.attached else []
         if isinstance(effect, ev.TcpUnlisten):
-            return self.gateway.unlisten(sub.number, effect.port)
+            return [*self.gateway.unlisten(sub.number, effect.port)]
         return self._modem_call(sub, effect, now)
 
-    def ip_event(self, event: IpEvent, now: float) -> list[object]:
+    def ip_event(self, event: IpEvent, now: float) -> list[NetOutput]:
         """A socket event from the runtime."""
-        return self.gateway.ip_event(event)
+        return [*self.gateway.ip_event(event)]
 
     # -- calls ---------------------------------------------------------------------------
     def phone_call(
         self, caller: str, callee: str, kind: str, now: float
-    ) -> tuple[int, list[object]]:
+    ) -> tuple[int, list[NetOutput]]:
         """A phone calls; returns the call id (the phone hears ``ended`` if it fails)."""
         call = Call(self._next_call, normalize(caller), normalize(callee), kind)
         self._next_call += 1
@@ -307,17 +340,17 @@ class Network:
         call.deadline = now + NO_ANSWER_TIME
         return call.call_id, [ModemEvent(target.number, ev.IncomingCall(call.caller, kind))]
 
-    def phone_hang_up(self, call_id: int, now: float) -> list[object]:
+    def phone_hang_up(self, call_id: int, now: float) -> list[NetOutput]:
         call = self.calls.get(call_id)
         return [] if call is None else self._end_call(call, "hangup", by=call.caller)
 
-    def phone_data(self, call_id: int, data: bytes) -> list[object]:
+    def phone_data(self, call_id: int, data: bytes) -> list[NetOutput]:
         call = self.calls.get(call_id)
         if call is None or not call.active or call.kind != ev.DATA:
             return []
         return [ModemEvent(call.callee, ev.CallData(data))]
 
-    def _modem_call(self, sub: Subscriber, effect: ev.Effect, now: float) -> list[object]:
+    def _modem_call(self, sub: Subscriber, effect: ev.Effect, now: float) -> list[NetOutput]:
         call = self.calls.get(sub.call_id) if sub.call_id is not None else None
         if isinstance(effect, ev.Dial):
             return self._modem_dial(sub, effect, now)
@@ -334,7 +367,7 @@ class Network:
             return self._tell(other, call, ev.CallData(effect.data), "data", effect.data)
         return []
 
-    def _modem_dial(self, sub: Subscriber, dial: ev.Dial, now: float) -> list[object]:
+    def _modem_dial(self, sub: Subscriber, dial: ev.Dial, now: float) -> list[NetOutput]:
         call = Call(self._next_call, sub.number, normalize(dial.number), dial.kind)
         self._next_call += 1
         self.calls[call.call_id] = call
@@ -355,15 +388,15 @@ class Network:
 
     def _tell(
         self, number: str, call: Call, event: ev.Event, kind: str, data: bytes = b""
-    ) -> list[object]:
+    ) -> list[NetOutput]:
         sub = self.subscribers.get(number)
         if sub is not None and sub.kind == MODEM:
             return [ModemEvent(number, event)]
         return [PhoneEvent(number, kind, call.call_id, data)]
 
-    def _end_call(self, call: Call, reason: str, by: str | None = None) -> list[object]:
+    def _end_call(self, call: Call, reason: str, by: str | None = None) -> list[NetOutput]:
         self.calls.pop(call.call_id, None)
-        out: list[object] = []
+        out: list[NetOutput] = []
         for number in (call.caller, call.callee):
             sub = self.subscribers.get(number)
             involved = sub is not None and sub.call_id == call.call_id

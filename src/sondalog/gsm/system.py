@@ -1,17 +1,24 @@
 """Modems and the network composed, still pure: what the runtime (or a test) drives.
 
-:class:`GsmSystem` carries each modem's effects to the network and the network's events to
+:class:`GsmSystem` carries each modem's effects to the network and the network's output to
 the modems until nothing moves, and hands back what leaves the system: bytes for each modem's
-serial line, events for phones, socket effects for the IP gateway.
+serial line, events for phones, the answers to the phone side's requests, socket effects for
+the IP gateway. The network's output goes through the one router
+(:func:`sondalog.gsm.routing.route`), as in the served world (:mod:`sondalog.app.gsm`).
 """
 
 from __future__ import annotations
 
+from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from sondalog.gsm.gateway import IpEffect, IpEvent, ModemEvent
+from sondalog.gsm import events as ev
+from sondalog.gsm.gateway import IpEffect, IpEvent
 from sondalog.gsm.modem import Modem, Output
-from sondalog.gsm.network import Network, PhoneEvent
+from sondalog.gsm.network import Network
+from sondalog.gsm.phones import CallPlaced, PhoneEvent, Request, SmsSubmitted
+from sondalog.gsm.routing import NetOutput, route
 
 
 @dataclass(slots=True)
@@ -19,6 +26,8 @@ class SystemOutput:
     lines: dict[str, bytes] = field(default_factory=dict)
     phones: list[PhoneEvent] = field(default_factory=list)
     ip: list[IpEffect] = field(default_factory=list)
+    submitted: list[SmsSubmitted] = field(default_factory=list)
+    placed: list[CallPlaced] = field(default_factory=list)
 
     def line(self, number: str) -> bytes:
         return self.lines.get(number, b"")
@@ -33,19 +42,21 @@ class GsmSystem:
 
     def add_modem(self, number: str, modem: Modem, now: float, **kw: object) -> SystemOutput:
         self.modems[number] = modem
-        return self._run(self.network.add_modem(number, now, **kw), now)
+        return self.network_call(self.network.add_modem(number, now, **kw), now)
 
     def modem_input(self, number: str, data: bytes, now: float) -> SystemOutput:
         """Bytes the DTE wrote on modem ``number``'s serial line."""
-        out = SystemOutput()
-        self._modem_output(number, self.modems[number].receive(data, now), out, now)
-        return out
+        run = _Run(self, now)
+        run.modem_said(number, self.modems[number].receive(data, now))
+        return run.finish()
 
     def advance(self, now: float) -> SystemOutput:
-        out = SystemOutput()
+        run = _Run(self, now)
         for number, modem in self.modems.items():
-            self._modem_output(number, modem.advance(now), out, now)
-        return self._run(self.network.advance(now), now, out)
+            run.modem_said(number, modem.advance(now))
+            run.settle()
+        run.pending.extend(self.network.advance(now))
+        return run.finish()
 
     def next_deadline(self, now: float) -> float | None:
         times = [m.next_deadline() for m in self.modems.values()]
@@ -53,39 +64,62 @@ class GsmSystem:
         present = [t for t in times if t is not None]
         return min(present) if present else None
 
-    def network_call(self, items: list[object], now: float) -> SystemOutput:
+    def request(self, request: Request, now: float) -> SystemOutput:
+        """A request of the phone side (send an SMS, place a call, coverage...)."""
+        return self.network_call(self.network.request(request, now), now)
+
+    def network_call(self, items: Iterable[NetOutput], now: float) -> SystemOutput:
         """Route what a :class:`Network` method returned (``phone_sms``, ``set_signal``...)."""
-        return self._run(items, now)
+        run = _Run(self, now)
+        run.pending.extend(items)
+        return run.finish()
 
     def ip_event(self, event: IpEvent, now: float) -> SystemOutput:
-        return self._run(self.network.ip_event(event, now), now)
+        return self.network_call(self.network.ip_event(event, now), now)
 
-    def _modem_output(self, number: str, output: Output, out: SystemOutput, now: float) -> None:
-        self._run(self._take(number, output, out, now), now, out)
 
-    def _take(self, number: str, output: Output, out: SystemOutput, now: float) -> list[object]:
-        """Modem ``number``'s line bytes into ``out``; what its effects make the network do."""
+class _Run:
+    """One pass of the pure composition, its :class:`~sondalog.gsm.routing.Destinations`:
+    an event for a modem goes to the modem core at once and what its effects make the network
+    say waits its turn (first in, first out); everything else is collected in ``out``."""
+
+    def __init__(self, system: GsmSystem, now: float) -> None:
+        self.system = system
+        self.now = now
+        self.out = SystemOutput()
+        self.pending: deque[NetOutput] = deque()
+
+    def settle(self) -> None:
+        """Route until nothing moves."""
+        while self.pending:
+            route((self.pending.popleft(),), self)
+
+    def finish(self) -> SystemOutput:
+        self.settle()
+        return self.out
+
+    def modem_said(self, number: str, output: Output) -> None:
+        """Modem ``number``'s line bytes into ``out``; what its effects make the network say
+        into the queue."""
         if output.data:
-            out.lines[number] = out.lines.get(number, b"") + output.data
-        items: list[object] = []
+            self.out.lines[number] = self.out.lines.get(number, b"") + output.data
         for effect in output.effects:
-            items += self.network.from_modem(number, effect, now)
-        return items
+            self.pending.extend(self.system.network.from_modem(number, effect, self.now))
 
-    def _run(
-        self, items: list[object], now: float, out: SystemOutput | None = None
-    ) -> SystemOutput:
-        out = out if out is not None else SystemOutput()
-        pending = list(items)
-        while pending:
-            item = pending.pop(0)
-            if isinstance(item, ModemEvent):
-                modem = self.modems.get(item.number)
-                if modem is None:
-                    continue
-                pending += self._take(item.number, modem.event(item.event, now), out, now)
-            elif isinstance(item, PhoneEvent):
-                out.phones.append(item)
-            else:
-                out.ip.append(item)  # type: ignore[arg-type]
-        return out
+    # -- Destinations ----------------------------------------------------------------------
+    def to_modem(self, number: str, event: ev.Event) -> None:
+        modem = self.system.modems.get(number)
+        if modem is not None:
+            self.modem_said(number, modem.event(event, self.now))
+
+    def to_phone(self, event: PhoneEvent) -> None:
+        self.out.phones.append(event)
+
+    def to_ip(self, effect: IpEffect) -> None:
+        self.out.ip.append(effect)
+
+    def sms_submitted(self, reply: SmsSubmitted) -> None:
+        self.out.submitted.append(reply)
+
+    def call_placed(self, reply: CallPlaced) -> None:
+        self.out.placed.append(reply)

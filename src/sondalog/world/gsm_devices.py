@@ -8,23 +8,28 @@ runtime (:class:`~sondalog.io.host.DeviceHost`) serves them (``docs/gsm.md``, is
   it comes in as :class:`FromNetwork` events.
 - :class:`NetworkDevice`: the network core (:class:`~sondalog.gsm.network.Network`), a device
   without lines. Modem effects come in as :class:`ModemSaid`, socket events as
-  :class:`IpHappened`; what it produces leaves as :class:`ToModem`, :class:`ForPhone` and
-  :class:`IpAction` effects. It also refreshes signal and credit from models (functions of
-  time: the site file's signal models) every :data:`MODEL_PERIOD` seconds.
+  :class:`IpHappened`, the phone side's requests (send an SMS, place a call, coverage...) as
+  :class:`Requested`; everything the network says leaves as one effect type,
+  :class:`NetworkSaid`, whose typed output the one router
+  (:func:`sondalog.gsm.routing.route`) carries on. It also refreshes signal and credit from
+  models (functions of time: the site file's signal models) every :data:`MODEL_PERIOD`
+  seconds.
 
 Pure: no clock is read, ``now`` comes in with every call.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 from sondalog.ala1.pacing import Pacer
 from sondalog.gsm import events as ev
-from sondalog.gsm.gateway import IpEvent, ModemEvent
+from sondalog.gsm.gateway import IpEvent
 from sondalog.gsm.modem import Modem, Output
-from sondalog.gsm.network import Network, PhoneEvent
+from sondalog.gsm.network import Network
+from sondalog.gsm.phones import Request
+from sondalog.gsm.routing import NetOutput
 from sondalog.protocol.device import Effect, Event, LineSend
 
 #: Seconds between two refreshes of the signal and credit models.
@@ -60,21 +65,19 @@ class IpHappened(Event):
 
 
 @dataclass(frozen=True, slots=True)
-class ToModem(Effect):
-    number: str
-    event: ev.Event
+class Requested(Event):
+    """A request of the phone side; the posting side finds the answer (the ids the network
+    gave) among the effects (:class:`~sondalog.gsm.phones.SmsSubmitted`,
+    :class:`~sondalog.gsm.phones.CallPlaced`)."""
+
+    request: Request
 
 
 @dataclass(frozen=True, slots=True)
-class ForPhone(Effect):
-    event: PhoneEvent
+class NetworkSaid(Effect):
+    """One output of the network, for :func:`~sondalog.gsm.routing.route`."""
 
-
-@dataclass(frozen=True, slots=True)
-class IpAction(Effect):
-    """A gateway effect (``Connect``, ``Send``, ``Close``, ``Listen``, ``Unlisten``)."""
-
-    effect: object
+    output: NetOutput
 
 
 class ModemDevice:
@@ -141,17 +144,9 @@ class ModemDevice:
         return effects
 
 
-def wrap(items: Sequence[object]) -> list[Effect]:
+def said(outputs: Iterable[NetOutput]) -> list[Effect]:
     """What a :class:`Network` method returned, as effects for the runtime."""
-    out: list[Effect] = []
-    for item in items:
-        if isinstance(item, ModemEvent):
-            out.append(ToModem(item.number, item.event))
-        elif isinstance(item, PhoneEvent):
-            out.append(ForPhone(item))
-        else:
-            out.append(IpAction(item))
-    return out
+    return [NetworkSaid(output) for output in outputs]
 
 
 class NetworkDevice:
@@ -187,14 +182,16 @@ class NetworkDevice:
     def handle(self, event: Event, now: float) -> Sequence[Effect]:
         self.now = max(self.now, now)
         if isinstance(event, ModemSaid):
-            return wrap(self.network.from_modem(event.number, event.effect, now))
+            return said(self.network.from_modem(event.number, event.effect, now))
         if isinstance(event, IpHappened):
-            return wrap(self.network.ip_event(event.event, now))
+            return said(self.network.ip_event(event.event, now))
+        if isinstance(event, Requested):
+            return said(self.network.request(event.request, now))
         return []
 
     def advance(self, now: float) -> Sequence[Effect]:
         self.now = max(self.now, now)
-        out = wrap(self.network.advance(now))
+        out = said(self.network.advance(now))
         if self._next_model is not None and now >= self._next_model:
             out += self.refresh_models(now)
             self._next_model = now + MODEL_PERIOD
@@ -211,7 +208,7 @@ class NetworkDevice:
         for number, model in self.signals.items():
             rssi = max(0, min(31, round(model(now))))
             if self.network.subscriber(number).rssi != rssi:
-                out += wrap(self.network.set_signal(number, rssi, now))
+                out += said(self.network.set_signal(number, rssi, now))
         for number, model in self.credits.items():
             sub = self.network.subscriber(number)
             if number in self._set:

@@ -11,13 +11,15 @@ The runtime answers with :class:`IpInput` events. Tests drive it on a stepped cl
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from sondalog.ala1.engine import Engine
 from sondalog.gsm.gateway import IpEffect, IpEvent
 from sondalog.gsm.modem import Modem
-from sondalog.gsm.network import Network, PhoneEvent
+from sondalog.gsm.network import Network
+from sondalog.gsm.phones import PhoneEvent
+from sondalog.gsm.routing import NetOutput
 from sondalog.gsm.system import GsmSystem, SystemOutput
 from sondalog.protocol.device import Effect, Event, LineSend
 
@@ -94,7 +96,9 @@ class GsmSite:
         return min((t for t in times if t is not None), default=None)
 
     # -- the network's side, for the runtime ------------------------------------------
-    def network_call(self, call: Callable[[Network], list[object]], now: float) -> list[Effect]:
+    def network_call(
+        self, call: Callable[[Network], Iterable[NetOutput]], now: float
+    ) -> list[Effect]:
         """Run a :class:`Network` method (``phone_sms``, ``set_coverage``...) and route it."""
         return self._run(self.system.network_call(call(self.network), now), now)
 

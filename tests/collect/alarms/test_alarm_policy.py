@@ -80,7 +80,7 @@ def test_a_transition_computed_twice_is_stored_once() -> None:
 
 
 def test_repeat_until_acknowledged() -> None:
-    alarms, policy, outbox = setup('"mail"')
+    alarms, policy, _ = setup('"mail"')
     policy.notify(alarms.reading(sample(41, 0)), T0)
     assert policy.repeats(alarms.active(), T0 + 3599) == []
     assert policy.next_repeat(alarms.active(), T0) == T0 + 3600

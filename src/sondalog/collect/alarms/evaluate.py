@@ -56,7 +56,7 @@ class Alarms:
         self._dirty: dict[str, Track] = {}
         self._timers: dict[str, Track] = {}
         self._reading_rules = plan.of_kind(*READINGS)
-        self._matches: dict[tuple[str, str, int, str | None], list[Rule]] = {}
+        self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
         for record in records:
             rule = self._rules.get(record.rule)
             if rule is None or rule.kind != record.kind:
@@ -132,25 +132,26 @@ class Alarms:
         if sample.value is None:
             return []
         key = (sample.source, sample.logger, sample.channel, sample.name)
-        rules = self._matches.get(key)
-        if rules is None:
-            rules = [
-                r
+        pairs = self._matches.get(key)
+        if pairs is None:
+            subject = f"{sample.logger}/{sample.channel}"
+            pairs = [
+                (r, self._track(r, subject))
                 for r in self._reading_rules
                 if r.matches(sample.source, sample.logger)
                 and r.matches_channel(sample.channel, sample.name)
             ]
-            self._matches[key] = rules
+            self._matches[key] = pairs
         out: list[Transition] = []
-        subject = f"{sample.logger}/{sample.channel}"
-        for rule in rules:
-            track = self._track(rule, subject)
+        for rule, track in pairs:
             if not track.newer(sample.time, sample.counter):
                 continue
+            self._dirty[track.alarm] = track
             last = track.last_value
             verdict = READINGS[rule.kind](rule, track, sample.value)
-            extra = f"from {last:g}" if rule.kind == "step" and last is not None else ""
-            out += self._apply(rule, track, verdict, sample.time, sample.value, extra)
+            if verdict is not None:
+                extra = f"from {last:g}" if rule.kind == "step" and last is not None else ""
+                out += self._apply(rule, track, verdict, sample.time, sample.value, extra)
         return out
 
     def readings(self, samples: Iterable[Sample]) -> list[Transition]:

@@ -24,6 +24,8 @@ from .events import ACTIVE, AlarmRecord, State
 from .rules import Rule
 
 Verdict = Literal["raise", "clear"] | None
+#: What an :class:`AlarmRecord` holds, in order (the first fields of a :class:`Track`).
+_RECORD_FIELDS = tuple(f.name for f in fields(AlarmRecord))
 
 
 @dataclass(slots=True)
@@ -55,11 +57,11 @@ class Track:
         return self.state in ACTIVE
 
     def record(self) -> AlarmRecord:
-        return AlarmRecord(**{f.name: getattr(self, f.name) for f in fields(AlarmRecord)})
+        return AlarmRecord(*[getattr(self, name) for name in _RECORD_FIELDS])
 
     @classmethod
     def of(cls, record: AlarmRecord) -> Track:
-        return cls(**{f.name: getattr(record, f.name) for f in fields(AlarmRecord)})
+        return cls(*[getattr(record, name) for name in _RECORD_FIELDS])
 
     def newer(self, time: float, counter: int = 0) -> bool:
         """Whether an observation at ``time`` comes after the last one (and note it):

@@ -231,3 +231,19 @@ def test_small_syntaxes() -> None:
             parse_duration(bad)
     with pytest.raises(ValueError):
         parse_quiet("06:00-06:00")
+
+
+def test_the_examples_of_the_manual_are_read() -> None:
+    """Every ```toml block of docs/alarms.md, together, is a valid set of rules."""
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "alarms.md").read_text()
+    blocks = [part.split("```", 1)[0] for part in doc.split("```toml\n")[1:]]
+    p = parse_alarms(loads("\n".join(blocks), PATH))
+    assert {r.kind for r in p.rules} == {
+        "no_contact",
+        "threshold",
+        "stuck",
+        "step",
+        "health",
+        "collector",
+    }
+    assert {n.kind for n in p.notify.values()} == {"email", "sms", "mqtt", "webhook", "log"}

@@ -84,6 +84,18 @@ POSTGRES_ALARM_DDL = (
     .replace(" INTEGER", " BIGINT")
 )
 
+#: Claiming due outbox rows on PostgreSQL (psycopg parameters: owner, lease end, now, limit):
+#: ``SKIP LOCKED`` keeps two collectors from taking the same row.
+POSTGRES_CLAIM = """
+UPDATE alarm_outbox SET claimed_by = %(owner)s, claimed_until = %(until)s
+WHERE key IN (SELECT key FROM alarm_outbox
+              WHERE state = 'pending' AND next_try <= %(now)s
+                AND (claimed_until IS NULL OR claimed_until <= %(now)s)
+              ORDER BY next_try, key LIMIT %(limit)s
+              FOR UPDATE SKIP LOCKED)
+RETURNING key
+"""
+
 #: Columns of ``alarm_states`` in the order of :class:`~.events.AlarmRecord`'s fields.
 STATE_COLUMNS = (
     "alarm",

@@ -1,0 +1,152 @@
+"""What the alarm core is fed and what it answers (issue 21), as plain typed values.
+
+In: a :class:`Sample` (one reading of a channel), a :class:`Contact` (a source contacted,
+well or not), a :class:`Health` sample of a logger, a :class:`Condition` of the collector
+itself. Out: :class:`Raised`, :class:`Cleared` and :class:`Acknowledged` transitions. Every
+time is seconds since the epoch (UTC) and is the observation's own: a download of old rows
+raises and clears with the rows' times, not the collector's clock.
+
+An alarm is one (rule, subject) pair: ``subject`` is ``LOGGER/CHANNEL`` for readings, the
+logger (or source) for health, the source for contacts, the sink for the collector's sinks.
+Its :class:`AlarmRecord` is what the store keeps, so a restart neither forgets nor repeats.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+State = Literal["ok", "raised", "acknowledged", "cleared"]
+#: The states of an alarm that is on (shown, repeated until acknowledged).
+ACTIVE: tuple[State, ...] = ("raised", "acknowledged")
+
+
+def alarm_id(rule: str, subject: str) -> str:
+    """The alarm's short id (``sondalog alarms ack FILE ID``): stable across restarts and
+    the same in every collector that shares a store."""
+    return hashlib.sha1(f"{rule}\0{subject}".encode()).hexdigest()[:10]
+
+
+def event_key(alarm: str, raised_at: float) -> str:
+    """One raise of an alarm (the idempotency key of its notifications): the alarm and the
+    raise's own time, so two collectors that see the same readings name it alike."""
+    return f"{alarm}-{round(raised_at * 1000)}"
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """One reading: ``value`` None (no valid value) is ignored. ``counter`` orders readings
+    of the same second (the row's ``.c``)."""
+
+    source: str
+    logger: str
+    channel: int
+    value: float | None
+    time: float
+    name: str | None = None
+    counter: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Contact:
+    """A contact of ``source`` that worked (``ok``) or failed (with the ``error``)."""
+
+    source: str
+    ok: bool
+    time: float
+    error: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Health:
+    """A logger's health as a contact saw it; ``None``: not known this time."""
+
+    source: str
+    time: float
+    logger: str | None = None
+    supply: float | None = None  # volts
+    memory: float | None = None  # record memory fill ratio 0..1
+    clock: float | None = None  # logger clock minus collector clock, seconds
+    signal: float | None = None  # GSM signal
+    credit: float | None = None  # SIM credit
+    gaps: float | None = None  # rows this download found lost from the record
+
+    def measure(self, name: str) -> float | None:
+        value: float | None = getattr(self, name)
+        return abs(value) if name == "clock" and value is not None else value
+
+
+@dataclass(frozen=True, slots=True)
+class Condition:
+    """The collector's own condition: ``sink`` (value 1 down, 0 up) or ``buffer`` (batches
+    waiting) of the sink named ``subject``."""
+
+    watch: Literal["sink", "buffer"]
+    subject: str
+    value: float
+    time: float
+
+
+Observation = Sample | Contact | Health | Condition
+
+
+@dataclass(frozen=True, slots=True)
+class Transition:
+    """An alarm changed state at ``time`` (the observation's time)."""
+
+    what: ClassVar[Literal["raised", "cleared", "acknowledged"]]
+    alarm: str
+    event: str
+    rule: str
+    kind: str
+    subject: str
+    time: float
+    value: float | None
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Raised(Transition):
+    what: ClassVar[Literal["raised"]] = "raised"
+
+
+@dataclass(frozen=True, slots=True)
+class Cleared(Transition):
+    what: ClassVar[Literal["cleared"]] = "cleared"
+    raised_at: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class Acknowledged(Transition):
+    what: ClassVar[Literal["acknowledged"]] = "acknowledged"
+    by: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class AlarmRecord:
+    """An alarm's state with its times, and what its rule needs to go on after a restart
+    (``count``, ``last_value``, the last observation's ``last_time``/``last_counter``, the
+    timer's ``ref``)."""
+
+    alarm: str
+    rule: str
+    kind: str
+    subject: str
+    state: State = "ok"
+    event: str | None = None
+    value: float | None = None
+    text: str = ""
+    since: float | None = None
+    raised_at: float | None = None
+    acked_at: float | None = None
+    cleared_at: float | None = None
+    count: int = 0
+    last_value: float | None = None
+    last_time: float | None = None
+    last_counter: int = 0
+    ref: float | None = None
+
+    @property
+    def active(self) -> bool:
+        return self.state in ACTIVE

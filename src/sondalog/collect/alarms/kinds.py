@@ -1,0 +1,126 @@
+"""How each kind of rule turns one observation into raise, clear or nothing (issue 21).
+
+Pure functions over a :class:`Track` (an alarm's mutable state): the counting that makes a
+rule wait for ``for`` observations and its clear condition, so that nothing flaps:
+
+- levels (``threshold``, ``health``, ``collector buffer``): raised after ``count`` bad
+  observations in a row, cleared after ``clear_count`` in a row on the good side of
+  ``clear`` (hysteresis: between ``clear`` and the limit nothing changes);
+- ``stuck``: raised when ``count`` readings in a row are the same (within ``tolerance``),
+  cleared by the first different one;
+- ``step``: raised by a jump larger than ``step`` between two readings, cleared after
+  ``count`` calm readings;
+- ``collector source``: raised after ``count`` failed contacts in a row, cleared by a good one.
+
+``no_contact`` and ``collector sink`` are timers, handled by :mod:`.evaluate`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Literal
+
+from .events import ACTIVE, AlarmRecord, State
+from .rules import Rule
+
+Verdict = Literal["raise", "clear"] | None
+#: What an :class:`AlarmRecord` holds, in order (the first fields of a :class:`Track`).
+_RECORD_FIELDS = tuple(f.name for f in fields(AlarmRecord))
+
+
+@dataclass(slots=True)
+class Track:
+    """The mutable state of one alarm (exported as :class:`AlarmRecord`)."""
+
+    alarm: str
+    rule: str
+    kind: str
+    subject: str
+    state: State = "ok"
+    event: str | None = None
+    value: float | None = None
+    text: str = ""
+    since: float | None = None
+    raised_at: float | None = None
+    acked_at: float | None = None
+    cleared_at: float | None = None
+    count: int = 0
+    last_value: float | None = None
+    last_time: float | None = None
+    last_counter: int = 0
+    ref: float | None = None
+    #: Timers: seconds from ``ref`` to the raise (not kept: it comes from the file).
+    after: float = 0.0
+
+    @property
+    def active(self) -> bool:
+        return self.state in ACTIVE
+
+    def record(self) -> AlarmRecord:
+        return AlarmRecord(*[getattr(self, name) for name in _RECORD_FIELDS])
+
+    @classmethod
+    def of(cls, record: AlarmRecord) -> Track:
+        return cls(*[getattr(record, name) for name in _RECORD_FIELDS])
+
+    def newer(self, time: float, counter: int = 0) -> bool:
+        """Whether an observation at ``time`` comes after the last one (and note it):
+        a reading seen twice (a data message, then the download) counts once."""
+        if self.last_time is not None and (time, counter) <= (self.last_time, self.last_counter):
+            return False
+        self.last_time, self.last_counter = time, counter
+        return True
+
+
+def level(rule: Rule, track: Track, value: float) -> Verdict:
+    """``threshold``, ``health``, ``collector buffer``."""
+    if not track.active:
+        track.count = track.count + 1 if rule.bad(value) else 0
+        if track.count >= rule.count:
+            track.count = 0
+            return "raise"
+    else:
+        track.count = track.count + 1 if rule.good(value) else 0
+        if track.count >= rule.clear_count:
+            track.count = 0
+            return "clear"
+    return None
+
+
+def stuck(rule: Rule, track: Track, value: float) -> Verdict:
+    last = track.last_value
+    same = last is not None and abs(value - last) <= rule.tolerance
+    track.count = track.count + 1 if same else 1
+    if not same:
+        track.last_value = value  # compare with the run's first value: no slow creep
+    if not track.active and track.count >= rule.count:
+        return "raise"
+    if track.active and not same:
+        return "clear"
+    return None
+
+
+def step(rule: Rule, track: Track, value: float) -> Verdict:
+    last = track.last_value
+    track.last_value = value
+    if last is not None and abs(value - last) > rule.step:
+        track.count = 0
+        return None if track.active else "raise"
+    if track.active:
+        track.count += 1
+        if track.count >= rule.count:
+            track.count = 0
+            return "clear"
+    return None
+
+
+def refusing(rule: Rule, track: Track, ok: bool) -> Verdict:
+    """``collector source``: failed contacts in a row."""
+    if ok:
+        track.count = 0
+        return "clear" if track.active else None
+    track.count += 1
+    return "raise" if not track.active and track.count >= rule.count else None
+
+
+READINGS = {"threshold": level, "stuck": stuck, "step": step}

@@ -1,0 +1,140 @@
+"""The alarm tables of the collector's store (issue 21; documented in docs/alarms.md).
+
+Times are seconds since the epoch (UTC) as REAL (PostgreSQL: ``double precision``), the
+same numbers the alarm core uses. The tables are additive (``CREATE ... IF NOT EXISTS``):
+they may live in the collector's SQLite store beside ``readings`` or in a file of their own.
+
+- ``alarm_states``: one row per alarm (rule, subject) with its state and times, and what its
+  rule needs to go on after a restart (``count``, ``last_value``, ``last_time``, ``ref``).
+- ``alarm_events``: the history of transitions, unique on (event, what).
+- ``alarm_outbox``: one row per notification, unique on ``key`` = (event, what,
+  destination); ``claimed_by``/``claimed_until`` let several collectors on one PostgreSQL
+  share the sending (each row is claimed by one of them at a time).
+"""
+
+from __future__ import annotations
+
+ALARM_SCHEMA_VERSION = 1
+
+SQLITE_ALARM_DDL = """
+CREATE TABLE IF NOT EXISTS alarm_states (
+    alarm        TEXT PRIMARY KEY,
+    rule         TEXT NOT NULL,
+    kind         TEXT NOT NULL,
+    subject      TEXT NOT NULL,
+    state        TEXT NOT NULL DEFAULT 'ok'
+                 CHECK (state IN ('ok', 'raised', 'acknowledged', 'cleared')),
+    event        TEXT,
+    value        REAL,
+    text         TEXT NOT NULL DEFAULT '',
+    since        REAL,
+    raised_at    REAL,
+    acked_at     REAL,
+    cleared_at   REAL,
+    count        INTEGER NOT NULL DEFAULT 0,
+    last_value   REAL,
+    last_time    REAL,
+    last_counter INTEGER NOT NULL DEFAULT 0,
+    ref          REAL,
+    UNIQUE (rule, subject)
+);
+CREATE TABLE IF NOT EXISTS alarm_events (
+    id      INTEGER PRIMARY KEY AUTOINCREMENT,
+    event   TEXT NOT NULL,
+    what    TEXT NOT NULL CHECK (what IN ('raised', 'cleared', 'acknowledged')),
+    alarm   TEXT NOT NULL,
+    rule    TEXT NOT NULL,
+    subject TEXT NOT NULL,
+    time    REAL NOT NULL,
+    value   REAL,
+    text    TEXT NOT NULL,
+    UNIQUE (event, what)
+);
+CREATE INDEX IF NOT EXISTS alarm_events_time ON alarm_events (time);
+CREATE TABLE IF NOT EXISTS alarm_outbox (
+    key           TEXT PRIMARY KEY,
+    destination   TEXT NOT NULL,
+    what          TEXT NOT NULL CHECK (what IN ('raised', 'cleared', 'repeat', 'summary')),
+    event         TEXT NOT NULL,
+    text          TEXT NOT NULL,
+    created       REAL NOT NULL,
+    next_try      REAL NOT NULL,
+    alarm         TEXT,
+    rule          TEXT,
+    subject       TEXT,
+    value         REAL,
+    time          REAL,
+    items         INTEGER NOT NULL DEFAULT 1,
+    state         TEXT NOT NULL DEFAULT 'pending'
+                  CHECK (state IN ('pending', 'sent', 'failed', 'dropped', 'summarized')),
+    attempts      INTEGER NOT NULL DEFAULT 0,
+    last_error    TEXT,
+    sent_at       REAL,
+    claimed_by    TEXT,
+    claimed_until REAL
+);
+CREATE INDEX IF NOT EXISTS alarm_outbox_due ON alarm_outbox (state, next_try);
+CREATE INDEX IF NOT EXISTS alarm_outbox_rate ON alarm_outbox (destination, created);
+"""
+
+#: The same tables on PostgreSQL (docs/alarms.md); claims use ``FOR UPDATE SKIP LOCKED``.
+POSTGRES_ALARM_DDL = (
+    SQLITE_ALARM_DDL.replace("INTEGER PRIMARY KEY AUTOINCREMENT", "BIGSERIAL PRIMARY KEY")
+    .replace(" REAL", " DOUBLE PRECISION")
+    .replace(" INTEGER", " BIGINT")
+)
+
+#: Claiming due outbox rows on PostgreSQL (psycopg parameters: owner, lease end, now, limit):
+#: ``SKIP LOCKED`` keeps two collectors from taking the same row.
+POSTGRES_CLAIM = """
+UPDATE alarm_outbox SET claimed_by = %(owner)s, claimed_until = %(until)s
+WHERE key IN (SELECT key FROM alarm_outbox
+              WHERE state = 'pending' AND next_try <= %(now)s
+                AND (claimed_until IS NULL OR claimed_until <= %(now)s)
+              ORDER BY next_try, key LIMIT %(limit)s
+              FOR UPDATE SKIP LOCKED)
+RETURNING key
+"""
+
+#: Columns of ``alarm_states`` in the order of :class:`~.events.AlarmRecord`'s fields.
+STATE_COLUMNS = (
+    "alarm",
+    "rule",
+    "kind",
+    "subject",
+    "state",
+    "event",
+    "value",
+    "text",
+    "since",
+    "raised_at",
+    "acked_at",
+    "cleared_at",
+    "count",
+    "last_value",
+    "last_time",
+    "last_counter",
+    "ref",
+)
+#: Columns of ``alarm_outbox`` in the order of :class:`~.outbox.Message`'s fields.
+OUTBOX_COLUMNS = (
+    "key",
+    "destination",
+    "what",
+    "event",
+    "text",
+    "created",
+    "next_try",
+    "alarm",
+    "rule",
+    "subject",
+    "value",
+    "time",
+    "items",
+    "state",
+    "attempts",
+    "last_error",
+    "sent_at",
+    "claimed_by",
+    "claimed_until",
+)

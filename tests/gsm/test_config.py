@@ -52,7 +52,7 @@ def test_example_world_builds() -> None:
         ('[[gsm.modem]]\nnumber = "+420600000001"\npublish = { "x" = 1 }', "gsm.modem[0].publish"),
         (
             '[[gsm.modem]]\nnumber = "+420600000001"\nussd = { "*1#" = "{x}" }',
-            "gsm.modem[0].ussd.*1#",
+            'gsm.modem[0].ussd."*1#"',
         ),
         (
             '[[gsm.phone]]\nnumber = "+420700000001"\n[[gsm.phone]]\nnumber = "+420700000001"',

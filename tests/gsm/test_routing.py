@@ -6,7 +6,6 @@ the network's output."""
 from __future__ import annotations
 
 import asyncio
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +13,7 @@ from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
 from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
 from sondalog.client.phone import PhoneApi
+from sondalog.config import loads
 from sondalog.gsm import events as ev
 from sondalog.gsm import netstate
 from sondalog.gsm.config import build
@@ -114,7 +114,7 @@ def test_request_answers_with_the_ids_the_network_gave() -> None:
 
 
 def _plan(tmp_path: Path) -> GsmPlan:
-    return parse_gsm_site(tomllib.loads(SITE), tmp_path / "site.toml", SITE, T0)
+    return parse_gsm_site(loads(SITE, tmp_path / "site.toml"), T0)
 
 
 def _pure(plan: GsmPlan) -> tuple[list[Any], dict[str, Any]]:

@@ -67,6 +67,11 @@ def test_a_good_file(tmp_path: Path) -> None:
         ),
         (('kind = "bus"', 'kind = "fax"'), ":10: source[1].kind: must be one of"),
         (('path = "data/store.sqlite"', "path = 3"), ":2: sqlite.path: must be a path"),
+        (('path = "data/store.sqlite"', 'path = "."'), ":2: sqlite.path: "),
+        (
+            ('path = "data/store.sqlite"', 'path = "x"\nreadings = 1'),
+            ":3: sqlite.readings: must be true",
+        ),
         (
             ("[sqlite]", "[sqlight]"),
             ":1: sqlight: unknown table or key 'sqlight' (did you mean sqlite? ",

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 from served_logger import CLI
 
-from sondalog.collect.config import CollectorConfig, ConfigError, load_config
+from sondalog.collect.config import CollectorConfig, load_config
+from sondalog.config import ConfigError
 
 GOOD = """\
 [sqlite]
@@ -57,12 +58,25 @@ def test_a_good_file(tmp_path: Path) -> None:
     ("change", "where"),
     [
         (("interval = 30", "interval = -1"), ":6: source[0].interval: must be a positive"),
+        (("interval = 30", "interval = true"), ":6: source[0].interval: must be a positive"),
         (('timezone = "Europe/Prague"', 'timezone = "Mars/Olympus"'), ":7: source[0].timezone"),
         (('url = "tcp://127.0.0.1:10001"', 'url = "http://x"'), ":5: source[0].url: unsupported"),
-        (('name = "greenhouse"', 'nmae = "x"'), ":12: source[1].nmae: unknown key"),
+        (
+            ('name = "greenhouse"', 'nmae = "x"'),
+            ":12: source[1].nmae: unknown table or key 'nmae' (did you mean name? ",
+        ),
         (('kind = "bus"', 'kind = "fax"'), ":10: source[1].kind: must be one of"),
-        (('path = "data/store.sqlite"', "path = 3"), ":2: sqlite.path: must be a file name"),
-        (("[sqlite]", "[sqlight]"), ":1: sqlight: unknown table"),
+        (('path = "data/store.sqlite"', "path = 3"), ":2: sqlite.path: must be a path"),
+        (('path = "data/store.sqlite"', 'path = "."'), ":2: sqlite.path: "),
+        (
+            ('path = "data/store.sqlite"', 'path = "x"\nreadings = 1'),
+            ":3: sqlite.readings: must be true",
+        ),
+        (
+            ("[sqlite]", "[sqlight]"),
+            ":1: sqlight: unknown table or key 'sqlight' (did you mean sqlite? ",
+        ),
+        (("[sqlite]", "[sqlte]"), ":1: sqlte: unknown table or key 'sqlte' (did you mean sqlite? "),
         (('name = "greenhouse"', 'name = "tcp://127.0.0.1:10001"'), ":12: source[1].name: "),
         (("interval = 30", "interval = 30\nmodules = ['T1']"), ":7: source[0].modules: only a bus"),
     ],
@@ -91,7 +105,7 @@ def test_cli_exit_2_with_the_message(tmp_path: Path) -> None:
     path.write_text(GOOD + "\n[postgres]\ndsn = 'postgresql://x'\nbogus = 1\n")
     done = subprocess.run([*CLI, "collect", str(path)], capture_output=True, text=True, timeout=30)
     assert done.returncode == 2
-    assert f"{path}:16: postgres: unknown key 'bogus'" in done.stderr
+    assert f"{path}:18: postgres.bogus: unknown table or key 'bogus'" in done.stderr
     assert not (tmp_path / "data" / "store.buffer.sqlite").exists()
 
 
@@ -105,10 +119,13 @@ def test_the_example_file() -> None:
 @pytest.mark.parametrize(
     ("sink", "message"),
     [
-        ("[mqtt]\nurl = 'http://broker'\n", ":16: mqtt: url 'http://broker' is not mqtt://"),
-        ("[mqtt]\nurl = 'mqtt://broker'\nqos = 1\n", ":16: mqtt: unknown key 'qos'"),
-        ("[postgres]\ndsn = 'host=db port'\n", ":16: postgres: dsn is not a valid connection"),
-        ("[postgres]\ndsn = 'postgresql://x'\nbogus = 1\n", ":16: postgres: unknown key 'bogus'"),
+        ("[mqtt]\nurl = 'http://broker'\n", ":17: mqtt.url: 'http://broker' is not mqtt://"),
+        ("[mqtt]\nurl = 'mqtt://broker'\nqos = 1\n", ":18: mqtt.qos: unknown table or key 'qos'"),
+        ("[postgres]\ndsn = 'host=db port'\n", ":17: postgres.dsn: not a valid connection"),
+        (
+            "[postgres]\ndsn = 'postgresql://x'\nbogus = 1\n",
+            ":18: postgres.bogus: unknown table or key",
+        ),
     ],
 )
 def test_check_finds_what_a_start_would(tmp_path: Path, sink: str, message: str) -> None:

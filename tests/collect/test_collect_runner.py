@@ -42,7 +42,7 @@ class Outage:
 
 def test_batches_wait_while_a_sink_is_down(tmp_path: Path) -> None:
     sink = Outage()
-    register_sink("outage", lambda table: sink)
+    register_sink("outage", lambda config: sink, lambda table: table.keys(()))
     with sampling_logger(tmp_path, 50) as served:
         configure(served)
         time.sleep(0.3)

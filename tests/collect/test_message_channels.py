@@ -9,10 +9,11 @@ from typing import Any
 
 import pytest
 
-from sondalog.collect.config import ConfigError, load_config
+from sondalog.collect.config import load_config
 from sondalog.collect.message_sources import MessageIntake
 from sondalog.collect.model import Reading
 from sondalog.collect.store_sqlite import SqliteStore
+from sondalog.config import ConfigError
 
 CONFIG = """[sqlite]
 path = "s.sqlite"

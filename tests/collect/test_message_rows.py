@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from sondalog.collect.config import CollectorConfig, ConfigError, load_config
+from sondalog.collect.config import CollectorConfig, load_config
 from sondalog.collect.message_rows import MessageError, MessageRows, identify, parse_message
 from sondalog.collect.message_url import Pop3Url, parse_pop3_url
+from sondalog.config import ConfigError
 from sondalog.protocol.cksum import cksum
 
 ROWS = ["20261130010000.0,1,12.6,0.250", "20261130010000.1,1,12.6,", "20261130020000.0,3,door open"]

@@ -95,11 +95,11 @@ def test_device_classes_and_state_messages() -> None:
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ({}, "url is required"),
+        ({}, "mqtt.url: required"),
         ({"url": "http://x"}, "mqtt://host"),
         ({"url": "mqtt://x:99999"}, "url"),
         ({"url": "mqtt://x", "prefix": "a/#"}, "without \\+ or #"),
-        ({"url": "mqtt://x", "qos": 2}, "unknown key 'qos'"),
+        ({"url": "mqtt://x", "qos": 2}, "mqtt.qos: unknown table or key 'qos'"),
     ],
 )
 def test_bad_config_is_refused(table: dict[str, object], message: str) -> None:

@@ -13,15 +13,15 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import pytest
 from served_logger import configure, sampling_logger
 
-from sondalog.collect.config import ConfigError, load_config
+from sondalog.collect.config import load_config
 from sondalog.collect.model import Reading
 from sondalog.collect.runner import Collector
-from sondalog.collect.sinks import Report, register_sink
+from sondalog.collect.sinks import register_sink
+from sondalog.config import ConfigError, Table
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,17 +30,9 @@ class JsonlConfig:
     pretty: bool
 
 
-def parse_jsonl(table: dict[str, Any], report: Report) -> JsonlConfig:
-    for key in table:
-        if key not in ("path", "pretty"):
-            raise report(key, "unknown key (known: path, pretty)")
-    path = table.get("path")
-    if not isinstance(path, str) or not path:
-        raise report("path", "must be a file name")
-    pretty = table.get("pretty", False)
-    if not isinstance(pretty, bool):
-        raise report("pretty", "must be true or false")
-    return JsonlConfig(Path(path), pretty)
+def parse_jsonl(table: Table) -> JsonlConfig:
+    table.keys(("path", "pretty"))
+    return JsonlConfig(table.path("path"), table.flag("pretty", False))
 
 
 class JsonlSink:
@@ -100,9 +92,13 @@ def _events(store: Path) -> list[tuple[str, ...]]:
 @pytest.mark.parametrize(
     ("table", "where"),
     [
-        ("[jsonl]\npath = 3\n", ":9: jsonl.path: must be a file name"),
+        ("[jsonl]\npath = 3\n", ":9: jsonl.path: must be a path"),
         ('[jsonl]\npath = "x"\npretty = "yes"\n', ":10: jsonl.pretty: must be true or false"),
-        ('[jsonl]\npath = "x"\n\ncolour = 1\n', ":11: jsonl.colour: unknown key"),
+        (
+            '[jsonl]\npath = "x"\n\ncolour = 1\n',
+            ":11: jsonl.colour: unknown table or key 'colour' (known: path, pretty)",
+        ),
+        ("[jsonl]\n", ":8: jsonl.path: required"),
     ],
 )
 def test_a_bad_table_of_it_names_file_line_and_field(
@@ -118,5 +114,17 @@ def test_a_bad_table_of_it_names_file_line_and_field(
 def test_an_unknown_table_is_still_refused(tmp_path: Path) -> None:
     path = tmp_path / "collector.toml"
     path.write_text(_toml("tcp://127.0.0.1:10001", '[kafka]\nbrokers = "x"\n'))
-    with pytest.raises(ConfigError, match=r":8: kafka: unknown table \(known: .*jsonl.*mqtt"):
+    with pytest.raises(
+        ConfigError, match=r":8: kafka: unknown table or key 'kafka' \(known: .*jsonl.*mqtt"
+    ):
         load_config(path)
+
+
+def test_a_misspelt_sink_table_gets_a_did_you_mean(tmp_path: Path) -> None:
+    path = tmp_path / "collector.toml"
+    path.write_text(_toml("tcp://127.0.0.1:10001", '[jsnol]\npath = "x"\n'))
+    with pytest.raises(ConfigError) as caught:
+        load_config(path)
+    assert str(caught.value).startswith(
+        f"{path}:8: jsnol: unknown table or key 'jsnol' (did you mean jsonl? "
+    )

@@ -75,10 +75,10 @@ def test_migration_plan() -> None:
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ({}, "dsn is required"),
-        ({"dsn": "host=x", "bogus": 1}, "unknown key 'bogus'"),
+        ({}, "postgres.dsn: required"),
+        ({"dsn": "host=x", "bogus": 1}, "postgres.bogus: unknown table or key 'bogus'"),
         ({"dsn": "host=x port"}, "not a valid connection string"),
-        ({"dsn": "host=x", "timescaledb": "maybe"}, "auto, on or off"),
+        ({"dsn": "host=x", "timescaledb": "maybe"}, "timescaledb: must be one of auto, on, off"),
         ({"dsn": "host=x", "connect_timeout": 0}, "connect_timeout"),
     ],
 )

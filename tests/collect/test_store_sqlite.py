@@ -11,8 +11,9 @@ import pytest
 
 from sondalog.collect.model import Reading
 from sondalog.collect.schema import SCHEMA_VERSION
-from sondalog.collect.sinks import SinkError, load_sink
-from sondalog.collect.store_sqlite import SqliteStore, StoreError
+from sondalog.collect.sinks import find_sink
+from sondalog.collect.store_sqlite import SqliteStore, StoreError, create
+from sondalog.config import ConfigError, of
 
 T = datetime(2007, 3, 1, 12, 0, 0)
 
@@ -97,10 +98,14 @@ def test_refuses_foreign_and_newer_files(tmp_path: Path) -> None:
         SqliteStore(newer).open_sync()
 
 
-def test_sinks_by_name(tmp_path: Path) -> None:
-    sink = load_sink("sqlite", {"path": str(tmp_path / "x.sqlite")})
+def test_the_sqlite_sink_by_name(tmp_path: Path) -> None:
+    kind = find_sink("sqlite")
+    assert kind is not None
+    sink = kind.factory(kind.parse(of({"path": "x.sqlite"}, root=tmp_path, where="sqlite")))
     assert isinstance(sink, SqliteStore) and sink.name == "sqlite"
-    with pytest.raises(SinkError, match="unknown sink 'kafka'"):
-        load_sink("kafka", {})
-    with pytest.raises(ValueError, match=r"sqlite\.colour: unknown key"):
-        load_sink("sqlite", {"path": "x", "colour": 1})
+    assert sink.path == tmp_path / "x.sqlite"
+    assert find_sink("kafka") is None
+    with pytest.raises(ConfigError, match=r"sqlite\.colour: unknown table or key 'colour'"):
+        create({"path": "x", "colour": 1})
+    with pytest.raises(ConfigError, match=r"sqlite\.readings: must be true or false"):
+        create({"path": "x", "readings": 1})

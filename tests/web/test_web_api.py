@@ -15,7 +15,8 @@ from typing import Any
 import pytest
 from web_store import Running, execute, insert, make_store, series_rows
 
-from sondalog.web import WebConfigError, check_listen, create_app
+from sondalog.config import ConfigError
+from sondalog.web import check_listen, create_app
 
 
 def get(url: str, headers: dict[str, str] | None = None) -> tuple[int, dict[str, str], bytes]:
@@ -239,9 +240,9 @@ def test_listening_beyond_loopback_needs_flag_and_token() -> None:
     check_listen("127.0.0.1", allow_remote=False, token=None)
     check_listen("::1", allow_remote=False, token=None)
     check_listen("localhost", allow_remote=False, token=None)
-    with pytest.raises(WebConfigError, match="loopback"):
+    with pytest.raises(ConfigError, match=r"<config>: listen: refusing to listen .*loopback"):
         check_listen("0.0.0.0", allow_remote=False, token="s3cret-token")
-    with pytest.raises(WebConfigError, match="without a token"):
+    with pytest.raises(ConfigError, match="without a token"):
         check_listen("192.0.2.7", allow_remote=True, token=None)
     check_listen("0.0.0.0", allow_remote=True, token="s3cret-token")
     with pytest.raises(ValueError, match="8 or more"):

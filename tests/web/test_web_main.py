@@ -33,3 +33,19 @@ def test_help_is_plain_text() -> None:
     assert done.returncode == 0
     assert "The dashboard alone, over an existing store" in done.stdout
     assert re.search(r"`|:(?:class|mod|func):", done.stdout) is None, done.stdout
+
+
+def test_a_bad_or_remote_listen_is_refused_before_serving(store: Path) -> None:
+    for listen, message in [
+        ("8080", "--listen: expected HOST:PORT, got '8080'"),
+        ("127.0.0.1:70000", "--listen: port must be a number 0..65535"),
+        ("0.0.0.0:8080", "python -m sondalog.web: --listen: refusing to listen on 0.0.0.0"),
+    ]:
+        done = subprocess.run(
+            [*WEB, "--store", str(store), "--listen", listen],
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+        assert done.returncode == 2, done.stderr
+        assert message in done.stderr and "Traceback" not in done.stderr

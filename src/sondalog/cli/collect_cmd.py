@@ -42,16 +42,16 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
         raise Refused(str(exc)) from None
     if check:
         try:
-            build_sinks(config)
+            build_sinks(config.sinks)
             SqliteStore(config.store).check_sync()
-        except (ConfigError, StoreError) as exc:
+        except StoreError as exc:
             raise Refused(str(exc)) from None
         click.echo(f"{config_file}: {len(config.sources)} sources, store {config.store}")
         return
     collector = Collector(config)
     try:
         collector.open()
-    except (StoreError, ConfigError) as exc:  # the sinks are built before the store opens
+    except StoreError as exc:
         raise Refused(str(exc)) from None
     try:
         asyncio.run(_run(collector, once))

@@ -55,9 +55,9 @@ class Collector:
         self.failing: set[str] = set()
 
     def open(self) -> None:
-        """Open the store and build the sinks; raises :class:`ConfigError` for a bad sink
-        table (or an unknown/missing sink) and ``StoreError``."""
-        self.sinks = build_sinks(self.config)  # before the store: a bad table creates nothing
+        """Build the sinks (their tables were checked when the file was loaded) and open the
+        store; raises ``StoreError``."""
+        self.sinks = build_sinks(self.config.sinks)
         self.store.open_sync()
         if self.sinks:
             self.buffer = DiskBuffer(self.config.buffer)

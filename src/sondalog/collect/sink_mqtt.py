@@ -30,15 +30,16 @@ import logging
 import random
 import ssl
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from urllib.parse import unquote, urlsplit
+from urllib.parse import SplitResult, unquote, urlsplit
 
 import aiomqtt
 
 from sondalog.collect.ha_discovery import Device, Topics, discovery_payload, state_payload
 from sondalog.collect.model import Reading, SinkUnavailable
-from sondalog.collect.sinks import checking, register_sink
+from sondalog.collect.sinks import register_sink
+from sondalog.config import Table, of
 
 log = logging.getLogger(__name__)
 
@@ -57,34 +58,31 @@ class MqttConfig:
     topics: Topics
 
 
-def parse_config(table: dict[str, object]) -> MqttConfig:
-    """Validate the ``[mqtt]`` table; :class:`ValueError` names the bad field."""
-    unknown = sorted(set(table) - _KEYS)
-    if unknown:
-        raise ValueError(f"mqtt: unknown key {unknown[0]!r} (known: {', '.join(sorted(_KEYS))})")
-    for key in _KEYS:
-        if key in table and not isinstance(table[key], str):
-            raise ValueError(f"mqtt: {key} must be a string")
-    url = table.get("url")
-    if not isinstance(url, str) or not url:
-        raise ValueError("mqtt: url is required (mqtt://host:port)")
+def _url(url: str) -> tuple[str, int, SplitResult]:
     parts = urlsplit(url)
     if parts.scheme not in ("mqtt", "mqtts") or not parts.hostname:
-        raise ValueError(f"mqtt: url {url!r} is not mqtt://host[:port] or mqtts://host[:port]")
+        raise ValueError(f"{url!r} is not mqtt://host[:port] or mqtts://host[:port]")
     try:
         port = parts.port or (8883 if parts.scheme == "mqtts" else 1883)
     except ValueError as e:
-        raise ValueError(f"mqtt: url {url!r}: {e}") from None
+        raise ValueError(f"{url!r}: {e}") from None
+    return parts.hostname, port, parts
+
+
+def parse_config(table: Table) -> MqttConfig:
+    """Check the ``[mqtt]`` table (``ConfigError`` names the file, line and field)."""
+    table.keys(_KEYS)
+    host, port, parts = table.convert("url", _url)
     topics = Topics(
-        prefix=str(table.get("prefix", "sondalog")).strip("/") or "sondalog",
-        discovery=str(table.get("discovery_prefix", "homeassistant")).strip("/"),
-        client_id=str(table.get("client_id", "sondalog-collector")),
+        prefix=table.text("prefix", "sondalog", empty=True).strip("/") or "sondalog",
+        discovery=table.text("discovery_prefix", "homeassistant", empty=True).strip("/"),
+        client_id=table.text("client_id", "sondalog-collector", empty=True),
     )
-    for t in (topics.prefix, topics.discovery):
+    for key, t in (("prefix", topics.prefix), ("discovery_prefix", topics.discovery)):
         if not t or "+" in t or "#" in t:
-            raise ValueError(f"mqtt: topic prefix {t!r} must be non-empty without + or #")
+            raise table.fail(key, f"topic prefix {t!r} must be non-empty without + or #")
     return MqttConfig(
-        host=parts.hostname,
+        host=host,
         port=port,
         tls=parts.scheme == "mqtts",
         username=unquote(parts.username) if parts.username else None,
@@ -254,9 +252,9 @@ class MqttSink:
             backoff = min(backoff * 2, 30.0)
 
 
-def create(table: dict[str, object]) -> MqttSink:
-    """An MQTT sink straight from an ``[mqtt]`` table (the registry parses, then builds)."""
-    return MqttSink(parse_config(table))
+def create(table: Mapping[str, object]) -> MqttSink:
+    """An MQTT sink straight from a plain ``[mqtt]`` mapping (tests, benchmarks)."""
+    return MqttSink(parse_config(of(table, where="mqtt")))
 
 
-register_sink("mqtt", MqttSink, checking(parse_config))
+register_sink("mqtt", MqttSink, parse_config)

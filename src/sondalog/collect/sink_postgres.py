@@ -27,14 +27,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import psycopg
 from psycopg import conninfo
 
 from sondalog.collect.model import Reading, SinkUnavailable
 from sondalog.collect.schema import SCHEMA_VERSION
-from sondalog.collect.sinks import checked_by, register_sink
+from sondalog.collect.sinks import register_sink
+from sondalog.config import Table, of
 
 log = logging.getLogger(__name__)
 
@@ -252,28 +254,45 @@ class PostgresSink:
         return layout
 
 
-def create(table: dict[str, object]) -> PostgresSink:
-    """The registry's entry point: a PostgreSQL sink from the ``[postgres]`` table."""
-    unknown = sorted(set(table) - _KEYS)
-    if unknown:
-        raise ValueError(
-            f"postgres: unknown key {unknown[0]!r} (known: {', '.join(sorted(_KEYS))})"
-        )
-    dsn = table.get("dsn")
-    if not isinstance(dsn, str) or not dsn:
-        raise ValueError("postgres: dsn is required (a libpq connection string or URL)")
+@dataclass(frozen=True, slots=True)
+class PostgresConfig:
+    """The checked ``[postgres]`` table."""
+
+    dsn: str
+    timescaledb: str = "auto"
+    connect_timeout: int = 5
+
+
+def _dsn(value: str) -> str:
     try:
-        conninfo.conninfo_to_dict(dsn)
+        conninfo.conninfo_to_dict(value)
     except psycopg.ProgrammingError as e:
-        raise ValueError(f"postgres: dsn is not a valid connection string: {e}") from None
-    setting = table.get("timescaledb", "auto")
-    if not isinstance(setting, str):
-        raise ValueError("postgres: timescaledb must be auto, on or off")
-    choose_layout(setting, True)  # validates the spelling
-    timeout = table.get("connect_timeout", 5)
-    if not isinstance(timeout, int) or isinstance(timeout, bool) or timeout < 1:
-        raise ValueError("postgres: connect_timeout must be a whole number of seconds >= 1")
-    return PostgresSink(dsn, timescaledb=setting, connect_timeout=timeout)
+        raise ValueError(f"not a valid connection string: {e}") from None
+    return value
 
 
-register_sink("postgres", create, checked_by(create))
+def parse_config(table: Table) -> PostgresConfig:
+    """Check the ``[postgres]`` table (``ConfigError`` names the file, line and field)."""
+    table.keys(_KEYS)
+    return PostgresConfig(
+        dsn=table.convert("dsn", _dsn),
+        timescaledb=table.text("timescaledb", "auto", choices=("auto", "on", "off")),
+        connect_timeout=table.integer(
+            "connect_timeout", 5, lo=1, what="a whole number of seconds >= 1"
+        ),
+    )
+
+
+def from_config(config: PostgresConfig) -> PostgresSink:
+    """The sink of a checked ``[postgres]`` table: the registration's factory."""
+    return PostgresSink(
+        config.dsn, timescaledb=config.timescaledb, connect_timeout=config.connect_timeout
+    )
+
+
+def create(table: Mapping[str, object]) -> PostgresSink:
+    """A PostgreSQL sink straight from a plain ``[postgres]`` mapping (tests, benchmarks)."""
+    return from_config(parse_config(of(table, where="postgres")))
+
+
+register_sink("postgres", from_config, parse_config)

@@ -9,14 +9,16 @@
 - ``meta.schema_version`` tells which schema the file has; opening an older file migrates it,
   a newer one is refused.
 
-The store is also the ``sqlite`` sink (:func:`create`), so the collector can hand it batches
-like any other sink.
+The store is also the ``sqlite`` sink (:mod:`sondalog.collect.sink_sqlite`), so it can take
+batches like any other sink. Its ``[sqlite]`` table is read by :func:`parse_store`, for the
+collector's own store and the sink alike.
 """
 
 from __future__ import annotations
 
 import sqlite3
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -28,6 +30,7 @@ from sondalog.collect.schema import (
     SQLITE_ADDITIVE_DDL,
     SQLITE_DDL,
 )
+from sondalog.config import Table, of
 from sondalog.io.private import connect_private, private_parents
 
 _INSERT = (
@@ -276,18 +279,32 @@ class SqliteStore:
         return [tuple(r) for r in self.db.execute(sql + " ORDER BY id", args)]
 
 
-def create(table: dict[str, Any]) -> SqliteStore:
-    """The ``[sqlite]`` table: ``path`` (required here), ``readings`` (default true)."""
-    unknown = sorted(set(table) - {"path", "readings"})
-    if unknown:
-        raise ValueError(f"sqlite.{unknown[0]}: unknown key (known: path, readings)")
-    path = table.get("path")
-    if not isinstance(path, str | Path) or not str(path):
-        raise ValueError("sqlite.path: must be a file name")
-    readings = table.get("readings", True)
-    if not isinstance(readings, bool):
-        raise ValueError("sqlite.readings: must be true or false")
-    return SqliteStore(path, readings=readings)
+@dataclass(frozen=True, slots=True)
+class StoreConfig:
+    """The ``[sqlite]`` table: the store's file and whether it keeps readings."""
+
+    path: Path
+    readings: bool = True
+
+
+def parse_store(table: Table) -> StoreConfig:
+    """The ``[sqlite]`` table: ``path`` (default ``collector.sqlite`` beside the file; a file
+    name, not a directory), ``readings`` (default true)."""
+    table.keys(("path", "readings"))
+    path = table.path("path", "collector.sqlite")
+    if path.is_dir():
+        raise table.fail("path", f"{path} is a directory; name the store's file")
+    return StoreConfig(path, table.flag("readings", True))
+
+
+def open_store(config: StoreConfig) -> SqliteStore:
+    """The store of ``config`` (not opened yet): the factory of the ``sqlite`` sink."""
+    return SqliteStore(config.path, readings=config.readings)
+
+
+def create(table: Mapping[str, object]) -> SqliteStore:
+    """A store straight from a plain ``[sqlite]`` mapping (benchmarks); ``ConfigError``."""
+    return open_store(parse_store(of(table, where="sqlite")))
 
 
 def _add_columns(db: sqlite3.Connection) -> None:

@@ -16,17 +16,18 @@ token is set: the same rule as :func:`sondalog.web.server.check_listen`, checked
 
 from __future__ import annotations
 
-import ipaddress
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+
+from sondalog.config import Table, format_address, is_loopback
 
 DEFAULT_LISTEN = ("127.0.0.1", 8080)
 #: The environment variable a token may come from (kept out of the file and the command line).
 TOKEN_ENV = "SONDALOG_WEB_TOKEN"
 _KEYS = ("allow_remote", "enabled", "listen", "token")
-_TOKEN = re.compile(r"[A-Za-z0-9._~+/=-]{8,}")
+_TOKEN = r"[A-Za-z0-9._~+/=-]{8,}"
+_TOKEN_WHAT = "8 or more characters of letters, digits and ._~+/=-"
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,45 +43,31 @@ class WebConfig:
     explicit: bool = False
 
 
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
-
-
-def parse_web(
-    table: Mapping[str, Any], fail: Callable[[str, str], Exception], env: Mapping[str, str]
-) -> WebConfig:
-    """Check ``[web]``; ``fail(field, message)`` makes the error to raise."""
-    for key in table:
-        if key not in _KEYS:
-            raise fail(f"web.{key}", f"unknown key (known: {', '.join(_KEYS)})")
-    enabled = table.get("enabled", True)
-    remote = table.get("allow_remote", False)
-    for key, value in (("enabled", enabled), ("allow_remote", remote)):
-        if not isinstance(value, bool):
-            raise fail(f"web.{key}", "must be true or false")
-    listen = table.get("listen", f"{DEFAULT_LISTEN[0]}:{DEFAULT_LISTEN[1]}")
-    host, sep, port = listen.rpartition(":") if isinstance(listen, str) else ("", "", "")
-    if not sep or not host or not port.isdigit() or int(port) > 65535:
-        raise fail("web.listen", f'must be "HOST:PORT" (port 0..65535), got {listen!r}')
-    token = table.get("token", env.get(TOKEN_ENV) or None)
-    if token is not None and (not isinstance(token, str) or not _TOKEN.fullmatch(token)):
-        raise fail("web.token", "must be 8 or more characters of letters, digits and ._~+/=-")
+def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
+    """Check the ``[web]`` table (``ConfigError`` names the file, line and field); the token
+    may come from ``env``'s :data:`TOKEN_ENV`."""
+    table.keys(_KEYS)
+    enabled = table.flag("enabled", True)
+    remote = table.flag("allow_remote", False)
+    host, port = table.address("listen", format_address(*DEFAULT_LISTEN))
+    # The pattern is checked here, not by ``text(pattern=...)``: a refused token is not echoed.
+    token = (
+        table.text("token", what=_TOKEN_WHAT) if "token" in table else env.get(TOKEN_ENV) or None
+    )
+    if token is not None and not re.fullmatch(_TOKEN, token):
+        source = "" if "token" in table else f"${TOKEN_ENV}: "
+        raise table.fail("token", f"{source}must be {_TOKEN_WHAT}")
     if enabled and not is_loopback(host):
         if not remote:
-            raise fail(
-                "web.listen",
+            raise table.fail(
+                "listen",
                 f"refusing to serve the dashboard on {host}: only loopback (127.0.0.1) unless "
                 "allow_remote = true and a token is set",
             )
         if token is None:
-            raise fail(
-                "web.token",
+            raise table.fail(
+                "token",
                 f"refusing to serve the dashboard on {host} without a token: set token "
                 f"(or ${TOKEN_ENV}); requests then need 'Authorization: Bearer <token>'",
             )
-    return WebConfig(enabled, host.strip("[]"), int(port), remote, token, "listen" in table)
+    return WebConfig(enabled, host, port, remote, token, "listen" in table)

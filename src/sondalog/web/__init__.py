@@ -7,6 +7,6 @@ See ``docs/dashboard.md``.
 from __future__ import annotations
 
 from .app import Settings, create_app
-from .server import WebConfigError, check_listen, is_loopback, serve
+from .server import check_listen, serve
 
-__all__ = ["Settings", "WebConfigError", "check_listen", "create_app", "is_loopback", "serve"]
+__all__ = ["Settings", "check_listen", "create_app", "serve"]

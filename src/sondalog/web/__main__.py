@@ -12,8 +12,10 @@ import os
 import sys
 from pathlib import Path
 
+from sondalog.config import ConfigError, parse_listen
+
 from .app import create_app
-from .server import WebConfigError, serve
+from .server import check_listen, serve
 
 #: The --help text: plain, unlike the module docstring (``--help`` prints it as it is).
 DESCRIPTION = (
@@ -43,28 +45,31 @@ def main(argv: list[str] | None = None) -> int:
         "--poll", type=float, default=1.0, metavar="SECONDS", help="live update poll (default 1)"
     )
     args = parser.parse_args(argv)
-    host, sep, port_text = args.listen.rpartition(":")
-    if not sep or not port_text.isdigit() or not host or int(port_text) > 65535:
-        parser.error(f"--listen: expected HOST:PORT, got {args.listen!r}")
+    try:
+        host, port = parse_listen(args.listen)
+    except ValueError as exc:
+        parser.error(f"--listen: {exc}")
     if args.poll <= 0:
         parser.error("--poll: must be more than 0")
     token = os.environ.get("SONDALOG_WEB_TOKEN") or None
     try:
+        check_listen(host, allow_remote=args.allow_remote, token=token, field="--listen")
         app = create_app(args.store, token=token, poll_interval=args.poll)
 
         def listening(h: str, p: int) -> None:
             print(f"dashboard on http://{h}:{p}/", flush=True)
 
-        asyncio.run(
-            serve(app, host, int(port_text), allow_remote=args.allow_remote, on_listen=listening)
-        )
+        asyncio.run(serve(app, host, port, allow_remote=args.allow_remote, on_listen=listening))
     except OSError as exc:  # the address is taken, or not this machine's
         print(
             f"python -m sondalog.web: cannot listen on {args.listen}: {exc.strerror or exc}",
             file=sys.stderr,
         )
         return 2
-    except (WebConfigError, ValueError) as exc:
+    except ConfigError as exc:
+        print(f"python -m sondalog.web: {exc.field}: {exc.message}", file=sys.stderr)
+        return 2
+    except ValueError as exc:
         print(f"python -m sondalog.web: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

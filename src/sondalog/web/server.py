@@ -10,18 +10,15 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import ipaddress
 import socket
 from collections.abc import Callable, Generator
 
 import uvicorn
 from starlette.applications import Starlette
 
+from sondalog.config import ConfigError, is_loopback
+
 from .app import Settings, check_token
-
-
-class WebConfigError(ValueError):
-    """A listen address or token the dashboard refuses; the message says why."""
 
 
 class _Server(uvicorn.Server):
@@ -30,28 +27,26 @@ class _Server(uvicorn.Server):
         yield  # the caller's loop owns SIGINT and SIGTERM
 
 
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
-
-
-def check_listen(host: str, *, allow_remote: bool, token: str | None) -> None:
-    """Raise :class:`WebConfigError` unless listening on ``host`` is allowed."""
+def check_listen(
+    host: str, *, allow_remote: bool, token: str | None, field: str = "listen"
+) -> None:
+    """Raise :class:`~sondalog.config.ConfigError` (of ``field``) unless listening on ``host``
+    is allowed."""
     if is_loopback(host):
         return
     if not allow_remote:
-        raise WebConfigError(
+        raise ConfigError(
+            None,
+            field,
             f"refusing to listen on {host}: the dashboard listens on loopback (127.0.0.1) "
-            "unless remote access is allowed explicitly and a token is set"
+            "unless remote access is allowed explicitly and a token is set",
         )
     if not token:
-        raise WebConfigError(
+        raise ConfigError(
+            None,
+            field,
             f"refusing to listen on {host} without a token: anyone on the network could "
-            "read the data; set a token (then requests need 'Authorization: Bearer <token>')"
+            "read the data; set a token (then requests need 'Authorization: Bearer <token>')",
         )
 
 

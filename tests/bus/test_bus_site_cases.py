@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from sondalog.app.bus import start_bus_server
 from sondalog.app.bus_build import build_bus
 from sondalog.backends import sensor_sources
 from sondalog.backends.linux import load_board
@@ -20,6 +21,7 @@ from sondalog.backends.sensor_sources import SourceKind
 from sondalog.backends.sim.site_bus import load_bus_site
 from sondalog.config import ConfigError, Table
 from sondalog.hctmps1 import Kind
+from sondalog.io.clock import RealClock
 
 SITE = """\
 [bus]
@@ -186,3 +188,26 @@ def test_the_bus_site_does_not_import_the_linux_backend() -> None:
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]"
+
+
+def test_starting_consumes_the_plan_without_reading_the_file_again(tmp_path: Path) -> None:
+    path = tmp_path / "site.toml"
+    path.write_text(
+        SITE.replace('source = "iio:ads1115:1"\nscale = 30.0\n', "cycle = 5\n").replace(
+            'kind = "hum"',
+            'kind = "hum"\nsignal = { model = "sine", mean = 50, amplitude = 5, period = 600 }',
+        )
+    )
+    plan = load_bus_site(path)
+    path.unlink()  # the plan is all the start needs
+
+    async def go() -> None:
+        clock = RealClock()
+        running = await start_bus_server(clock, ("127.0.0.1", 0), site=plan)
+        try:
+            assert [a.module.module_id for a in running.core.modules] == ["T1", "H1"]
+            assert running.core.baud == 9600
+        finally:
+            await running.close()
+
+    asyncio.run(go())

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from sondalog.backends.sim.signals import SignalError, build_signal
-from sondalog.backends.sim.site_bus import ConfigError, default_bus_site, load_bus_site
+from sondalog.backends.sim.signals import build_signal
+from sondalog.backends.sim.site_bus import default_bus_site, load_bus_site
 from sondalog.backends.store.eeprom import FILE_NAME, EepromDatabase
+from sondalog.config import ConfigError
 from sondalog.hctmps1 import EepromImage, Kind
 
 S = 5000.0  # start time of the simulation
@@ -62,14 +63,14 @@ def test_steps_and_csv(tmp_path: Path) -> None:
     ],
 )
 def test_signal_errors_name_the_field(table: dict[str, object], field: str) -> None:
-    with pytest.raises(SignalError) as info:
+    with pytest.raises(ConfigError) as info:
         build_signal(table, S)
     assert info.value.field == field
 
 
 def test_bad_csv_rows_are_reported(tmp_path: Path) -> None:
     (tmp_path / "bad.csv").write_text("0,1\n1,x\n")
-    with pytest.raises(SignalError, match="line 2"):
+    with pytest.raises(ConfigError, match="line 2"):
         build_signal({"model": "csv", "path": "bad.csv"}, S, tmp_path)
 
 
@@ -102,13 +103,13 @@ period = 600
 def test_site_file_is_read(tmp_path: Path) -> None:
     path = tmp_path / "site.toml"
     path.write_text(SITE)
-    site = load_bus_site(path, S)
+    site = load_bus_site(path)
     assert site.baud == 19200
     assert [(m.module_id, m.kind, m.cycle) for m in site.modules] == [
         ("T1", Kind.TEMP, 10.0),
         ("H2", Kind.HUM, 5.0),
     ]
-    assert site.modules[1].signal(S + 150) == pytest.approx(55)
+    assert site.modules[1].signal.build(S)(S + 150) == pytest.approx(55)
 
 
 @pytest.mark.parametrize(
@@ -134,7 +135,7 @@ def test_site_errors_name_file_field_and_line(
     assert old in SITE
     path.write_text(SITE.replace(old, new, 1))
     with pytest.raises(ConfigError) as info:
-        load_bus_site(path, S)
+        load_bus_site(path)
     assert str(info.value).startswith(f"{path}{where}")
 
 
@@ -142,25 +143,25 @@ def test_site_needs_a_bus_with_modules(tmp_path: Path) -> None:
     path = tmp_path / "site.toml"
     path.write_text("[logger]\n")
     with pytest.raises(ConfigError, match="needs a \\[bus\\] table"):
-        load_bus_site(path, S)
+        load_bus_site(path)
     path.write_text("[bus]\nbaud = 9600\n")
     with pytest.raises(ConfigError, match=r":1: bus\.modules"):
-        load_bus_site(path, S)
+        load_bus_site(path)
     with pytest.raises(ConfigError, match="cannot read"):
-        load_bus_site(tmp_path / "missing.toml", S)
+        load_bus_site(tmp_path / "missing.toml")
 
 
 def test_default_site() -> None:
-    site = default_bus_site(S)
+    site = default_bus_site()
     assert [(m.module_id, m.kind) for m in site.modules] == [("T1", Kind.TEMP), ("H1", Kind.HUM)]
-    assert all(not math.isnan(m.signal(S)) for m in site.modules)
+    assert all(m.signal is not None and not math.isnan(m.signal.build(S)(S)) for m in site.modules)
 
 
 def test_examples_are_valid() -> None:
     examples = sorted((Path(__file__).parents[2] / "examples").glob("bus-*.toml"))
     assert examples
     for path in examples:
-        assert load_bus_site(path, S).modules
+        assert load_bus_site(path).modules
 
 
 def test_sqlite_eeprom_persists_in_wal_mode(tmp_path: Path) -> None:

@@ -1,6 +1,7 @@
 """``sondalog bus serve``: a virtual RS-485 bus with its modules and ports (the wiring).
 
-:func:`start_bus_server` loads the site (or the default ``T1`` + ``H1``), opens the EEPROM
+:func:`start_bus_server` takes the bus part of a site file, loaded once into a typed plan
+(:class:`~sondalog.backends.sim.site_bus.BusSite`; or the default ``T1`` + ``H1``), opens the EEPROM
 database in the state directory, puts the modules on a :class:`~sondalog.world.bus.BusCore`,
 serves it with the one runtime (:class:`~sondalog.io.host.DeviceHost`) and opens the lines:
 TCP always (each connection its own node, as if each client had its own TCP-to-RS-485
@@ -18,8 +19,8 @@ from pathlib import Path
 
 from sondalog.app.bus_build import build_bus
 from sondalog.backends.linux.rs485 import Rs485Settings, open_rs485
-from sondalog.backends.linux.sources import SensorBank
-from sondalog.backends.sim.site_bus import default_bus_site, load_bus_site
+from sondalog.backends.sensor_bank import SensorBank
+from sondalog.backends.sim.site_bus import BusSite, default_bus_site, load_bus_site
 from sondalog.backends.store.eeprom import EepromDatabase
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
@@ -72,11 +73,21 @@ def rs485_settings(mode: Mode) -> Rs485Settings:
     return Rs485Settings(mode)
 
 
+def bus_plan(site: BusSite | Path | None) -> BusSite:
+    """The bus of ``site``: a plan already loaded, the site file at a path (read here), or
+    the default ``T1`` + ``H1``; raises :class:`~sondalog.config.ConfigError`."""
+    if site is None:
+        return default_bus_site()
+    if isinstance(site, BusSite):
+        return site
+    return load_bus_site(site)
+
+
 async def start_bus_server(
     clock: Clock,
     listen: tuple[str, int] = ("127.0.0.1", DEFAULT_PORT),
     *,
-    site: Path | None = None,
+    site: BusSite | Path | None = None,
     state_dir: Path | None = None,
     baud: int | None = None,
     pty: Path | None = None,
@@ -86,19 +97,16 @@ async def start_bus_server(
     rs485: Rs485Settings | None = None,
     root: Path = Path("/"),
 ) -> BusServer:
-    """Start a bus; raises :class:`~sondalog.config.ConfigError` for a bad site file.
+    """Start the bus ``site`` (a :class:`BusSite` plan as loaded with its site file; a path
+    is loaded first, ``None`` is the default bus); raises
+    :class:`~sondalog.config.ConfigError` for a bad site file.
 
     ``serial`` with ``rs485`` opens the port as an RS-485 adapter (:func:`open_rs485`);
     modules with a real ``source`` read sysfs under ``root``."""
+    plan = bus_plan(site)
     now = clock.now()
-    bus_site = load_bus_site(site, now) if site is not None else default_bus_site(now)
-    sensors = SensorBank(root)
-    for entry in bus_site.modules:  # read once before the modules' power-up measurement
-        if entry.source is not None:
-            sensors.sensor(entry.source)
-    if sensors.sensors:
-        await sensors.acquire()
-    core, database = build_bus(bus_site, now, baud, state_dir, noise, seed, sensors)
+    sensors = await _sensors(plan, root)
+    core, database = build_bus(plan, now, baud, state_dir, noise, seed, sensors)
     host = DeviceHost(core, clock)
     host.start()
     running: BusServer | None = None
@@ -108,22 +116,8 @@ async def start_bus_server(
             running.acquisition = asyncio.create_task(sensors.run(), name="bus sensors")
         if pty is not None:
             running.pty = PtyLine(host, pty, keep_slave=True)
-        if serial is not None and rs485 is not None:
-            how, port = rs485, serial
-
-            def opener() -> object:
-                return open_rs485(
-                    port,
-                    core.baud,
-                    mode=how.mode,
-                    delay_before_tx=how.delay_before_tx,
-                    delay_before_rx=how.delay_before_rx,
-                )
-
-            running.serial = Rs485Line(host, opener, serial)
-            await running.serial.open()
-        elif serial is not None:
-            running.serial = SerialLine(host, serial)
+        if serial is not None:
+            running.serial = _serial_line(host, serial, core.baud, rs485)
             await running.serial.open()
     except BaseException:
         if running is not None:
@@ -136,3 +130,36 @@ async def start_bus_server(
     ids = ", ".join(a.module.module_id for a in core.modules)
     log.info("bus at %d baud with %s", core.baud, ids)
     return running
+
+
+async def _sensors(plan: BusSite, root: Path) -> SensorBank:
+    """The real sensors of ``plan``'s modules, read once before the modules' power-up
+    measurement."""
+    sensors = SensorBank(root)
+    for entry in plan.modules:
+        if entry.source is not None:
+            sensors.sensor(entry.source)
+    if sensors.sensors:
+        await sensors.acquire()
+    return sensors
+
+
+def _serial_line(
+    host: DeviceHost, serial: str, baud: int, rs485: Rs485Settings | None
+) -> SerialLine | Rs485Line:
+    """The bus's line on a real serial port (not opened yet): a plain port, or an RS-485
+    adapter driven as ``rs485`` says."""
+    if rs485 is None:
+        return SerialLine(host, serial)
+    how = rs485
+
+    def opener() -> object:
+        return open_rs485(
+            serial,
+            baud,
+            mode=how.mode,
+            delay_before_tx=how.delay_before_tx,
+            delay_before_rx=how.delay_before_rx,
+        )
+
+    return Rs485Line(host, opener, serial)

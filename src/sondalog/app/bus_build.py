@@ -5,7 +5,7 @@ from __future__ import annotations
 import random
 from pathlib import Path
 
-from sondalog.backends.linux.sources import SensorBank
+from sondalog.backends.sensor_bank import SensorBank
 from sondalog.backends.sim.site_bus import BusSite
 from sondalog.backends.store.eeprom import EepromDatabase
 from sondalog.hctmps1.eeprom import EepromStore, MemoryEeprom
@@ -26,7 +26,8 @@ def build_bus(
     seed: int | None = None,
     sensors: SensorBank | None = None,
 ) -> tuple[BusCore, EepromDatabase | None]:
-    """A bus holding the site's modules, their EEPROM in ``state_dir`` (memory without one).
+    """A bus holding the site's modules, their EEPROM in ``state_dir`` (memory without one);
+    the modules' signals start at ``now``.
 
     ``baud``, ``bit_error_rate`` and ``seed`` override the site file's values. Modules with a
     real ``source`` read it through ``sensors`` (whose acquisition task the caller runs).
@@ -51,6 +52,6 @@ def build_bus(
             sensor: SensorSource = sensors.sensor(entry.source)
         else:
             assert entry.signal is not None
-            sensor = entry.signal
+            sensor = entry.signal.build(now)
         core.add_module(Hctmps1Module(config, sensor, eeprom, rng, now))
     return core, database

@@ -35,7 +35,7 @@ def test_a_site_file_names_its_board_file(tmp_path: Path) -> None:
 
 
 BAD = [
-    ("[board]\ncolour = 1\n", 2, "board.colour", "unknown key"),
+    ("[board]\ncolour = 1\n", 2, "board.colour", "unknown table or key"),
     ("[board]\nbackend = 'sim'\n", 2, "board.backend", "for 'linux'"),
     ("[board]\n\n[[board.ds18b20]]\npin = 9\nmaster = 'w1_bus_master1'\n", 4, "pin", "0..7"),
     (
@@ -46,7 +46,7 @@ BAD = [
         "already wired",
     ),
     ("[board]\n[[board.analog]]\naddress = 21\niio = 'x'\nchannel = 0\n", 3, "address", "ADC"),
-    ("[board]\n[[board.analog]]\naddress = 16\niio = 'x'\n", 2, "channel", "integer"),
+    ("[board]\n[[board.analog]]\naddress = 16\niio = 'x'\n", 2, "channel", "required"),
     (
         "[board]\n[[board.pulses]]\ntimer = true\nchip = 'gpiochip0'\nline = 17\nedge = 'up'\n",
         6,
@@ -70,9 +70,9 @@ BAD = [
         "[[board.dht22]]\npin = 17\n",
         8,
         "board.dht22",
-        "unknown key",
+        "unknown table or key",
     ),
-    ("[board]\nhold = 60\n\n[board.dht22]\npin = 17\n", 4, "board.dht22", "unknown key"),
+    ("[board]\nhold = 60\n\n[board.dht22]\npin = 17\n", 4, "board.dht22", "unknown table or key"),
 ]
 
 

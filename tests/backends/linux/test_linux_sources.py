@@ -1,5 +1,6 @@
-"""Real sensors behind HCTMPS1 modules (backends/linux/sources.py) on fake sysfs trees, and
-the site-file parts that choose them: ``source``, ``[bus.serve] rs485``, ``[board.rs485]``."""
+"""Real sensors behind HCTMPS1 modules (backends/linux/sources.py, registered in
+backends/sensor_sources.py) on fake sysfs trees, and the site-file parts that choose them:
+``source``, ``[bus.serve] rs485``, ``[board.rs485]``."""
 
 from __future__ import annotations
 
@@ -14,13 +15,9 @@ from linux_fakesys import FakeIio, FakeW1
 from sondalog.app.bus_build import build_bus
 from sondalog.app.site import load_site
 from sondalog.backends.linux.rs485 import BusTiming, Rs485Settings
-from sondalog.backends.linux.sources import (
-    HeldSensor,
-    NoReading,
-    SensorBank,
-    SourceError,
-    parse_source,
-)
+from sondalog.backends.linux.sources import IioSource, W1Source
+from sondalog.backends.sensor_bank import HeldSensor, NoReading, SensorBank
+from sondalog.backends.sensor_sources import SourcePlan, open_source, read_source
 from sondalog.backends.sim.site_bus import parse_bus_site
 from sondalog.client.bus_links import (
     BusUrlError,
@@ -29,22 +26,27 @@ from sondalog.client.bus_links import (
     open_link,
     parse_bus_url,
 )
-from sondalog.config import ConfigError, read_site_file
-from sondalog.hctmps1 import encode_frame
+from sondalog.config import ConfigError, of, read_site_file
+from sondalog.hctmps1 import Kind, encode_frame
 
 SLAVE = "28-000008d5e4fd"
 
 
+def parse_source(text: str, scale: float = 1.0, offset: float = 0.0) -> SourcePlan:
+    """The plan of a module table holding ``source = text`` (a temperature module)."""
+    return read_source(of({"source": text, "scale": scale, "offset": offset}), Kind.TEMP)
+
+
 def test_source_forms() -> None:
     w1 = parse_source(f"w1:{SLAVE}")
-    assert (w1.bus, w1.target) == ("w1", SLAVE)
+    assert (w1.kind, w1.settings) == ("w1", W1Source(SLAVE))
     iio = parse_source("iio:iio:device0:3", 31.25, -23.8)
-    assert (iio.bus, iio.target, iio.channel, iio.scale, iio.offset) == (
-        "iio", "iio:device0", 3, 31.25, -23.8
+    assert (iio.kind, iio.settings, iio.scale, iio.offset) == (
+        "iio", IioSource("iio:device0", 3), 31.25, -23.8
     )  # fmt: skip
-    assert parse_source("iio:ads1115:1").target == "ads1115"
-    for bad in ("w1:10-000008d5e4fd", "w1:28-xyz", "i2c:0x40", "iio:ads1115"):
-        with pytest.raises(SourceError):
+    assert parse_source("iio:ads1115:1").settings == IioSource("ads1115", 1)
+    for bad in ("w1:10-000008d5e4fd", "w1:28-xyz", "i2c:0x40", "iio:ads1115", "adc0"):
+        with pytest.raises(ConfigError, match="source: '"):
             parse_source(bad)
 
 
@@ -52,7 +54,8 @@ def test_a_ds18b20_source_holds_its_last_valid_reading(tmp_path: Path) -> None:
     w1 = FakeW1(tmp_path, bulk=False)
     w1.sensor(SLAVE, 21.125, modern=False)  # only w1_slave: CRC checked, t= parsed
     now = [100.0]
-    held = HeldSensor(parse_source(f"w1:{SLAVE}"), tmp_path, hold=30, host_now=lambda: now[0])
+    plan = parse_source(f"w1:{SLAVE}")
+    held = HeldSensor(plan, open_source(plan, tmp_path), hold=30, host_now=lambda: now[0])
     with pytest.raises(NoReading):
         held(0.0)  # never read
     held.store(held.read())

@@ -10,9 +10,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sondalog.backends.linux.board import BoardConfig, board_of_site, load_board, parse_board
+from sondalog.backends.linux.board import (
+    BoardConfig,
+    load_board,
+    parse_board,
+    read_board,
+    read_board_of_site,
+)
 from sondalog.backends.linux.hardware import LinuxHardware
-from sondalog.config import ConfigError, locate
+from sondalog.config import of
 
 if TYPE_CHECKING:
     from sondalog.backends.registry import BackendContext
@@ -28,20 +34,16 @@ def open_board(board: BoardConfig, *, root: Path = Path("/")) -> LinuxHardware:
 
 def create(context: BackendContext) -> LinuxHardware:
     """The registry's entry (``backend = "linux"``): the site file's board, on ``root``."""
+    site = of(context.site, context.path, context.text)
     if context.speed != 1:  # the cached readings would be stamped on one clock, read on another
-        raise ConfigError(
-            context.path,
+        raise site.source.fail(
             "logger.backend",
             f"--speed {context.speed:g}: a real board's sensors, conversions and pulses keep "
             'real time; serve it without --speed (backend = "sim" runs faster)',
-            locate(context.text, "logger.backend"),
         )
-    path = context.path if context.path is not None else Path("site.toml")
-    board = board_of_site(context.site, path, context.text)
+    board = read_board_of_site(site)
     if board is None:
-        raise ConfigError(
-            context.path, "board", 'backend "linux" needs a [board] table or board = "FILE"'
-        )
+        raise site.fail("board", 'backend "linux" needs a [board] table or board = "FILE"')
     return open_board(board, root=context.root)
 
 
@@ -53,4 +55,6 @@ __all__ = [
     "load_board",
     "open_board",
     "parse_board",
+    "read_board",
+    "read_board_of_site",
 ]

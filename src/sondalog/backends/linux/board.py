@@ -51,7 +51,9 @@ site file (relative to it)::
     [board.serial]                  # the logger's own line(s): real UARTs, 8N1
     ports = ["/dev/ttyAMA0"]
 
-Mistakes are :class:`~sondalog.backends.sim.site_bus.ConfigError` naming file, line and field.
+The table is read through :mod:`sondalog.config` into a typed plan (:class:`BoardConfig`):
+mistakes are :class:`~sondalog.config.ConfigError` naming file, line and field, unknown keys
+and tables are refused with a "did you mean". A separate board file holds ``[board]`` only.
 """
 
 from __future__ import annotations
@@ -59,12 +61,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, cast
+from typing import cast
 
 from sondalog.ala1.hardware import ANALOG_ADDRESSES, pin_of
+from sondalog.backends.keys import known_keys
 from sondalog.backends.linux.gpio import BiasKind, EdgeKind
 from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, check_delays
-from sondalog.config import ConfigError, locate, read_site_file
+from sondalog.config import ConfigError, Source, Table, load, of
 
 _KEYS = {
     "board": {
@@ -89,6 +92,8 @@ _KEYS = {
     "rs485": {"port", "baud", "mode", "delay_before_tx", "delay_before_rx"},
     "serial": {"ports"},
 }
+_EDGES = ("falling", "rising", "both")
+_BIASES = ("as-is", "pull-up", "pull-down", "disabled")
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,238 +166,191 @@ class BoardConfig:
 
     def error(self, where: str, message: str) -> ConfigError:
         """A problem found later (a missing device) reported at the field that names it."""
-        return ConfigError(self.path, where, message, locate(self.text, where))
+        return Source(self.path, self.text).fail(where, message)
 
 
 def load_board(site: Path) -> BoardConfig | None:
     """The board of the site file ``site``: its ``[board]`` table, or the file its
     ``board = "FILE"`` names; None when the site file has neither."""
-    data, text = read_site_file(site)
-    return board_of_site(data, site, text)
+    return read_board_of_site(load(site))
 
 
 def board_of_site(
     data: Mapping[str, object], site: Path, text: str | None = None
 ) -> BoardConfig | None:
-    """Like :func:`load_board`, for a site file already read."""
-    board = data.get("board")
-    if board is None:
+    """Like :func:`load_board`, for a site file already parsed."""
+    return read_board_of_site(of(data, site, text))
+
+
+def read_board_of_site(site: Table) -> BoardConfig | None:
+    """The board of the site file whose root table is ``site`` (None without one)."""
+    if "board" not in site:
         return None
-    if isinstance(board, str):
-        path = site.parent / board
-        try:
-            data, text = read_site_file(path)
-        except ConfigError as exc:
-            if exc.field != "file" or exc.path != path:
-                raise
-            raise ConfigError(
-                site, "board", f"{path}: {exc.message}", locate(text, "board")
-            ) from None
-        if not isinstance(data.get("board"), Mapping):
-            raise ConfigError(path, "board", "the board file needs a [board] table", None)
-        return parse_board(data, path, text)
-    return parse_board(data, site, text)
+    if not site.is_text("board"):
+        return read_board(site)
+    path = site.path("board")
+    try:
+        root = load(path)
+    except ConfigError as exc:
+        if exc.field != "file" or exc.path != path:
+            raise
+        raise site.fail("board", f"{path}: {exc.message}") from None
+    if not root.is_table("board"):
+        raise root.fail("board", "the board file needs a [board] table")
+    return read_board(known_keys(root, {"board"}))
 
 
 def parse_board(
     data: Mapping[str, object], path: Path | None = None, text: str | None = None
 ) -> BoardConfig:
     """Check the ``[board]`` table of a parsed TOML document."""
+    return read_board(of(data, path, text))
 
-    def fail(where: str, message: str, at: str | None = None) -> ConfigError:
-        return ConfigError(path, where, message, locate(text, at or where))
 
-    board = data.get("board")
-    if not isinstance(board, Mapping):
-        raise fail("board", "must be a table ([board])")
-    _known(board, "board", "board", fail)
-    if board.get("backend", "linux") != "linux":
-        raise fail("board.backend", f"this board file is for 'linux', not {board['backend']!r}")
+def read_board(root: Table) -> BoardConfig:
+    """Check the ``[board]`` table of the file whose root table is ``root``."""
+    if not root.is_table("board"):
+        raise root.fail("board", "must be a table ([board])")
+    board = known_keys(root.table("board"), _KEYS["board"])
+    backend = board.text("backend", "linux")
+    if backend != "linux":
+        raise board.fail("backend", f"this board file is for 'linux', not {backend!r}")
+    ds18b20, analog = _ds18b20(board), _analog(board)
+    supply = board.opt_table("supply")
+    supply_wiring = _iio(known_keys(supply, _KEYS["supply"]), None) if supply is not None else None
+    pulses, outputs = _pulses(board), _outputs(board)
+    _check_lines([*pulses, *outputs], board)
+    return BoardConfig(
+        ds18b20=ds18b20,
+        analog=analog,
+        supply=supply_wiring,
+        pulses=pulses,
+        outputs=outputs,
+        rs485=_rs485(board),
+        serial=_serial(board),
+        external_reference=board.number("external_reference", 2.5, lo=0.1, hi=5.0),
+        hold=board.number("hold", 60.0, lo=1.0, hi=86400.0),
+        refresh=board.number("refresh", 10.0, lo=1.0, hi=3600.0),
+        settle=board.number("settle", 0.5, lo=0.0, hi=60.0),
+        path=root.file,
+        text=root.source.text,
+    )
 
-    def number(t: Mapping[str, object], key: str, where: str, lo: float, hi: float) -> float:
-        value = t.get(key)
-        if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi:
-            raise fail(f"{where}.{key}", f"must be a number {lo:g}..{hi:g}, not {value!r}")
-        return float(value)
 
-    def integer(t: Mapping[str, object], key: str, where: str, lo: int, hi: int) -> int:
-        value = t.get(key)
-        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-            raise fail(f"{where}.{key}", f"must be an integer {lo}..{hi}, not {value!r}")
-        return value
+def _entries(board: Table, key: str) -> list[Table]:
+    """The tables of ``[[board.KEY]]``, each holding only the keys of its kind."""
+    return [known_keys(t, _KEYS[key]) for t in board.tables(key)]
 
-    def text_of(t: Mapping[str, object], key: str, where: str) -> str:
-        value = t.get(key)
-        if not isinstance(value, str) or not value.strip():
-            raise fail(f"{where}.{key}", f"must be a non-empty string, not {value!r}")
-        return value
 
-    def choice(t: Mapping[str, object], key: str, where: str, options: tuple[str, ...]) -> str:
-        value = t.get(key, options[0])
-        if value not in options:
-            raise fail(f"{where}.{key}", f"must be one of {', '.join(options)}, not {value!r}")
-        assert isinstance(value, str)
-        return value
+def _name(t: Table, key: str) -> str:
+    """A required non-blank string (a device, chip or master name)."""
+    return t.text(key, pattern=r"(?s).*\S.*", what="a non-empty string")
 
-    def power(t: Mapping[str, object], where: str) -> int | None:
-        return integer(t, "power", where, 1, 7) if "power" in t else None
 
-    def line(t: Mapping[str, object], where: str) -> int | str:
-        value = t.get("line")
-        if isinstance(value, str) and value.strip():
-            return value
-        return integer(t, "line", where, 0, 1023)
+def _power(t: Table) -> int | None:
+    """The output (1..7) powering the sensor, if any."""
+    return t.opt_integer("power", lo=1, hi=7)
 
-    def entries(key: str) -> list[tuple[str, Mapping[str, object]]]:
-        raw = board.get(key, [])
-        if not isinstance(raw, list):
-            raise fail(f"board.{key}", f"must be an array of tables ([[board.{key}]])")
-        out = []
-        for i, entry in enumerate(raw):
-            where = f"board.{key}[{i}]"
-            if not isinstance(entry, Mapping):
-                raise fail(where, "must be a table")
-            _known(entry, key, where, fail)
-            out.append((where, entry))
-        return out
 
-    def iio(t: Mapping[str, object], where: str, address: int | None) -> IioWiring:
-        gain = number(t, "gain", where, 1e-6, 1e6) if "gain" in t else 1.0
-        channel = integer(t, "channel", where, 0, 255)
-        return IioWiring(address, text_of(t, "iio", where), channel, gain, power(t, where), where)
+def _line(t: Table) -> int | str:
+    """A GPIO line: its name, or its offset 0..1023."""
+    return _name(t, "line") if t.is_text("line") else t.integer("line", lo=0, hi=1023)
 
-    w1: list[W1Wiring] = []
-    for where, entry in entries("ds18b20"):
-        pin = integer(entry, "pin", where, 0, 7)
-        if any(w.pin == pin for w in w1):
-            raise fail(f"{where}.pin", f"P6 bit {pin} is already wired")
-        w1.append(W1Wiring(pin, text_of(entry, "master", where), power(entry, where), where))
 
-    analog: list[IioWiring] = []
-    for where, entry in entries("analog"):
-        address = entry.get("address")
-        if isinstance(address, bool) or address not in ANALOG_ADDRESSES:
-            allowed = ", ".join(map(str, ANALOG_ADDRESSES))
-            raise fail(f"{where}.address", f"must be an ADC input address ({allowed})")
-        assert isinstance(address, int)
-        if any(a.address is not None and pin_of(a.address) == pin_of(address) for a in analog):
-            raise fail(f"{where}.address", "this input is already wired")
-        analog.append(iio(entry, where, address))
+def _ds18b20(board: Table) -> tuple[W1Wiring, ...]:
+    wires: list[W1Wiring] = []
+    for t in _entries(board, "ds18b20"):
+        pin = t.integer("pin", lo=0, hi=7)
+        if any(w.pin == pin for w in wires):
+            raise t.fail("pin", f"P6 bit {pin} is already wired")
+        wires.append(W1Wiring(pin, _name(t, "master"), _power(t), t.field()))
+    return tuple(wires)
 
-    supply = None
-    if "supply" in board:
-        raw = board["supply"]
-        if not isinstance(raw, Mapping):
-            raise fail("board.supply", "must be a table ([board.supply])")
-        _known(raw, "supply", "board.supply", fail)
-        supply = iio(raw, "board.supply", None)
 
+def _iio(t: Table, address: int | None) -> IioWiring:
+    gain = t.number("gain", 1.0, lo=1e-6, hi=1e6)
+    channel = t.integer("channel", lo=0, hi=255)
+    return IioWiring(address, _name(t, "iio"), channel, gain, _power(t), t.field())
+
+
+def _analog(board: Table) -> tuple[IioWiring, ...]:
+    allowed = f"an ADC input address ({', '.join(map(str, ANALOG_ADDRESSES))})"
+    inputs: list[IioWiring] = []
+    for t in _entries(board, "analog"):
+        address = t.integer("address", what=allowed)
+        if address not in ANALOG_ADDRESSES:
+            raise t.fail("address", f"must be {allowed}, not {address!r}")
+        if any(a.address is not None and pin_of(a.address) == pin_of(address) for a in inputs):
+            raise t.fail("address", "this input is already wired")
+        inputs.append(_iio(t, address))
+    return tuple(inputs)
+
+
+def _pulses(board: Table) -> tuple[PulseWiring, ...]:
     pulses: list[PulseWiring] = []
-    for where, entry in entries("pulses"):
-        timer = entry.get("timer", False)
-        if not isinstance(timer, bool):
-            raise fail(f"{where}.timer", "must be true or false")
-        if timer and "address" in entry:
-            raise fail(f"{where}.address", "give timer = true or an address, not both")
-        address = 0 if timer else integer(entry, "address", where, 0, 36)
+    for t in _entries(board, "pulses"):
+        timer = t.flag("timer", False)
+        if timer and "address" in t:
+            raise t.fail("address", "give timer = true or an address, not both")
+        address = 0 if timer else t.integer("address", lo=0, hi=36)
         if any(p.timer == timer and pin_of(p.address) == pin_of(address) for p in pulses):
-            raise fail(where, "this pulse input is already wired")
-        edge = cast(EdgeKind, choice(entry, "edge", where, ("falling", "rising", "both")))
-        bias = cast(
-            BiasKind, choice(entry, "bias", where, ("as-is", "pull-up", "pull-down", "disabled"))
-        )
-        debounce = number(entry, "debounce", where, 0.0, 1.0) if "debounce" in entry else 0.0
-        chip = text_of(entry, "chip", where)
-        pulses.append(
-            PulseWiring(timer, address, chip, line(entry, where), edge, bias, debounce, where)
-        )
+            raise t.fail(None, "this pulse input is already wired")
+        edge = cast(EdgeKind, t.text("edge", _EDGES[0], choices=_EDGES))
+        bias = cast(BiasKind, t.text("bias", _BIASES[0], choices=_BIASES))
+        debounce = t.number("debounce", 0.0, lo=0.0, hi=1.0)
+        chip = _name(t, "chip")
+        pulses.append(PulseWiring(timer, address, chip, _line(t), edge, bias, debounce, t.field()))
+    return tuple(pulses)
 
+
+def _outputs(board: Table) -> tuple[OutputWiring, ...]:
     outputs: list[OutputWiring] = []
-    for where, entry in entries("outputs"):
-        output = integer(entry, "output", where, 1, 7)
+    for t in _entries(board, "outputs"):
+        output = t.integer("output", lo=1, hi=7)
         if any(o.output == output for o in outputs):
-            raise fail(f"{where}.output", f"output {output} is already wired")
-        low = entry.get("active_low", False)
-        if not isinstance(low, bool):
-            raise fail(f"{where}.active_low", "must be true or false")
-        outputs.append(
-            OutputWiring(output, text_of(entry, "chip", where), line(entry, where), low, where)
-        )
+            raise t.fail("output", f"output {output} is already wired")
+        low = t.flag("active_low", False)
+        outputs.append(OutputWiring(output, _name(t, "chip"), _line(t), low, t.field()))
+    return tuple(outputs)
+
+
+def _check_lines(wires: list[PulseWiring | OutputWiring], board: Table) -> None:
+    """No GPIO line is wired twice (a pulse input and an output, or two of either)."""
     used: dict[tuple[str, str], str] = {}
-    wires: list[PulseWiring | OutputWiring] = [*pulses, *outputs]
     for wired in wires:
         key = (wired.chip, str(wired.line))
         if key in used:
-            raise fail(
+            raise board.source.fail(
                 f"{wired.where}.line", f"{wired.chip} line {wired.line} is used by {used[key]}"
             )
         used[key] = wired.where
 
-    rs485 = None
-    if "rs485" in board:
-        raw = board["rs485"]
-        if not isinstance(raw, Mapping):
-            raise fail("board.rs485", "must be a table ([board.rs485])")
-        _known(raw, "rs485", "board.rs485", fail)
-        baud = integer(raw, "baud", "board.rs485", 300, 4_000_000) if "baud" in raw else 9600
-        mode = cast(Mode, choice(raw, "mode", "board.rs485", MODES))
-        delays = [
-            number(raw, k, "board.rs485", 0.0, 0.1) if k in raw else 0.0
-            for k in ("delay_before_tx", "delay_before_rx")
-        ]
-        try:
-            check_delays(baud, delays[0], delays[1])
-        except Rs485Error as exc:
-            raise fail("board.rs485.delay_before_rx", str(exc)) from None
-        port = text_of(raw, "port", "board.rs485")
-        rs485 = Rs485Wiring(port, baud, mode, delays[0], delays[1])
 
-    serial: tuple[str, ...] = ()
-    if "serial" in board:
-        raw = board["serial"]
-        if not isinstance(raw, Mapping):
-            raise fail("board.serial", "must be a table ([board.serial])")
-        _known(raw, "serial", "board.serial", fail)
-        ports = raw.get("ports")
-        if not isinstance(ports, list) or not all(isinstance(p, str) and p for p in ports):
-            raise fail("board.serial.ports", "must be a list of device paths")
-        serial = tuple(ports)
-
-    return BoardConfig(
-        ds18b20=tuple(w1),
-        analog=tuple(analog),
-        supply=supply,
-        pulses=tuple(pulses),
-        outputs=tuple(outputs),
-        rs485=rs485,
-        serial=serial,
-        external_reference=(
-            number(board, "external_reference", "board", 0.1, 5.0)
-            if "external_reference" in board
-            else 2.5
-        ),
-        hold=number(board, "hold", "board", 1.0, 86400.0) if "hold" in board else 60.0,
-        refresh=number(board, "refresh", "board", 1.0, 3600.0) if "refresh" in board else 10.0,
-        settle=number(board, "settle", "board", 0.0, 60.0) if "settle" in board else 0.5,
-        path=path,
-        text=text,
-    )
+def _rs485(board: Table) -> Rs485Wiring | None:
+    t = board.opt_table("rs485")
+    if t is None:
+        return None
+    known_keys(t, _KEYS["rs485"])
+    baud = t.integer("baud", 9600, lo=300, hi=4_000_000)
+    mode = cast(Mode, t.text("mode", MODES[0], choices=MODES))
+    before_tx = t.number("delay_before_tx", 0.0, lo=0.0, hi=0.1)
+    before_rx = t.number("delay_before_rx", 0.0, lo=0.0, hi=0.1)
+    try:
+        check_delays(baud, before_tx, before_rx)
+    except Rs485Error as exc:
+        raise t.fail("delay_before_rx", str(exc)) from None
+    return Rs485Wiring(_name(t, "port"), baud, mode, before_tx, before_rx)
 
 
-class _Fail(Protocol):
-    def __call__(self, where: str, message: str, at: str | None = None) -> ConfigError: ...
-
-
-def _known(table: Mapping[str, object], kind: str, where: str, fail: _Fail) -> None:
-    """Unknown keys are refused at their own line: an array of tables (``[[board.dht22]]``)
-    at its first header, not at the table holding it."""
-    keys = _KEYS[kind]
-    for key, value in table.items():
-        if key not in keys:
-            field = f"{where}.{key}"
-            array = isinstance(value, list) and value and isinstance(value[0], Mapping)
-            raise fail(
-                field,
-                f"unknown key (known: {', '.join(sorted(keys))})",
-                f"{field}[0]" if array else None,
-            )
+def _serial(board: Table) -> tuple[str, ...]:
+    t = board.opt_table("serial")
+    if t is None:
+        return ()
+    known_keys(t, _KEYS["serial"])
+    try:
+        ports = t.texts("ports")
+    except ConfigError:
+        ports = [""]
+    if not all(ports):
+        raise t.fail("ports", "must be a list of device paths")
+    return tuple(ports)

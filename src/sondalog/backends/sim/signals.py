@@ -21,6 +21,8 @@ csv        ``path`` (relative to the site file), ``interpolate`` (default true),
 
 Every model accepts ``origin``. A bad table raises :class:`ConfigError` naming the field
 (:func:`read_signal` reads a table of a configuration file, with its file and line).
+:func:`plan_signal` checks a table once into a :class:`SignalPlan` that is bound to the start
+time later (a site file is loaded before its clock starts).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import csv
 import math
 import random
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 from sondalog.config import ConfigError, Table, of
@@ -149,21 +152,33 @@ class Schedule:
         return v0 + (v1 - v0) * (x - t0) / (t1 - t0)
 
 
+def _pair(value: object) -> tuple[float, float] | None:
+    """``[time, value]``, two numbers (not true/false), or ``None``."""
+    match value:
+        case [bool(), _] | [_, bool()]:
+            return None
+        case [int() | float() as time, int() | float() as number]:
+            return float(time), float(number)
+    return None
+
+
 def _points(raw: object, field: str) -> list[tuple[float, float]]:
-    if not isinstance(raw, list) or not raw:
-        raise ConfigError(None, field, "must be a non-empty list of [time, value] pairs")
+    """Ascending ``[time, value]`` pairs (the reader has no getter for an array of arrays:
+    this is its one local stand-in)."""
+    match raw:
+        case [*items] if items:
+            pass
+        case _:
+            raise ConfigError(None, field, "must be a non-empty list of [time, value] pairs")
     points: list[tuple[float, float]] = []
-    for i, pair in enumerate(raw):
+    for i, item in enumerate(items):
         where = f"{field}[{i}]"
-        if (
-            not isinstance(pair, list | tuple)
-            or len(pair) != 2
-            or any(isinstance(x, bool) or not isinstance(x, int | float) for x in pair)
-        ):
-            raise ConfigError(None, where, f"must be a [time, value] pair of numbers, not {pair!r}")
+        pair = _pair(item)
+        if pair is None:
+            raise ConfigError(None, where, f"must be a [time, value] pair of numbers, not {item!r}")
         if points and pair[0] <= points[-1][0]:
             raise ConfigError(None, where, "times must be strictly ascending")
-        points.append((float(pair[0]), float(pair[1])))
+        points.append(pair)
     return points
 
 
@@ -203,54 +218,89 @@ MODEL_KEYS: dict[str, frozenset[str]] = {
 MODELS = tuple(MODEL_KEYS)
 
 
+@dataclass(frozen=True, slots=True)
+class SignalPlan:
+    """A checked signal table, not yet bound to the time the simulation starts.
+
+    Reading a file's signal table once (:func:`plan_signal`) checks everything (a CSV file is
+    read then); :meth:`build` makes the signal when the simulation starts, its origin the
+    table's ``origin`` or the start time."""
+
+    model: str
+    origin: float | None
+    make: Callable[[float], Signal]  # origin -> the signal
+
+    def build(self, start: float) -> Signal:
+        """The signal of a simulation starting at clock time ``start``."""
+        return self.make(start if self.origin is None else self.origin)
+
+
 def build_signal(table: Mapping[str, object], start: float, base_dir: Path | None = None) -> Signal:
     """The signal described by the plain ``table`` (relative paths against ``base_dir``)."""
-    if not isinstance(table, Mapping):
-        raise ConfigError(None, "model", f"a signal must be a table, not {table!r}")
     return read_signal(of(table, root=base_dir), start)
 
 
 def read_signal(t: Table, start: float) -> Signal:
     """The signal described by the table ``t`` (see the module docstring)."""
+    return plan_signal(t).build(start)
+
+
+def plan_signal(t: Table) -> SignalPlan:
+    """Check the signal table ``t`` (see the module docstring) into a :class:`SignalPlan`."""
     model = t.text("model", choices=MODELS)
     t.keys(MODEL_KEYS[model] | {"model", "origin"})
-    origin = t.number("origin", start)
-    signal: Signal
-    if model == "constant":
-        signal = constant(t.number("value"))
-    elif model == "sine":
-        signal = sine(
-            t.number("mean"),
-            t.number("amplitude"),
-            t.number("period", above=0),
-            t.number("phase", 0.0),
-            origin,
-        )
-    elif model == "ramp":
-        signal = ramp(t.number("start"), t.number("rate"), origin, _clamp(t))
-    elif model == "random_walk":
-        clamp = _clamp(t)
-        signal = RandomWalk(
-            t.number("start"),
-            t.number("step", above=0),
-            t.number("interval", 60.0, above=0),
-            t.integer("seed", 0),
-            origin,
-            clamp,
-        )
-    elif model == "steps":
-        try:
-            points = _points(t.raw("schedule"), t.field("schedule"))
-        except ConfigError as exc:
-            raise t.source.fail(exc.field, exc.message) from None
-        signal = Schedule(points, origin, False, False)
-    else:
-        path = t.path("path")
-        interpolate = t.flag("interpolate", True)
-        loop = t.flag("loop", False)
-        try:
-            points = read_csv_points(path)
-        except ConfigError as exc:
-            raise t.fail("path", exc.message) from None
-        signal = Schedule(points, origin, interpolate, loop)
-    return signal
+    origin = t.opt_number("origin")
+    return SignalPlan(model, origin, _MAKERS[model](t))
+
+
+def _constant(t: Table) -> Callable[[float], Signal]:
+    value = t.number("value")
+    return lambda origin: constant(value)
+
+
+def _sine(t: Table) -> Callable[[float], Signal]:
+    mean, amplitude = t.number("mean"), t.number("amplitude")
+    period, phase = t.number("period", above=0), t.number("phase", 0.0)
+    return lambda origin: sine(mean, amplitude, period, phase, origin)
+
+
+def _ramp(t: Table) -> Callable[[float], Signal]:
+    start, rate, clamp = t.number("start"), t.number("rate"), _clamp(t)
+    return lambda origin: ramp(start, rate, origin, clamp)
+
+
+def _random_walk(t: Table) -> Callable[[float], Signal]:
+    clamp = _clamp(t)
+    start, step = t.number("start"), t.number("step", above=0)
+    interval, seed = t.number("interval", 60.0, above=0), t.integer("seed", 0)
+    return lambda origin: RandomWalk(start, step, interval, seed, origin, clamp)
+
+
+def _steps(t: Table) -> Callable[[float], Signal]:
+    try:
+        points = _points(t.raw("schedule"), t.field("schedule"))
+    except ConfigError as exc:
+        raise t.source.fail(exc.field, exc.message) from None
+    return lambda origin: Schedule(points, origin, False, False)
+
+
+def _csv(t: Table) -> Callable[[float], Signal]:
+    path = t.path("path")
+    interpolate = t.flag("interpolate", True)
+    loop = t.flag("loop", False)
+    try:
+        points = read_csv_points(path)
+    except ConfigError as exc:
+        raise t.fail("path", exc.message) from None
+    return lambda origin: Schedule(points, origin, interpolate, loop)
+
+
+#: How each model's table is read: its values checked, then a maker of the signal.
+_MAKERS: dict[str, Callable[[Table], Callable[[float], Signal]]] = {
+    "constant": _constant,
+    "sine": _sine,
+    "ramp": _ramp,
+    "random_walk": _random_walk,
+    "steps": _steps,
+    "csv": _csv,
+}

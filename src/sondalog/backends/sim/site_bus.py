@@ -14,30 +14,40 @@ A site file is TOML. The bus reads its ``[bus]`` table and ignores other top-lev
     cycle = 10.0       # optional measurement cycle, seconds
     signal = { model = "sine", mean = 21.0, amplitude = 2.0, period = 86400 }
 
-    [[bus.modules]]    # a real sensor instead of a signal (backends/linux/sources.py)
+    [[bus.modules]]    # a real sensor instead of a signal (backends/sensor_sources.py)
     id = "T2"
     kind = "temp"
     source = "w1:28-000008d5e4fd"   # or "iio:DEVICE:CHANNEL" with scale and offset
 
-The signal tables are those of :mod:`sondalog.backends.sim.signals`. A wrong file is rejected with a
-:class:`ConfigError` naming the file, the field and, where it can be found, the line.
+The signal tables are those of :mod:`sondalog.backends.sim.signals`; the sources are the
+kinds registered in :mod:`sondalog.backends.sensor_sources`. Loading makes a typed plan
+(:class:`BusSite`) once: its signals are bound to the start time when the bus is built
+(:meth:`~sondalog.backends.sim.signals.SignalPlan.build`). A wrong file is rejected with a
+:class:`ConfigError` naming the file, the line and the field; unknown keys are refused with a
+"did you mean".
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import difflib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.backends.linux.sources import SourceError, SourceSpec, parse_source
-from sondalog.backends.sim.signals import Signal, SignalError, build_signal
-from sondalog.config import ConfigError, locate, read_site_file
+from sondalog.backends.keys import known_keys
+from sondalog.backends.sensor_sources import SourcePlan, read_source, source_keys
+from sondalog.backends.sim.signals import SignalPlan, plan_signal
+from sondalog.config import ConfigError, Table, load, of
 from sondalog.hctmps1.module import DEFAULT_CYCLE
 from sondalog.hctmps1.variants import Kind, variant_for
 from sondalog.protocol.hctmps1_frames import is_valid_id
 
+__all__ = ["BusSite", "ConfigError", "ModuleSite", "default_bus_site", "load_bus_site"]
+
 _BUS_KEYS = {"baud", "noise", "seed", "modules", "serve"}  # serve: app/site.py
 _MODULE_KEYS = {"id", "kind", "cycle", "signal", "source", "scale", "offset"}
+_ID = "1 to 8 of A-Z a-z 0-9 _ -"
+_NOISE = "a bit error rate in [0, 1)"
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,14 +56,14 @@ class ModuleSite:
 
     module_id: str
     kind: Kind
-    signal: Signal | None
+    signal: SignalPlan | None
     cycle: float = DEFAULT_CYCLE
-    source: SourceSpec | None = None
+    source: SourcePlan | None = None
 
 
 @dataclass(frozen=True, slots=True)
 class BusSite:
-    """Everything the bus reads from a site file."""
+    """Everything the bus reads from a site file: the plan its start consumes."""
 
     modules: tuple[ModuleSite, ...]
     baud: int | None = None
@@ -62,125 +72,74 @@ class BusSite:
     path: Path | None = None
 
 
-def default_bus_site(start: float) -> BusSite:
+def default_bus_site() -> BusSite:
     """The bus without a site file: ``T1`` (temperature) and ``H1`` (humidity), hctmps1.md §1."""
     day = {"period": 86400.0, "origin": 0.0}
-    return BusSite(
-        modules=(
-            ModuleSite(
-                "T1",
-                Kind.TEMP,
-                build_signal({"model": "sine", "mean": 21.0, "amplitude": 3.0, **day}, start),
-            ),
-            ModuleSite(
-                "H1",
-                Kind.HUM,
-                build_signal({"model": "sine", "mean": 50.0, "amplitude": 10.0, **day}, start),
-            ),
-        )
-    )
+    temp = plan_signal(of({"model": "sine", "mean": 21.0, "amplitude": 3.0, **day}))
+    hum = plan_signal(of({"model": "sine", "mean": 50.0, "amplitude": 10.0, **day}))
+    return BusSite(modules=(ModuleSite("T1", Kind.TEMP, temp), ModuleSite("H1", Kind.HUM, hum)))
 
 
-def load_bus_site(path: Path, start: float) -> BusSite:
+def load_bus_site(path: Path) -> BusSite:
     """Read and check the bus part of the site file at ``path``."""
-    data, text = read_site_file(path)
-    return parse_bus_site(data, start, path, text)
+    return read_bus_site(load(path))
 
 
 def parse_bus_site(
     data: Mapping[str, object],
-    start: float,
+    start: float = 0.0,
     path: Path | None = None,
     text: str | None = None,
 ) -> BusSite:
-    """Check the ``[bus]`` table of an already parsed site file."""
+    """:func:`read_bus_site` of an already parsed site file (``start`` is not needed any
+    more: signals are bound to the start time when the bus is built)."""
+    return read_bus_site(of(data, path, text))
 
-    def fail(field: str, message: str) -> ConfigError:
-        return ConfigError(path, field, message, locate(text, field))
 
-    bus = data.get("bus")
-    if not isinstance(bus, Mapping):
-        raise fail("bus", "the site file needs a [bus] table")
-    for key in bus:
-        if key not in _BUS_KEYS:
-            raise fail(f"bus.{key}", f"unknown key (known: {', '.join(sorted(_BUS_KEYS))})")
-    baud = bus.get("baud")
-    if baud is not None and (isinstance(baud, bool) or not isinstance(baud, int) or baud <= 0):
-        raise fail("bus.baud", f"must be a positive integer, not {baud!r}")
-    noise = bus.get("noise", 0.0)
-    if isinstance(noise, bool) or not isinstance(noise, int | float) or not 0 <= noise < 1:
-        raise fail("bus.noise", f"must be a bit error rate in [0, 1), not {noise!r}")
-    seed = bus.get("seed")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
-        raise fail("bus.seed", f"must be an integer, not {seed!r}")
-    raw_modules = bus.get("modules")
-    if not isinstance(raw_modules, list) or not raw_modules:
-        raise fail("bus.modules", "at least one [[bus.modules]] entry is needed")
-    base_dir = path.parent if path is not None else None
+def read_bus_site(site: Table) -> BusSite:
+    """Check the ``[bus]`` table of the site file whose root table is ``site``."""
+    if not site.is_table("bus"):
+        close = difflib.get_close_matches("bus", [k for k in site if site.is_table(k)], n=1)
+        hint = f" (is [{close[0]}] meant to be it?)" if close else ""
+        raise site.fail("bus", f"the site file needs a [bus] table{hint}")
+    bus = known_keys(site.table("bus"), _BUS_KEYS)
+    baud = bus.opt_integer("baud", lo=1, what="a positive integer")
+    noise = bus.number("noise", 0.0, lo=0.0, what=_NOISE)
+    if noise >= 1:
+        raise bus.fail("noise", f"must be {_NOISE}, not {bus.raw('noise')!r}")
+    seed = bus.opt_integer("seed")
+    tables = bus.tables("modules")
+    if not tables:
+        raise bus.fail("modules", "at least one [[bus.modules]] entry is needed")
     modules: list[ModuleSite] = []
-    for i, raw in enumerate(raw_modules):
-        where = f"bus.modules[{i}]"
-        if not isinstance(raw, Mapping):
-            raise fail(where, "must be a table")
-        for key in raw:
-            if key not in _MODULE_KEYS:
-                known = ", ".join(sorted(_MODULE_KEYS))
-                raise fail(f"{where}.{key}", f"unknown key (known: {known})")
-        module_id = raw.get("id")
-        if not isinstance(module_id, str) or not is_valid_id(module_id):
-            raise fail(f"{where}.id", f"must be 1 to 8 of A-Z a-z 0-9 _ -, not {module_id!r}")
-        if any(m.module_id == module_id for m in modules):
-            raise fail(f"{where}.id", f"duplicate module ID {module_id!r}")
-        kind_text = raw.get("kind")
-        if kind_text not in ("temp", "hum"):
-            raise fail(f"{where}.kind", f"must be 'temp' or 'hum', not {kind_text!r}")
-        kind = Kind(kind_text)
-        cycle = raw.get("cycle", DEFAULT_CYCLE)
-        if (
-            isinstance(cycle, bool)
-            or not isinstance(cycle, int | float)
-            or cycle <= variant_for(kind).conversion_time
-        ):
-            raise fail(
-                f"{where}.cycle", f"must be seconds, longer than the conversion, not {cycle!r}"
-            )
-        if "source" in raw:
-            source = _source(raw, kind, where, fail)
-            modules.append(ModuleSite(module_id, kind, None, float(cycle), source))
-            continue
-        for key in ("scale", "offset"):
-            if key in raw:
-                raise fail(f"{where}.{key}", "only a module with a source has a scale and offset")
-        signal_table = raw.get("signal")
-        if not isinstance(signal_table, Mapping):
-            raise fail(f"{where}.signal", "a signal table (or a source) is required")
-        try:
-            signal = build_signal(signal_table, start, base_dir)
-        except SignalError as exc:
-            raise fail(f"{where}.signal.{exc.field}", exc.message) from None
-        modules.append(ModuleSite(module_id, kind, signal, float(cycle)))
-    return BusSite(tuple(modules), baud, float(noise), seed, path)
+    for table in tables:
+        module = _module(table)
+        if any(m.module_id == module.module_id for m in modules):
+            raise table.fail("id", f"duplicate module ID {module.module_id!r}")
+        modules.append(module)
+    return BusSite(tuple(modules), baud, noise, seed, site.file)
 
 
-def _source(
-    raw: Mapping[str, object], kind: Kind, where: str, fail: Callable[[str, str], ConfigError]
-) -> SourceSpec:
-    """A module's real sensor: ``source`` with its ``scale`` and ``offset``."""
-    if "signal" in raw:
-        raise fail(f"{where}.signal", "a module has a signal or a source, not both")
-    numbers = []
-    for key, default in (("scale", 1.0), ("offset", 0.0)):
-        value = raw.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise fail(f"{where}.{key}", f"must be a number, not {value!r}")
-        numbers.append(float(value))
-    text = raw["source"]
-    if not isinstance(text, str):
-        raise fail(f"{where}.source", "must be a string (w1:28-... or iio:DEVICE:CHANNEL)")
-    try:
-        spec = parse_source(text, numbers[0], numbers[1])
-    except SourceError as exc:
-        raise fail(f"{where}.source", str(exc)) from None
-    if spec.bus == "w1" and kind is not Kind.TEMP:
-        raise fail(f"{where}.source", "a DS18B20 measures temperature: kind must be 'temp'")
-    return spec
+def _module(t: Table) -> ModuleSite:
+    """One ``[[bus.modules]]`` table: its ID, kind, cycle and signal or source."""
+    known_keys(t, _MODULE_KEYS | source_keys(t))
+    module_id = t.text("id", what=_ID)
+    if not is_valid_id(module_id):
+        raise t.fail("id", f"must be {_ID}, not {module_id!r}")
+    kind = Kind(t.text("kind", choices=[k.value for k in Kind]))
+    cycle = t.number(
+        "cycle",
+        DEFAULT_CYCLE,
+        above=variant_for(kind).conversion_time,
+        what="seconds, longer than the conversion",
+    )
+    if "source" in t:
+        if "signal" in t:
+            raise t.fail("signal", "a module has a signal or a source, not both")
+        return ModuleSite(module_id, kind, None, cycle, read_source(t, kind))
+    for key in ("scale", "offset"):
+        if key in t:
+            raise t.fail(key, "only a module with a source has a scale and offset")
+    if not t.is_table("signal"):
+        raise t.fail("signal", "a signal table (or a source) is required")
+    return ModuleSite(module_id, kind, plan_signal(t.table("signal")), cycle)

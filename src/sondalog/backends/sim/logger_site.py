@@ -145,7 +145,7 @@ class SimPlan:
 def plan_logger(logger: Table) -> SimPlan:
     """The plan of the ``[logger]`` table ``logger``; raises :class:`ConfigError`."""
     logger.keys(LOGGER_KEYS)
-    rng = random.Random(logger.integer("seed", 0, lo=0, hi=2**63))
+    rng = random.Random(logger.integer("seed", 0, lo=0, hi=2**63, what=f"an integer 0..{2**63}"))
     supply = _signal(logger, "supply") if "supply" in logger else _SUPPLY
     supply_power = logger.integer("supply_power", 1, lo=1, hi=7)
     reference = logger.number("external_reference", INTERNAL_REFERENCE, above=0, what="volts > 0")
@@ -202,7 +202,7 @@ def _pulses(entry: Table, rng: random.Random) -> PulsePlan:
     return PulsePlan(
         timer,
         address,
-        poisson.integer("seed", seed, lo=0, hi=2**63),
+        poisson.integer("seed", seed, lo=0, hi=2**63, what=f"an integer 0..{2**63}"),
         burst_rate=poisson.number("rate", above=0, what="bursts per second > 0"),
         burst=poisson.integer("burst", 1, lo=1, hi=10**6),
     )

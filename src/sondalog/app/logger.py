@@ -22,7 +22,7 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.backends import registry
 from sondalog.backends.registry import Acquiring, BackendContext
 from sondalog.backends.store.ala1_nv import SqliteNvStore
-from sondalog.config import ConfigError, Table, load, locate, of
+from sondalog.config import Table, load, of
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import open_private, private_dir
@@ -241,5 +241,5 @@ def create_hardware(backend: str, context: BackendContext) -> Hardware:
     try:
         return registry.create(backend, context)
     except registry.UnknownBackend as exc:
-        where = locate(context.text, "logger.backend")
-        raise ConfigError(context.path, "logger.backend", str(exc), where) from exc
+        site = of(context.site, context.path, context.text)
+        raise site.fail("logger.backend", str(exc)) from exc

@@ -55,12 +55,12 @@ def test_declared_and_numbered_loggers(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("body", "field", "line", "message"),
     [
-        ('[[loggers]]\nserial_number = "A"\n', "loggers[0].listen", 1, "is required"),
+        ('[[loggers]]\nserial_number = "A"\n', "loggers[0].listen", 1, "required"),
         (
             '[[loggers]]\nserial_number = "A"\nlisten = "127.0.0.1:1"\ncolor = 1\n',
             "loggers[0].color",
             4,
-            "unknown key",
+            "unknown table or key 'color'",
         ),
         (
             '[[loggers]]\nserial_number = "A"\nlisten = "127.0.0.1:1"\n\n'

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from sondalog.ala1.hardware import rom_valid
-from sondalog.backends.sim.logger import load_logger_site
+from sondalog.backends.sim.logger_site import load_logger_site
 from sondalog.backends.sim.site_bus import ConfigError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

@@ -23,7 +23,8 @@ from pathlib import Path
 from sondalog.ala1.model import Version
 from sondalog.app.logger import DATABASE_FILE, load_identity
 from sondalog.app.virtual import VirtualLogger
-from sondalog.backends.sim.logger import SimHardware, load_logger_site
+from sondalog.backends.sim.logger import SimHardware
+from sondalog.backends.sim.logger_site import load_logger_site
 from sondalog.io.private import private_dir
 
 #: Days of module time each logger has recorded when the demo starts.

@@ -22,12 +22,10 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.ala1 import Engine, Identity, Version
-from sondalog.ala1.hardware import Hardware
 from sondalog.app.fleet_site import FleetLogger
-from sondalog.app.logger import IdentityConflict, load_identity
-from sondalog.backends.sim.logger import default_hardware, parse_logger_site
+from sondalog.app.logger import IdentityConflict, load_identity, sensor_root
 from sondalog.backends.store.ala1_nv import NvDatabase
-from sondalog.config import ConfigError, read_site_file
+from sondalog.config import ConfigError
 from sondalog.config.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
@@ -145,33 +143,27 @@ async def start_fleet(
     path: Path | None,
     announce: Callable[[str], None] = lambda line: None,
 ) -> RunningFleet:
-    """Start every logger of ``loggers`` (state under ``state``); raises ConfigError/OSError."""
+    """Start every logger of ``loggers`` (state under ``state``), each with its own hardware
+    built from its entry's plan (the backend registry); raises ConfigError/OSError."""
     install_log_names()
     _raise_open_files(len(loggers) + 1024)
-    root = state / "loggers"
-    private_dir(root)  # 0700, like every state directory (docs/security.md)
+    states = state / "loggers"
+    private_dir(states)  # 0700, like every state directory (docs/security.md)
     loop = asyncio.get_running_loop()
 
     def schedule(callback: Callable[[], None]) -> None:
         loop.call_soon(callback)
 
-    fleet = RunningFleet(NvDatabase(root / DATABASE_FILE, schedule))
-    worlds: dict[Path, tuple[dict[str, object], str]] = {}
+    fleet = RunningFleet(NvDatabase(states / DATABASE_FILE, schedule))
+    root = sensor_root()
     try:
         for plan in loggers:
             now = clock.now()
-            hardware: Hardware
-            if plan.world is not None:
-                if plan.world not in worlds:
-                    worlds[plan.world] = read_site_file(plan.world)  # read once per file
-                data, text = worlds[plan.world]
-                hardware = parse_logger_site(data, now, plan.world, text)  # its own world
-            else:
-                hardware = default_hardware(now)
+            hardware = plan.hardware.build(now, root, clock.speed)  # its own, from the plan
             version = Version(plan.protocol) if plan.protocol else None
             try:
                 identity: Identity = load_identity(
-                    root / plan.serial_number, version, plan.serial_number
+                    states / plan.serial_number, version, plan.serial_number
                 )
             except IdentityConflict as exc:
                 raise ConfigError(path, f"{plan.where}.protocol", str(exc)) from exc

@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from sondalog.backends.sim.signals import Signal, read_signal
+from sondalog.backends.sim.signals import Signal, SignalPlan, plan_signal
 from sondalog.config import Table, format_address
 from sondalog.gsm.config import GsmConfig, entries, parse, phone_number
 
@@ -49,8 +49,22 @@ class GsmPlan:
     api: tuple[str, int] = DEFAULT_API
     modems: tuple[ModemServe, ...] = ()
     logger_modem: str | None = None
+    #: The models of the modems' signal and credit as checked at load ...
+    signal_plans: dict[str, SignalPlan] = field(default_factory=dict)
+    credit_plans: dict[str, SignalPlan] = field(default_factory=dict)
+    #: ... and made for the start time given to :func:`parse_gsm_site` or :meth:`at`.
     signals: dict[str, Signal] = field(default_factory=dict)
     credits: dict[str, Signal] = field(default_factory=dict)
+
+    def at(self, start: float) -> GsmPlan:
+        """This plan with its models starting at ``start`` (what serving calls at its start;
+        the network applies the models' values at once, so the modems' values at load do not
+        matter)."""
+        return replace(
+            self,
+            signals={n: p.build(start) for n, p in self.signal_plans.items()},
+            credits={n: p.build(start) for n, p in self.credit_plans.items()},
+        )
 
 
 def parse_gsm_site(site: Table, start: float = 0.0) -> GsmPlan:
@@ -59,13 +73,13 @@ def parse_gsm_site(site: Table, start: float = 0.0) -> GsmPlan:
     at ``start``."""
     gsm = site.table("gsm", required=True)
     api = gsm.table("serve", _SERVE).address("api", format_address(*DEFAULT_API))
-    signals: dict[str, Signal] = {}
-    credits: dict[str, Signal] = {}
+    signals: dict[str, SignalPlan] = {}
+    credits: dict[str, SignalPlan] = {}
 
     def model(modem: Table, key: str, number: str) -> float:
-        signal = read_signal(modem.table(key), start)
-        (signals if key == "signal" else credits)[number] = signal
-        return signal(start) if key == "signal" else 0.0
+        plan = plan_signal(modem.table(key))
+        (signals if key == "signal" else credits)[number] = plan
+        return plan.build(start)(start) if key == "signal" else 0.0
 
     config = parse(gsm, keys={"serve", "logger_modem"}, modem_keys={"serve"}, model=model)
     modems = tuple(
@@ -77,12 +91,12 @@ def parse_gsm_site(site: Table, start: float = 0.0) -> GsmPlan:
         logger_modem = phone_number(gsm, "logger_modem")
         if logger_modem not in {m.number for m in config.modems}:
             raise gsm.fail("logger_modem", f"{logger_modem} is not the number of a [[gsm.modem]]")
-        _logger_models(site, logger_modem, signals, credits, start)
-    return GsmPlan(config, api, modems, logger_modem, signals, credits)
+        _logger_models(site, logger_modem, signals, credits)
+    return GsmPlan(config, api, modems, logger_modem, signals, credits).at(start)
 
 
 def _logger_models(
-    site: Table, number: str, signals: dict[str, Signal], credits: dict[str, Signal], start: float
+    site: Table, number: str, signals: dict[str, SignalPlan], credits: dict[str, SignalPlan]
 ) -> None:
     """``[logger.gsm]`` ``signal`` and ``credit`` drive the logger's modem (unless the modem
     has its own model); the rest of ``[logger]`` is the logger's to check."""
@@ -92,7 +106,7 @@ def _logger_models(
     gsm = logger.table("gsm")
     for key, models in (("signal", signals), ("credit", credits)):
         if gsm.is_table(key) and number not in models:
-            models[number] = read_signal(gsm.table(key), start)
+            models[number] = plan_signal(gsm.table(key))
 
 
 def _modem_serve(number: str, serve: Table) -> ModemServe:

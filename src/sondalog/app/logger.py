@@ -14,7 +14,7 @@ import contextlib
 import json
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from sondalog.ala1 import Engine, Identity, Version
@@ -22,7 +22,7 @@ from sondalog.ala1.hardware import Hardware
 from sondalog.backends import registry
 from sondalog.backends.registry import Acquiring, BackendContext
 from sondalog.backends.store.ala1_nv import SqliteNvStore
-from sondalog.config import ConfigError, locate, read_site_file
+from sondalog.config import Table, load, of
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import open_private, private_dir
@@ -177,18 +177,55 @@ async def serve_until(stop: asyncio.Event, logger: Logger) -> None:
         await logger.close()
 
 
+@dataclass(frozen=True)
+class HardwarePlan:
+    """A logger's hardware as loaded from a site file: the backend's name and the context
+    it is built in, with what the backend's ``plan`` made of ``[logger]`` (``context.plan``).
+    :meth:`build` makes the hardware at start without reading the file again."""
+
+    backend: str = "sim"
+    context: BackendContext = field(default_factory=BackendContext)
+
+    def build(self, start: float, root: Path = Path("/"), speed: float = 1.0) -> Hardware:
+        context = replace(self.context, start=start, root=root, speed=speed)
+        return create_hardware(self.backend, context)
+
+
+#: The keys of ``[logger]`` for a backend without config parsing of its own.
+_LOGGER_KEYS = ("backend", "serve")
+
+
+def plan_hardware(site: Table | None, backend: str | None = None) -> HardwarePlan:
+    """The hardware plan of the site file ``site`` (its root table; ``None``: no file).
+
+    The backend is ``[logger] backend`` (default ``sim``), or ``backend`` if given (a fleet
+    entry's; the file's ``[logger]`` may then only name the same one). Its registry entry
+    checks ``[logger]`` here; raises :class:`~sondalog.config.ConfigError`."""
+    site = site if site is not None else of({})
+    logger = site.opt_table("logger")
+    name = backend or "sim"
+    if logger is not None:
+        name = logger.text("backend", name)
+        if backend is not None and name != backend:
+            raise logger.fail("backend", f"names {name!r}, but it is served by {backend!r}")
+    try:
+        entry = registry.backend(name)
+    except registry.UnknownBackend as exc:
+        raise site.fail("logger.backend", str(exc)) from exc
+    made: object = None
+    if entry.plan is not None:
+        made = entry.plan(logger if logger is not None else of({}, site.file, where="logger"))
+    elif logger is not None:
+        logger.keys(_LOGGER_KEYS)
+    return HardwarePlan(name, BackendContext(site.data, site.file, site.source.text, plan=made))
+
+
 def logger_hardware(site: Path | None, start: float, speed: float = 1.0) -> Hardware:
     """The hardware of ``logger serve --site FILE``: the backend the site file names
     (``[logger] backend``, default ``sim``); without a file, a 12 V supply and nothing else.
     Raises :class:`~sondalog.config.ConfigError`."""
-    if site is None:
-        return registry.create("sim", BackendContext(start=start))
-    data, text = read_site_file(site)
-    table = data.get("logger")
-    backend = table.get("backend", "sim") if isinstance(table, dict) else "sim"
-    return create_hardware(
-        str(backend), BackendContext(data, site, text, start, sensor_root(), speed)
-    )
+    plan = plan_hardware(load(site) if site is not None else None)
+    return plan.build(start, sensor_root() if site is not None else Path("/"), speed)
 
 
 def sensor_root() -> Path:
@@ -204,5 +241,5 @@ def create_hardware(backend: str, context: BackendContext) -> Hardware:
     try:
         return registry.create(backend, context)
     except registry.UnknownBackend as exc:
-        where = locate(context.text, "logger.backend")
-        raise ConfigError(context.path, "logger.backend", str(exc), where) from exc
+        site = of(context.site, context.path, context.text)
+        raise site.fail("logger.backend", str(exc)) from exc

@@ -9,8 +9,8 @@ the one runtime on one clock. Later issues add fleets of loggers here, not in th
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from sondalog.ala1.engine import Engine
@@ -19,13 +19,11 @@ from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.fleet import RunningFleet, start_fleet
 from sondalog.app.gsm import GsmRuntime
 from sondalog.app.gsm_api import ApiServer
-from sondalog.app.gsm_site import parse_gsm_site, traced
-from sondalog.app.logger import Logger, create_hardware, sensor_root, start_logger
-from sondalog.app.mailhub import MailHub, parse_mail
+from sondalog.app.gsm_site import traced
+from sondalog.app.logger import Logger, sensor_root, start_logger
+from sondalog.app.mailhub import MailHub
 from sondalog.app.site import SitePlan
 from sondalog.backends.linux.rs485 import Rs485Error
-from sondalog.backends.registry import BackendContext
-from sondalog.config import ConfigError, locate, of
 from sondalog.config.address import format_address
 from sondalog.io.clock import Clock, RealClock
 from sondalog.io.private import private_dir
@@ -70,6 +68,9 @@ async def start_site(
 ) -> RunningSite:
     """Start every part of ``plan``; raises :class:`ConfigError` or OSError.
 
+    Nothing here reads the site file again: the logger's hardware, the fleet's, the bus and
+    the GSM network's models are built from the plans :func:`load_site` made.
+
     The environment variable ``SONDALOG_ROOT`` prefixes every sysfs and ``/dev`` path the
     real sensors are read from (a fake kernel tree in tests, a chroot). ``trace``
     (``--trace FILE``): record the line of the logger's modem (``[gsm] logger_modem``, else the
@@ -80,10 +81,7 @@ async def start_site(
     try:
         if plan.logger is not None:
             logger = plan.logger
-            context = BackendContext(
-                plan.data, plan.path, plan.text, clock.now(), root, clock.speed
-            )
-            hardware = create_hardware(logger.backend, context)
+            hardware = logger.hardware.build(clock.now(), root, clock.speed)
             running.logger = await start_logger(
                 state / "logger",
                 clock,
@@ -108,23 +106,16 @@ async def start_site(
             bus = plan.bus
             try:
                 running.bus = await start_bus_server(
-                    clock, bus.listen, site=plan.path, state_dir=state / "bus", pty=bus.pty,
+                    clock, bus.listen, site=bus.site, state_dir=state / "bus", pty=bus.pty,
                     serial=bus.serial, rs485=bus.rs485, root=root, baud=bus.baud,
                 )  # fmt: skip
             except Rs485Error as exc:
-                table = plan.data.get("bus")
-                serve = table.get("serve") if isinstance(table, Mapping) else None
-                where = (
-                    "bus.serve.rs485"
-                    if isinstance(serve, Mapping) and "rs485" in serve
-                    else "board.rs485"
-                )
-                raise ConfigError(plan.path, where, str(exc), locate(plan.text, where)) from exc
+                raise plan.root.fail(bus.rs485_field, str(exc)) from exc
             announce(f"bus listening on {format_address(*running.bus.address)}")
             if running.bus.serial is not None and bus.rs485 is not None:
                 announce(f"bus RS-485 ({bus.rs485.mode}) on {bus.serial}")
         if plan.mail is not None:
-            config = parse_mail(of(plan.mail, plan.path, plan.text, "mail"), state / "mail")
+            config = replace(plan.mail, root=state / "mail")
             running.mail = MailHub(config)
             await running.mail.start()
             announce(
@@ -134,7 +125,7 @@ async def start_site(
         if plan.gsm is not None:
             # the network and its modems are lines: they keep real time under --speed
             gsm_clock = clock if clock.speed == 1 else RealClock()
-            gsm = parse_gsm_site(of(plan.data, plan.path, plan.text), gsm_clock.now())
+            gsm = plan.gsm.at(gsm_clock.now())
             if trace is not None:
                 gsm = traced(gsm, trace)
             running.gsm = GsmRuntime(gsm, state / "gsm", gsm_clock)

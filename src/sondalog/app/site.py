@@ -27,7 +27,12 @@ delays) serves the bus on that adapter.
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
 hub when it has ``[mail]``; a GSM network when it has ``[gsm]`` (:mod:`sondalog.app.gsm_site`);
 a fleet of loggers for its ``[[loggers]]`` (:mod:`sondalog.app.fleet_site`).
-Errors name the file, line and field (:class:`ConfigError`).
+Everything is read through :class:`sondalog.config.Table`: an unknown table or key anywhere
+(``[loger]``, ``[bsu]``, ``intervall =``) is refused with a "did you mean", and errors name the
+file, line and field (:class:`ConfigError`). :func:`load_site` returns a :class:`SitePlan`
+that :func:`sondalog.app.serve.start_site` consumes without reading the file again: the
+logger's hardware plan (its backend's checked description of ``[logger]``), the mail hub's
+configuration, the fleet with the hardware plan of each world file.
 """
 
 from __future__ import annotations
@@ -38,20 +43,19 @@ from pathlib import Path
 
 from sondalog.app.fleet_site import FleetLogger, parse_fleet
 from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
-from sondalog.app.mailhub import parse_mail
-from sondalog.backends.linux.board import board_of_site
+from sondalog.app.logger import HardwarePlan, plan_hardware
+from sondalog.app.mailhub import MailHubConfig, parse_mail
+from sondalog.backends.linux.board import read_board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
-from sondalog.backends.sim.logger import parse_logger_site
-from sondalog.backends.sim.site_bus import parse_bus_site
-from sondalog.config import ConfigError, Fail, locate, of, read_site_file, serve_table, unknown
-from sondalog.config.address import parse_listen
+from sondalog.backends.sim.site_bus import BusSite, read_bus_site
+from sondalog.config import Table, load
 
 DEFAULT_LOGGER_LISTEN = ("127.0.0.1", 10001)
 DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
-_LOGGER_SERVE = {"listen", "protocol", "serial_number", "ptys", "serials", "line_rate", "modem"}
-_BUS_SERVE = {"listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx"}
+_LOGGER_SERVE = ("listen", "protocol", "serial_number", "ptys", "serials", "line_rate", "modem")
+_BUS_SERVE = ("listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx")
 #: The top-level tables (and keys) of a site file; anything else is a misspelling.
-_TOP = {"logger", "loggers", "bus", "mail", "gsm", "board"}
+_TOP = ("logger", "loggers", "bus", "mail", "gsm", "board")
 #: Hosts that bind every address: their port clashes with the same port on any host.
 _ANY_HOST = {"", "0.0.0.0", "::", "*"}
 
@@ -66,6 +70,7 @@ class LoggerPlan:
     serials: tuple[str, ...] = ()
     line_rate: bool = False
     modem: str | None = None  # the com line drives this modem of [gsm] (its number)
+    hardware: HardwarePlan = field(default_factory=HardwarePlan)  # built at start
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,10 @@ class BusPlan:
     serial: str | None = None
     rs485: Rs485Settings | None = None  # the serial port is an RS-485 adapter
     baud: int | None = None  # from [board.rs485] when [bus] has none
+    #: Where an RS-485 failure at start is reported: bus.serve.rs485, else board.rs485.
+    rs485_field: str = "board.rs485"
+    #: The bus's modules and signals, as checked at load (``start_bus_server`` builds them).
+    site: BusSite | None = None
 
 
 @dataclass(frozen=True)
@@ -82,53 +91,42 @@ class SitePlan:
     """A parsed site file and what it asks to serve."""
 
     path: Path
-    data: Mapping[str, object]
-    text: str
+    root: Table
     logger: LoggerPlan | None = None
     bus: BusPlan | None = None
-    mail: Mapping[str, object] | None = None
+    mail: MailHubConfig | None = None  # its root is set to the state directory at start
     listens: list[tuple[str, tuple[str, int]]] = field(default_factory=list)
     gsm: GsmPlan | None = None
     fleet: list[FleetLogger] = field(default_factory=list)
 
+    @property
+    def data(self) -> Mapping[str, object]:
+        """The parsed file."""
+        return self.root.data
+
+    @property
+    def text(self) -> str:
+        """The file's text (for line numbers)."""
+        return self.root.source.text or ""
+
 
 def load_site(path: Path) -> SitePlan:
-    """Read ``path`` and check its ``serve`` tables; raises :class:`ConfigError`."""
-    data, text = read_site_file(path)
-
-    def fail(where: str, message: str) -> ConfigError:
-        return ConfigError(path, where, message, locate(text, where))
-
-    def table(name: str) -> Mapping[str, object] | None:
-        found = data.get(name)
-        if found is not None and not isinstance(found, Mapping):
-            raise fail(name, "must be a table")
-        return found
-
-    for name in data:
-        if name not in _TOP:
-            raise fail(name, unknown(name, _TOP))
+    """Read ``path`` and check every part of it; raises :class:`ConfigError`."""
+    root = load(path).keys(_TOP)
     listens: list[tuple[str, tuple[str, int]]] = []
-    logger = bus = None
-    if (logger_table := table("logger")) is not None:
-        logger = _logger_plan(logger_table, fail)
+    logger = bus = mail = gsm = None
+    if (logger_table := root.opt_table("logger")) is not None:
+        logger = _logger_plan(root, logger_table)
         listens.append(("logger.serve.listen", logger.listen))
-    if (bus_table := table("bus")) is not None:
-        bus = _bus_plan(bus_table, fail)
+    if (bus_table := root.opt_table("bus")) is not None:
+        bus = _bus_plan(root, bus_table)
         listens.append(("bus.serve.listen", bus.listen))
-    mail = table("mail")
-    if mail is not None:
-        hub = parse_mail(of(mail, path, text, "mail"), path.parent)  # (dir: the state's)
-        listens.append(("mail.smtp", (hub.smtp_host, hub.smtp_port)))
-        listens.append(("mail.pop3", (hub.pop3_host, hub.pop3_port)))
-    if bus is not None:
-        parse_bus_site(data, 0.0, path, text)  # every part is checked before any starts
-        if bus.serial is None and "board" in data:
-            bus = _board_rs485(bus, data, path, text)
-    if logger is not None and logger.backend == "sim":
-        parse_logger_site(data, 0.0, path, text)
-    gsm = parse_gsm_site(of(data, path, text)) if "gsm" in data else None
-    if gsm is not None:
+    if (mail_table := root.opt_table("mail")) is not None:
+        mail = parse_mail(mail_table, path.parent)  # (dir: the state's, set at start)
+        listens.append(("mail.smtp", (mail.smtp_host, mail.smtp_port)))
+        listens.append(("mail.pop3", (mail.pop3_host, mail.pop3_port)))
+    if "gsm" in root:
+        gsm = parse_gsm_site(root)
         listens.append(("gsm.serve.api", gsm.api))
         listens += [
             (f"gsm.modem[{i}].serve.listen", m.listen) for i, m in enumerate(gsm.modems) if m.listen
@@ -136,38 +134,19 @@ def load_site(path: Path) -> SitePlan:
     if logger is not None and logger.modem is not None:
         numbers = [m.number for m in gsm.modems] if gsm is not None else []
         if logger.modem not in numbers:
-            raise fail("logger.serve.modem", f"no [[gsm.modem]] with number {logger.modem}")
-    fleet = parse_fleet(data, path, text)
-    _check_worlds(fleet, fail)
+            raise root.fail("logger.serve.modem", f"no [[gsm.modem]] with number {logger.modem}")
+    fleet = parse_fleet(root)
     listens.extend((f"{member.where}.listen", member.listen) for member in fleet)
-    _check_ports(listens, fail)
+    _check_ports(root, listens)
     if logger is None and bus is None and mail is None and gsm is None and not fleet:
-        raise fail(
+        raise root.fail(
             "site",
             "nothing to serve: the file has no [logger], [[loggers]], [bus], [mail] or [gsm]",
         )
-    return SitePlan(path, data, text, logger, bus, mail, listens, gsm, fleet)
+    return SitePlan(path, root, logger, bus, mail, listens, gsm, fleet)
 
 
-def _check_worlds(fleet: list[FleetLogger], fail: Fail) -> None:
-    """Read and check every site file a ``[[loggers]]`` entry names (``site =``), as the
-    start will; a file that cannot be read is reported at the line that names it."""
-    seen: set[Path] = set()
-    for member in fleet:
-        if member.world is None or member.world in seen:
-            continue
-        seen.add(member.world)
-        try:
-            data, text = read_site_file(member.world)
-        except ConfigError as exc:
-            if exc.field != "file" or exc.path != member.world:
-                raise
-            where = f" (line {exc.line})" if exc.line is not None else ""
-            raise fail(f"{member.where}.site", f"{member.world}{where}: {exc.message}") from None
-        parse_logger_site(data, 0.0, member.world, text)
-
-
-def _check_ports(listens: list[tuple[str, tuple[str, int]]], fail: Fail) -> None:
+def _check_ports(root: Table, listens: list[tuple[str, tuple[str, int]]]) -> None:
     """Refuse a port that two parts of the file would listen on (port 0: any free port),
     at the second one, before anything binds."""
     used: dict[int, list[tuple[str, str]]] = {}
@@ -177,106 +156,74 @@ def _check_ports(listens: list[tuple[str, tuple[str, int]]], fail: Fail) -> None
         host = "127.0.0.1" if host == "localhost" else host
         for other, other_host in used.get(port, []):
             if host == other_host or host in _ANY_HOST or other_host in _ANY_HOST:
-                raise fail(where, f"port {port} is already used by {other}")
+                raise root.fail(where, f"port {port} is already used by {other}")
         used.setdefault(port, []).append((where, host))
 
 
-def _listen(value: object, where: str, fail: Fail) -> tuple[str, int]:
-    """A ``listen = "HOST:PORT"`` field of a ``serve`` table."""
-    if not isinstance(value, str):
-        raise fail(where, 'must be "HOST:PORT"')
-    try:
-        return parse_listen(value)
-    except ValueError as exc:
-        raise fail(where, str(exc)) from None
-
-
-def _text(value: object, where: str, fail: Fail) -> str:
-    if not isinstance(value, str) or not value:
-        raise fail(where, "must be a non-empty string")
-    return value
-
-
-def _texts(value: object, where: str, fail: Fail) -> tuple[str, ...]:
-    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
-        raise fail(where, "must be a list of strings")
-    return tuple(value)
-
-
-def _logger_plan(table: Mapping[str, object], fail: Fail) -> LoggerPlan:
-    serve = serve_table(table, "logger", _LOGGER_SERVE, fail)
-    backend = table.get("backend", "sim")
-    if not isinstance(backend, str):
-        raise fail("logger.backend", "must be a backend name")
-    protocol = serve.get("protocol")
-    if protocol is not None and protocol not in ("1.16", "2.10"):
-        raise fail("logger.serve.protocol", 'must be "1.16" or "2.10"')
-    modem = serve.get("modem")
-    if modem is not None and (not isinstance(modem, str) or not modem):
-        raise fail("logger.serve.modem", "must be the number of a [[gsm.modem]]")
-    line_rate = serve.get("line_rate", False)
-    if not isinstance(line_rate, bool):
-        raise fail("logger.serve.line_rate", "must be true or false")
+def _logger_plan(root: Table, table: Table) -> LoggerPlan:
+    serve = table.table("serve", _LOGGER_SERVE)
+    hardware = plan_hardware(root)  # the backend's own check of [logger] (its keys too)
     return LoggerPlan(
-        backend=backend,
-        listen=_listen(serve["listen"], "logger.serve.listen", fail)
-        if "listen" in serve
-        else DEFAULT_LOGGER_LISTEN,
-        protocol=str(protocol) if protocol is not None else None,
-        serial_number=_text(serve["serial_number"], "logger.serve.serial_number", fail)
-        if "serial_number" in serve
-        else None,
-        ptys=tuple(Path(p) for p in _texts(serve.get("ptys", []), "logger.serve.ptys", fail)),
-        serials=_texts(serve.get("serials", []), "logger.serve.serials", fail),
-        line_rate=line_rate,
-        modem=modem,
+        backend=hardware.backend,
+        listen=serve.address("listen", "127.0.0.1:10001"),
+        protocol=serve.opt_text("protocol", choices=("1.16", "2.10")),
+        serial_number=serve.opt_text("serial_number"),
+        ptys=tuple(Path(p) for p in _texts(serve, "ptys")),
+        serials=_texts(serve, "serials"),
+        line_rate=serve.flag("line_rate", False),
+        modem=serve.opt_text("modem", what="the number of a [[gsm.modem]]"),
+        hardware=hardware,
     )
 
 
-def _board_rs485(bus: BusPlan, data: Mapping[str, object], path: Path, text: str) -> BusPlan:
+def _texts(table: Table, key: str) -> tuple[str, ...]:
+    values = table.texts(key, ())
+    if not all(values):
+        raise table.fail(key, "must be a list of non-empty strings")
+    return tuple(values)
+
+
+def _bus_plan(root: Table, table: Table) -> BusPlan:
+    serve = table.table("serve", _BUS_SERVE)
+    site = read_bus_site(root)  # the bus's own plan, which starting consumes
+    rs485 = _rs485(serve, site.baud or 9600) if "rs485" in serve else None
+    for key in ("delay_before_tx", "delay_before_rx"):
+        if key in serve and rs485 is None:
+            raise serve.fail(key, 'driver delays need an RS-485 mode (rs485 = "...")')
+    bus = BusPlan(
+        rs485=rs485,
+        listen=serve.address("listen", "127.0.0.1:10485"),
+        pty=Path(serve.text("pty")) if "pty" in serve else None,
+        serial=serve.opt_text("serial"),
+        rs485_field="bus.serve.rs485" if rs485 is not None else "board.rs485",
+        site=site,
+    )
+    if bus.serial is None and "board" in root:
+        bus = _board_rs485(bus, root, has_baud=site.baud is not None)
+    return bus
+
+
+def _board_rs485(bus: BusPlan, root: Table, *, has_baud: bool) -> BusPlan:
     """The bus on the board file's RS-485 adapter (``[board.rs485]``)."""
-    board = board_of_site(data, path, text)
+    assert root.file is not None
+    board = read_board_of_site(root)
     if board is None or board.rs485 is None:
         return bus
     wired = board.rs485
     how = Rs485Settings(wired.mode, wired.delay_before_tx, wired.delay_before_rx)
-    bus_table = data.get("bus")
-    has_baud = isinstance(bus_table, Mapping) and "baud" in bus_table
     return replace(bus, serial=wired.port, rs485=how, baud=None if has_baud else wired.baud)
 
 
-def _rs485(table: Mapping[str, object], serve: Mapping[str, object], fail: Fail) -> Rs485Settings:
-    mode = serve["rs485"]
-    if mode not in MODES:
-        raise fail("bus.serve.rs485", f"must be one of {', '.join(MODES)}, not {mode!r}")
+def _rs485(serve: Table, baud: int) -> Rs485Settings:
+    chosen = serve.text("rs485", choices=MODES)
+    mode = next(m for m in MODES if m == chosen)  # (as the Literal type)
     if "serial" not in serve:
-        raise fail("bus.serve.rs485", "an RS-485 mode needs the adapter: serial = PORT")
-    delays = []
-    for key in ("delay_before_tx", "delay_before_rx"):
-        value = serve.get(key, 0.0)
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise fail(f"bus.serve.{key}", f"must be seconds, not {value!r}")
-        delays.append(float(value))
-    baud = table.get("baud")
+        raise serve.fail("rs485", "an RS-485 mode needs the adapter: serial = PORT")
+    before_tx = serve.number("delay_before_tx", 0.0, what="seconds")
+    before_rx = serve.number("delay_before_rx", 0.0, what="seconds")
     try:
-        check_delays(baud if isinstance(baud, int) and baud > 0 else 9600, *delays)
+        check_delays(baud, before_tx, before_rx)
     except Rs485Error as exc:
         key = "delay_before_tx" if "delay_before_tx" in str(exc) else "delay_before_rx"
-        raise fail(f"bus.serve.{key}", str(exc)) from None
-    return Rs485Settings(mode, delays[0], delays[1])
-
-
-def _bus_plan(table: Mapping[str, object], fail: Fail) -> BusPlan:
-    serve = serve_table(table, "bus", _BUS_SERVE, fail)
-    rs485 = _rs485(table, serve, fail) if "rs485" in serve else None
-    for key in ("delay_before_tx", "delay_before_rx"):
-        if key in serve and rs485 is None:
-            raise fail(f"bus.serve.{key}", 'driver delays need an RS-485 mode (rs485 = "...")')
-    return BusPlan(
-        rs485=rs485,
-        listen=_listen(serve["listen"], "bus.serve.listen", fail)
-        if "listen" in serve
-        else DEFAULT_BUS_LISTEN,
-        pty=Path(_text(serve["pty"], "bus.serve.pty", fail)) if "pty" in serve else None,
-        serial=_text(serve["serial"], "bus.serve.serial", fail) if "serial" in serve else None,
-    )
+        raise serve.fail(key, str(exc)) from None
+    return Rs485Settings(mode, before_tx, before_rx)

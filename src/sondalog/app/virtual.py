@@ -10,7 +10,8 @@ from pathlib import Path
 
 from sondalog.ala1.engine import Engine
 from sondalog.ala1.model import Identity, Version
-from sondalog.backends.sim.logger import SimHardware, default_hardware, load_logger_site
+from sondalog.backends.sim.logger import SimHardware, default_hardware
+from sondalog.backends.sim.logger_site import load_logger_site
 from sondalog.backends.sim.signals import Signal
 from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.io.clock import SteppedClock

@@ -11,14 +11,13 @@ A leaf package: it imports nothing else of sondalog, so every layer may use it.
 
 from .address import format_address, is_loopback, parse_listen
 from .errors import ConfigError
-from .files import MAX_FILE_BYTES, Fail, locate, read_site_file, read_text, serve_table, unknown
+from .files import MAX_FILE_BYTES, locate, read_site_file, read_text, unknown
 from .reader import REQUIRED, Source, Table, load, loads, of
 
 __all__ = [
     "MAX_FILE_BYTES",
     "REQUIRED",
     "ConfigError",
-    "Fail",
     "Source",
     "Table",
     "format_address",
@@ -30,6 +29,5 @@ __all__ = [
     "parse_listen",
     "read_site_file",
     "read_text",
-    "serve_table",
     "unknown",
 ]

@@ -12,30 +12,13 @@ import os
 import re
 import stat
 import tomllib
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable
 from pathlib import Path
 
 from .errors import ConfigError
 
 #: The largest configuration file read (a site file of a 20,000-logger fleet is far smaller).
 MAX_FILE_BYTES = 1 << 20
-
-
-#: ``fail(field, message)``: the :class:`ConfigError` to raise for a field of the file.
-Fail = Callable[[str, str], ConfigError]
-
-
-def serve_table(
-    table: Mapping[str, object], where: str, keys: set[str], fail: Fail
-) -> dict[str, object]:
-    """``table``'s ``serve`` table (empty if absent), checked to hold only ``keys``."""
-    serve = table.get("serve", {})
-    if not isinstance(serve, Mapping):
-        raise fail(f"{where}.serve", "must be a table")
-    for key in serve:
-        if key not in keys:
-            raise fail(f"{where}.serve.{key}", f"unknown key (known: {', '.join(sorted(keys))})")
-    return dict(serve)
 
 
 def read_text(path: Path, limit: int = MAX_FILE_BYTES) -> str:

@@ -64,7 +64,6 @@ from pathlib import Path
 from typing import cast
 
 from sondalog.ala1.hardware import ANALOG_ADDRESSES, pin_of
-from sondalog.backends.keys import known_keys
 from sondalog.backends.linux.gpio import BiasKind, EdgeKind
 from sondalog.backends.linux.rs485 import MODES, Mode, Rs485Error, check_delays
 from sondalog.config import ConfigError, Source, Table, load, of
@@ -197,7 +196,7 @@ def read_board_of_site(site: Table) -> BoardConfig | None:
         raise site.fail("board", f"{path}: {exc.message}") from None
     if not root.is_table("board"):
         raise root.fail("board", "the board file needs a [board] table")
-    return read_board(known_keys(root, {"board"}))
+    return read_board(root.keys({"board"}))
 
 
 def parse_board(
@@ -211,13 +210,13 @@ def read_board(root: Table) -> BoardConfig:
     """Check the ``[board]`` table of the file whose root table is ``root``."""
     if not root.is_table("board"):
         raise root.fail("board", "must be a table ([board])")
-    board = known_keys(root.table("board"), _KEYS["board"])
+    board = root.table("board").keys(_KEYS["board"])
     backend = board.text("backend", "linux")
     if backend != "linux":
         raise board.fail("backend", f"this board file is for 'linux', not {backend!r}")
     ds18b20, analog = _ds18b20(board), _analog(board)
     supply = board.opt_table("supply")
-    supply_wiring = _iio(known_keys(supply, _KEYS["supply"]), None) if supply is not None else None
+    supply_wiring = _iio(supply.keys(_KEYS["supply"]), None) if supply is not None else None
     pulses, outputs = _pulses(board), _outputs(board)
     _check_lines([*pulses, *outputs], board)
     return BoardConfig(
@@ -239,7 +238,7 @@ def read_board(root: Table) -> BoardConfig:
 
 def _entries(board: Table, key: str) -> list[Table]:
     """The tables of ``[[board.KEY]]``, each holding only the keys of its kind."""
-    return [known_keys(t, _KEYS[key]) for t in board.tables(key)]
+    return [t.keys(_KEYS[key]) for t in board.tables(key)]
 
 
 def _name(t: Table, key: str) -> str:
@@ -330,7 +329,7 @@ def _rs485(board: Table) -> Rs485Wiring | None:
     t = board.opt_table("rs485")
     if t is None:
         return None
-    known_keys(t, _KEYS["rs485"])
+    t.keys(_KEYS["rs485"])
     baud = t.integer("baud", 9600, lo=300, hi=4_000_000)
     mode = cast(Mode, t.text("mode", MODES[0], choices=MODES))
     before_tx = t.number("delay_before_tx", 0.0, lo=0.0, hi=0.1)
@@ -346,7 +345,7 @@ def _serial(board: Table) -> tuple[str, ...]:
     t = board.opt_table("serial")
     if t is None:
         return ()
-    known_keys(t, _KEYS["serial"])
+    t.keys(_KEYS["serial"])
     try:
         ports = t.texts("ports")
     except ConfigError:

@@ -40,10 +40,6 @@ from sondalog.config import ConfigError, Table, of
 Signal = Callable[[float], float]
 
 
-#: A bad signal table (its ``field`` is dotted, relative to the table passed in).
-SignalError = ConfigError
-
-
 def _clamp(t: Table) -> Callable[[float], float]:
     low, high = t.opt_number("min"), t.opt_number("max")
     lo = -math.inf if low is None else low

@@ -34,7 +34,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from sondalog.backends.keys import known_keys
 from sondalog.backends.sensor_sources import SourcePlan, read_source, source_keys
 from sondalog.backends.sim.signals import SignalPlan, plan_signal
 from sondalog.config import ConfigError, Table, load, of
@@ -102,7 +101,7 @@ def read_bus_site(site: Table) -> BusSite:
         close = difflib.get_close_matches("bus", [k for k in site if site.is_table(k)], n=1)
         hint = f" (is [{close[0]}] meant to be it?)" if close else ""
         raise site.fail("bus", f"the site file needs a [bus] table{hint}")
-    bus = known_keys(site.table("bus"), _BUS_KEYS)
+    bus = site.table("bus").keys(_BUS_KEYS)
     baud = bus.opt_integer("baud", lo=1, what="a positive integer")
     noise = bus.number("noise", 0.0, lo=0.0, what=_NOISE)
     if noise >= 1:
@@ -122,7 +121,7 @@ def read_bus_site(site: Table) -> BusSite:
 
 def _module(t: Table) -> ModuleSite:
     """One ``[[bus.modules]]`` table: its ID, kind, cycle and signal or source."""
-    known_keys(t, _MODULE_KEYS | source_keys(t))
+    t.keys(_MODULE_KEYS | source_keys(t))
     module_id = t.text("id", what=_ID)
     if not is_valid_id(module_id):
         raise t.fail("id", f"must be {_ID}, not {module_id!r}")

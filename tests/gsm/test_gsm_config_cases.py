@@ -93,7 +93,7 @@ def test_the_good_files_pass() -> None:
         (
             GSM,
             ('"127.0.0.1" }', '"localhost" }'),
-            'site.toml:3: gsm.hosts."smtp.example.net": must be an IPv4 address',
+            "site.toml:3: gsm.hosts.smtp.example.net: must be an IPv4 address",
         ),
         (
             GSM,

@@ -223,7 +223,7 @@ def test_site_file_mail_table(tmp_path: Path) -> None:
         ({"smtp": "2525"}, "mail.smtp: expected HOST:PORT"),
         ({"pop3": "h:99999"}, "mail.pop3: port must be a number"),
         ({"accounts": {"nobody": "x"}}, "mail.accounts.nobody: .*not an e-mail address"),
-        ({"accounts": {LOGGER: 1}}, f"mail.accounts.{LOGGER}: must be a password"),
+        ({"accounts": {LOGGER: 1}}, f'mail.accounts."{LOGGER}": must be a password'),
         ({"smpt": "h:1"}, "mail.smpt: unknown table or key 'smpt' .did you mean smtp"),
         ({"smtp_auth_required": "yes"}, "mail.smtp_auth_required: must be true or false"),
     ):

@@ -32,8 +32,9 @@ from .files import locate, read_site_file, unknown
 
 T = TypeVar("T")
 
-#: A TOML bare key; any other key is written quoted in a dotted field (``loggers."a@b.net"``).
-_BARE = re.compile(r"[A-Za-z0-9_-]+")
+#: A key, or a dotted path of keys (``logger.serve.listen``, ``loggers[1].listen``), written
+#: as it is in a field; any other key is written quoted (``loggers."a@b.net"``).
+_BARE = re.compile(r"[A-Za-z0-9_.\[\]-]+")
 
 
 class _Missing:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import re
+from typing import TYPE_CHECKING
 
 from sondalog.ala1 import transfers
 from sondalog.ala1.hardware import Hardware
@@ -20,11 +21,13 @@ from sondalog.ala1.interpreter import Answer, Interpreter
 from sondalog.ala1.lines import Line as _Line
 from sondalog.ala1.messages import Messages
 from sondalog.ala1.model import Identity
-from sondalog.ala1.modem.link import ModemLink, execute
 from sondalog.ala1.outbox import Outbox
 from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 from sondalog.protocol.device import Event, LineSend
+
+if TYPE_CHECKING:  # (no circle: the link knows the engine by its LinkEngine protocol)
+    from sondalog.ala1.modem.link import ModemLink
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +88,8 @@ class Engine:
     def attach_modem(self, now: float, outbox: Outbox | None = None) -> int:
         """The com line is the modem's line (``com device wavecom4x``, §6.11.5.2): its bytes
         go through the modem driver (:mod:`sondalog.ala1.modem`); returns the line id."""
+        from sondalog.ala1.modem.link import ModemLink  # loaded by a modem line only (start-up)
+
         line_id = self.open_line(paced=True)  # 8N1 at com speed to the modem (§6.11.2)
         self.modem = ModemLink(self, line_id, now, outbox or self.outbox)
         self.modem.on_ring = self.messages.trigger  # §6.10.2.3-4: ringvoice/ringdata M
@@ -92,6 +97,8 @@ class Engine:
 
     def execute(self, text: str, now: float, paused: bool = False) -> bytes | float:
         """Run ``text`` as a line would; its answer, or seconds to wait (modem/link.py)."""
+        from sondalog.ala1.modem.link import execute  # (start-up time, as attach_modem)
+
         return execute(self, text, now, paused)
 
     def write_line(self, line_id: int, data: bytes, now: float) -> None:

@@ -153,12 +153,24 @@ def test_the_cli_rule_sees_imports_anywhere_in_a_module() -> None:
     assert found[0].startswith("cli/example_cmd.py:")
 
 
+#: Lines a module aims to stay under (issue 10: ~400 lines).
+SIZE_AIM = 460
+#: A module allowed past the aim never grows past this.
+SIZE_CEILING = 900
+#: Modules allowed past the aim -> why: one cohesive thing that splitting would hurt (a class
+#: split across files only for the size made friend circles, issue 25 item 5). Empty today:
+#: every circle of that kind was split along a narrow protocol instead.
+OVER_THE_AIM: dict[str, str] = {}
+
+
 def test_no_module_is_over_the_size_aim() -> None:
-    """Modules stay small and named after what they hold (issue 10: ~400 lines)."""
-    big = {
-        str(p.relative_to(SRC)): n for p in MODULES if (n := len(p.read_text().splitlines())) > 460
-    }
+    """Modules stay small and named after what they hold; the allow-listed ones stay under
+    the ceiling, and an entry goes when its module is back under the aim."""
+    sizes = {str(p.relative_to(SRC)): len(p.read_text().splitlines()) for p in MODULES}
+    big = {m: n for m, n in sizes.items() if n > SIZE_AIM and m not in OVER_THE_AIM}
     assert not big, big
+    over = {m: sizes.get(m) for m in OVER_THE_AIM if not SIZE_AIM < sizes.get(m, 0) <= SIZE_CEILING}
+    assert not over, f"allow-listed but missing, under the aim or over {SIZE_CEILING}: {over}"
 
 
 def _module_name(path: Path) -> str:

@@ -26,7 +26,7 @@ from sondalog.ala1.pacing import Pacer
 from sondalog.ala1.state import ModuleState, NeedWait, NvStore
 from sondalog.protocol.device import Event, LineSend
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # (no circle: the link knows the engine by its LinkEngine protocol)
     from sondalog.ala1.modem.link import ModemLink
 
 log = logging.getLogger(__name__)
@@ -88,7 +88,7 @@ class Engine:
     def attach_modem(self, now: float, outbox: Outbox | None = None) -> int:
         """The com line is the modem's line (``com device wavecom4x``, §6.11.5.2): its bytes
         go through the modem driver (:mod:`sondalog.ala1.modem`); returns the line id."""
-        from sondalog.ala1.modem.link import ModemLink
+        from sondalog.ala1.modem.link import ModemLink  # loaded by a modem line only (start-up)
 
         line_id = self.open_line(paced=True)  # 8N1 at com speed to the modem (§6.11.2)
         self.modem = ModemLink(self, line_id, now, outbox or self.outbox)
@@ -97,7 +97,7 @@ class Engine:
 
     def execute(self, text: str, now: float, paused: bool = False) -> bytes | float:
         """Run ``text`` as a line would; its answer, or seconds to wait (modem/link.py)."""
-        from sondalog.ala1.modem.link import execute
+        from sondalog.ala1.modem.link import execute  # (start-up time, as attach_modem)
 
         return execute(self, text, now, paused)
 

@@ -11,9 +11,9 @@ configuration on every read. Every other channel takes that long way.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
-from sondalog.ala1.hardware import DS18B20_CONVERSION
+from sondalog.ala1.hardware import DS18B20_CONVERSION, Hardware
 from sondalog.ala1.measure import (
     Calibration,
     ChannelConfig,
@@ -23,11 +23,9 @@ from sondalog.ala1.measure import (
     channel_config,
     format_value,
 )
-from sondalog.ala1.sampling import FaultLog, Outputs
+from sondalog.ala1.model import View
+from sondalog.ala1.sampling import FaultLog, Outputs, Sampler
 from sondalog.ala1.tokens import period_seconds
-
-if TYPE_CHECKING:
-    from sondalog.ala1.state import Transaction
 
 #: Channel ``ch`` measured at a host time, formatted (empty: no valid value).
 Measure = Callable[[float], str]
@@ -129,9 +127,48 @@ class OnDemand:
         return measure
 
 
-def measure_now(txn: Transaction, ch: int) -> str:
-    """§6.5.8: measure channel ``ch`` now (:meth:`Transaction.measure`); a switched or DS18B20
-    input may need time: the line waits (``txn.waits``) and runs again."""
+class MeasuredModule(Protocol):
+    """What :func:`measure_now` needs of the module (:class:`~sondalog.ala1.state.ModuleState`)."""
+
+    @property
+    def on_demand(self) -> OnDemand: ...
+    @property
+    def outputs(self) -> Outputs: ...
+    @property
+    def conversions(self) -> dict[int, float]: ...
+    @property
+    def clock_offset(self) -> float: ...
+    @property
+    def hardware(self) -> Hardware: ...
+    @property
+    def sampler(self) -> Sampler: ...
+    @property
+    def measurer(self) -> Measurer: ...
+    def channel_config(self, ch: int) -> ChannelConfig: ...
+    def module_seconds(self, host_now: float) -> float: ...
+    def forget_schedule(self) -> None: ...
+
+
+class MeasuringLine(View, Protocol):
+    """What :func:`measure_now` needs of the command line
+    (:class:`~sondalog.ala1.state.Transaction`)."""
+
+    @property
+    def state(self) -> MeasuredModule: ...
+    @property
+    def changes(self) -> dict[str, str | None]: ...
+    @property
+    def reset_all(self) -> bool: ...
+    @property
+    def host_now(self) -> float: ...
+    @property
+    def waits(self) -> list[float]: ...
+
+
+def measure_now(txn: MeasuringLine, ch: int) -> str:
+    """§6.5.8: measure channel ``ch`` now (:meth:`~sondalog.ala1.state.Transaction.measure`);
+    a switched or DS18B20 input may need time: the line waits (``txn.waits``) and runs
+    again."""
     state = txn.state
     pristine = not txn.changes and not txn.reset_all  # the committed view holds
     if pristine and (quick := state.on_demand.one(ch)) is not None:
@@ -174,7 +211,7 @@ def measure_now(txn: Transaction, ch: int) -> str:
     return format_value(cfg, value)
 
 
-def _detect(txn: Transaction, inp: Input, ch: int) -> None:
+def _detect(txn: MeasuringLine, inp: Input, ch: int) -> None:
     """§6.4.3.1.1: a detection address learns the sensor's ROM code."""
     if inp.device_type != "DS18B20" or inp.address & 0xFF or not inp.address:
         return

@@ -5,15 +5,14 @@ error response, and an upload is applied (:func:`sondalog.ala1.special.apply`)."
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from sondalog.ala1 import special
+from sondalog.ala1.interpreter import Interpreter
 from sondalog.ala1.lines import Line, Transfer
 from sondalog.ala1.model import CommandError
+from sondalog.ala1.state import ModuleState
 from sondalog.protocol.xmodem import XmodemReceiver, XmodemSender
-
-if TYPE_CHECKING:
-    from sondalog.ala1.engine import Engine
 
 log = logging.getLogger(__name__)
 
@@ -22,8 +21,21 @@ EOT = 0x04
 TRANSFER_GRACE = 2.0
 
 
+class TransferEngine(Protocol):
+    """What a transfer needs of its engine (:class:`sondalog.ala1.engine.Engine`, which
+    passes itself): line time, the module, its error answers, and sending on a line."""
+
+    @property
+    def scale(self) -> float: ...
+    @property
+    def state(self) -> ModuleState: ...
+    @property
+    def interpreter(self) -> Interpreter: ...
+    def send(self, line: Line, data: bytes, now: float, baud: int | None = None) -> None: ...
+
+
 def start(
-    engine: Engine,
+    engine: TransferEngine,
     line: Line,
     text: str,
     request: special.TransferRequest,
@@ -40,7 +52,7 @@ def start(
     engine.send(line, peer.start(now / engine.scale), now, speed)
 
 
-def take_input(engine: Engine, line: Line, data: bytes, now: float) -> bytes:
+def take_input(engine: TransferEngine, line: Line, data: bytes, now: float) -> bytes:
     """Bytes of a running transfer go to XMODEM, not to the command parser; returns what is
     left for the parser."""
     transfer = line.transfer
@@ -56,7 +68,7 @@ def take_input(engine: Engine, line: Line, data: bytes, now: float) -> bytes:
     return b""
 
 
-def expire(engine: Engine, line: Line, now: float) -> None:
+def expire(engine: TransferEngine, line: Line, now: float) -> None:
     """The transfer's timers at ``now``: XMODEM's timeouts, then the grace after its end."""
     transfer = line.transfer
     assert transfer is not None
@@ -67,7 +79,7 @@ def expire(engine: Engine, line: Line, now: float) -> None:
         line.transfer = None
 
 
-def _finish(engine: Engine, line: Line, now: float) -> None:
+def _finish(engine: TransferEngine, line: Line, now: float) -> None:
     transfer = line.transfer
     assert transfer is not None
     peer = transfer.peer

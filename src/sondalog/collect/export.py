@@ -23,36 +23,18 @@ import os
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
-from typing import Any, Protocol
 
 from sondalog.client.records import COUNTERS, make_key
-from sondalog.collect.model import Reading, utc_text
+from sondalog.collect.export_file import ExportError as ExportError
+from sondalog.collect.export_file import ExportFile as ExportFile
+from sondalog.collect.export_file import as_record, note_appended
+from sondalog.collect.export_file import check_logger as check_logger
+from sondalog.collect.export_parquet import ParquetExport
+from sondalog.collect.model import Reading
 from sondalog.collect.schema import COLUMNS
 
 CSV_HEADER = ",".join(COLUMNS)
 _TAIL = 256 * 1024
-
-
-class ExportError(Exception):
-    """The file cannot be used (not an export of ours, another logger's, unreadable)."""
-
-
-class ExportFile(Protocol):
-    path: Path
-    logger: str | None
-    """The logger whose rows the file holds (None: a new, empty file)."""
-    cursor: str | None
-    """The record point of the last row the file holds."""
-    repaired: str | None
-    """What was cut from a torn file on opening (None: nothing)."""
-    rows: int
-    """Readings appended since opening."""
-    held_last: frozenset[tuple[str, int]]
-    """``(record point, channel)`` of the lines the file holds of its last row."""
-
-    def append(self, readings: Sequence[Reading]) -> None: ...
-
-    def close(self) -> None: ...
 
 
 def open_export(path: Path) -> ExportFile:
@@ -63,47 +45,10 @@ def open_export(path: Path) -> ExportFile:
     if suffix in (".jsonl", ".ndjson"):
         return JsonlExport(path)
     if suffix == ".parquet":
-        from sondalog.collect.export_parquet import ParquetExport
-
         return ParquetExport(path)
     raise ExportError(
         f"{path}: unknown format {suffix or '(no suffix)'!r}: use .csv, .jsonl or .parquet"
     )
-
-
-def as_record(r: Reading) -> dict[str, Any]:
-    return {
-        "logger": r.logger,
-        "time": r.time.isoformat(timespec="seconds"),
-        "counter": r.counter,
-        "type": r.type,
-        "channel": r.channel,
-        "value": r.value,
-        "text": r.text,
-        "name": r.name,
-        "unit": r.unit,
-        "utc": utc_text(r.utc),
-    }
-
-
-def note_appended(export: ExportFile, readings: Sequence[Reading]) -> None:
-    """Point ``export``'s logger, cursor and held_last at the last row of ``readings``."""
-    export.logger = readings[-1].logger
-    export.cursor = cursor = make_key(readings[-1].time, readings[-1].counter)
-    export.held_last = frozenset(
-        (make_key(r.time, r.counter), r.channel)
-        for r in readings
-        if make_key(r.time, r.counter) == cursor
-    )
-
-
-def check_logger(export: ExportFile, logger: str) -> None:
-    """Refuse to mix loggers in one file."""
-    if export.logger is not None and export.logger != logger:
-        raise ExportError(
-            f"{export.path} holds the rows of logger {export.logger!r}, "
-            f"not of this logger ({logger!r}): choose another file"
-        )
 
 
 class _LineExport:

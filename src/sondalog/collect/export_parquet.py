@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.client.records import make_key
-from sondalog.collect.export import ExportError, as_record, note_appended
+from sondalog.collect.export_file import ExportError, as_record, note_appended
 from sondalog.collect.model import Reading
 from sondalog.collect.schema import COLUMNS
 

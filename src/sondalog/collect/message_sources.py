@@ -33,10 +33,10 @@ from urllib.parse import quote
 from sondalog.client.phone import PhoneApi
 from sondalog.client.records import Channel, split_name
 from sondalog.collect.config import SourceConfig
+from sondalog.collect.delivery import GSM_TYPES, Deliver
 from sondalog.collect.message_rows import MessageError, identify, parse_message
 from sondalog.collect.message_url import parse_pop3_url
 from sondalog.collect.readings import rows_to_readings
-from sondalog.collect.sources import GSM_TYPES, Deliver
 from sondalog.collect.store_sqlite import SqliteStore, now_text
 
 log = logging.getLogger(__name__)

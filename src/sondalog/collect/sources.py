@@ -13,30 +13,22 @@ from __future__ import annotations
 import logging
 import re
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from datetime import datetime
-from typing import Any, Protocol
+from typing import Any
 
 from sondalog.client import Ala1Client, BusMaster
 from sondalog.client.download import ClockReading, Download
 from sondalog.client.records import UTC
 from sondalog.collect.config import SourceConfig
+from sondalog.collect.delivery import GSM_TYPES, Deliver
+from sondalog.collect.delivery import Source as Source
+from sondalog.collect.message_sources import MailboxSource, NetworkSource
 from sondalog.collect.model import Reading
 from sondalog.collect.readings import rows_to_readings
 from sondalog.collect.store_sqlite import SqliteStore, now_text
 
 log = logging.getLogger(__name__)
-
-#: ``deliver(source name, batch, cursor, **source state columns)``
-Deliver = Callable[..., Awaitable[None]]
-
-
-class Source(Protocol):
-    config: SourceConfig
-
-    async def poll(self, deliver: Deliver) -> str:
-        """One contact; returns a one-line summary for the log and the events table."""
-        ...
 
 
 class LoggerSource:
@@ -128,10 +120,6 @@ def idle_hint(rows: int, record_fill: str | None, clock: ClockReading) -> str | 
     return "; ".join(says) or None
 
 
-#: ``channel type`` (§6.5.6) -> the ``sources`` column its newest reading fills.
-GSM_TYPES = {12: "signal", 11: "credit"}
-
-
 async def _channel_types(client: Ala1Client, count: int) -> tuple[dict[int, int], dict[int, str]]:
     """``read channel type read channel format`` in one line (one round trip): channel
     number -> type, and -> value format (§6.5.7); {} for an answer that is not that."""
@@ -206,8 +194,6 @@ def make_source(config: SourceConfig, store: SqliteStore) -> Source:
     if config.kind == "bus":
         return BusSource(config, store)
     if config.kind in ("mailbox", "network"):
-        from sondalog.collect.message_sources import MailboxSource, NetworkSource
-
         return (
             MailboxSource(config, store)
             if config.kind == "mailbox"

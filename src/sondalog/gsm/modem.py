@@ -14,17 +14,18 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from sondalog.gsm import events as ev
 from sondalog.gsm import modem_basic, modem_calls, modem_sms, wip
+from sondalog.gsm.at_modem import ActiveCall, Handler, Settings, WipState
+from sondalog.gsm.at_modem import ModemConfig as ModemConfig
 from sondalog.gsm.atline import (
     EXEC,
     NO_FINAL,
     READ,
     SET,
     TEST,
-    AtCommand,
     AtSyntaxError,
     CmeError,
     CmsError,
@@ -33,8 +34,6 @@ from sondalog.gsm.atline import (
     format_result,
     parse_line,
 )
-from sondalog.gsm.modem_calls import ActiveCall
-from sondalog.gsm.sms import DEFAULT_SMSC
 from sondalog.gsm.smsstore import SmsStore
 
 log = logging.getLogger(__name__)
@@ -60,57 +59,11 @@ Tracer = Callable[[str, bytes, float], None]
 
 
 @dataclass(frozen=True, slots=True)
-class ModemConfig:
-    """What the SIM and the firmware say about themselves."""
-
-    manufacturer: str = "WAVECOM MODEM"
-    model: str = "MULTIBAND  900E  1800"
-    revision: str = "R74_00gg.FXT002 2120060 062411 17:52"
-    imei: str = "356938035643809"
-    imsi: str = "230011234567890"
-    smsc: str = DEFAULT_SMSC
-    store_size: int = 30
-    speed: int = 9600
-    #: The CSD rate ``CONNECT`` names.
-    data_rate: int = 9600
-    #: Offset of the SMS timestamps shown by ``AT+CMGR`` (quarter hours).
-    tz_quarters: int = 0
-    #: Location area code and cell id ``AT+CREG=2`` shows (hex).
-    lac: str = "0FA1"
-    cell: str = "2B3C"
-    #: The network's name and MCC+MNC (``AT+COPS?``).
-    operator: str = "SONDALOG GSM"
-    operator_code: str = "23001"
-
-
-@dataclass(frozen=True, slots=True)
 class Output:
     """What one call into the core produced."""
 
     data: bytes = b""
     effects: tuple[ev.Effect, ...] = ()
-
-
-@dataclass(slots=True)
-class Settings:
-    """Command settings ``AT&F`` restores."""
-
-    echo: bool = True
-    verbose: bool = True
-    quiet: bool = False
-    cmee: int = 0
-    text_mode: bool = False
-    charset: str = "GSM"
-    clip: bool = False
-    crc: bool = False
-    creg: int = 0
-    cgreg: int = 0
-    cops_format: int = 0
-    cusd: bool = False
-    auto_answer: int = 0
-    cnmi: tuple[int, ...] = (2, 1, 0, 0, 0)
-    csmp: tuple[int, ...] = (17, 167, 0, 0)
-    extra: dict[str, str] = field(default_factory=dict)
 
 
 class Modem:
@@ -130,7 +83,7 @@ class Modem:
         self.mode = COMMAND
         self.call: ActiveCall | None = None
         self.mr = 0
-        self.wip = wip.WipState()
+        self.wip = WipState()
         self.data_target: int | None = None  # None: the call; else a WIPsoft socket handle
         self.sms_destination = ""
         self.sms_length = 0
@@ -145,7 +98,7 @@ class Modem:
         self._chunk = bytearray()  # data-mode bytes of this receive() for the far end
         self._escape_at: float | None = None
         self._busy = False  # a command line runs or awaits its final result
-        self.handlers: dict[str, Callable[[Modem, AtCommand, float], list[str]]] = {}
+        self.handlers: dict[str, Handler] = {}
         for module in (modem_basic, modem_calls, modem_sms, wip):
             self.handlers.update(module.HANDLERS)
 

@@ -9,10 +9,17 @@ line then ends ``OK``) or raises :class:`~sondalog.gsm.atline.CmeError`,
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING
-
 from sondalog.gsm import events as ev
+from sondalog.gsm import modem_calls, wip
+from sondalog.gsm.at_modem import (
+    NO_NETWORK,
+    NOT_ALLOWED,
+    AtModem,
+    Handler,
+    Settings,
+    handler_into,
+    setting_value,
+)
 from sondalog.gsm.atline import (
     EXEC,
     NO_FINAL,
@@ -26,86 +33,49 @@ from sondalog.gsm.atline import (
 )
 from sondalog.protocol import gsm7
 
-if TYPE_CHECKING:
-    from sondalog.gsm.modem import Modem
-
-Handler = Callable[["Modem", AtCommand, float], list[str]]
 HANDLERS: dict[str, Handler] = {}
 
-#: CME error codes (27.007 §9.2).
-NOT_ALLOWED = 3
-NOT_SUPPORTED = 4
-NO_NETWORK = 30
-
 _SPEEDS = (0, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)
-
-
-def handler_into(table: dict[str, Handler]) -> Callable[..., Callable[[Handler], Handler]]:
-    """A decorator registering a handler under one or more command names in ``table``."""
-
-    def handler(*names: str) -> Callable[[Handler], Handler]:
-        def register(fn: Handler) -> Handler:
-            for name in names:
-                table[name] = fn
-            return fn
-
-        return register
-
-    return handler
 
 
 handler = handler_into(HANDLERS)
 
 
-def number_type(number: str) -> int:
-    """Type of address: 145 international (``+``), 129 otherwise."""
-    return 145 if number.startswith("+") else 129
-
-
-def _flag(modem: Modem, cmd: AtCommand, allowed: tuple[int, ...] = (0, 1)) -> int:
+def _flag(modem: AtModem, cmd: AtCommand, allowed: tuple[int, ...] = (0, 1)) -> int:
     value = int(cmd.args) if cmd.args else 0
     if value not in allowed:
         raise AtSyntaxError(f"{cmd.name}{value}")
     return value
 
 
-def _setting(cmd: AtCommand, allowed: tuple[int, ...]) -> int:
-    values = cmd.ints(1)
-    if values[0] is None or values[0] not in allowed:
-        raise CmeError(NOT_ALLOWED)
-    return values[0]
-
-
 # -- V.250 -------------------------------------------------------------------------------
 @handler("E")
-def _echo(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _echo(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     m.settings.echo = bool(_flag(m, cmd))
     return []
 
 
 @handler("V")
-def _verbose(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _verbose(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     m.settings.verbose = bool(_flag(m, cmd))
     return []
 
 
 @handler("Q")
-def _quiet(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _quiet(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     m.settings.quiet = bool(_flag(m, cmd))
     return []
 
 
 @handler("Z", "&F")
-def _reset(m: Modem, cmd: AtCommand, now: float) -> list[str]:
-    from sondalog.gsm.modem import Settings
-
+def _reset(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     m.settings = Settings()
     return []
 
 
 @handler("&W", "&C", "&D", "&S", "&K", "X", "L", "M", "+IFC", "+ICF", "+WIND", "+CBST", "+CR")
 @handler("+CRLP", "+CGDCONT", "+CMER", "+WOPEN", "+CPHS")
-def _accepted(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _accepted(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     """Settings the simulation takes and ignores; their reads show what was set."""
     if cmd.kind == READ:
         value = m.settings.extra.get(cmd.name, "0")
@@ -116,7 +86,7 @@ def _accepted(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("S0")
-def _s0(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _s0(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"{m.settings.auto_answer:03d}"]
     m.settings.auto_answer = int(cmd.args or "0")
@@ -124,7 +94,7 @@ def _s0(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("I", "+CGMM", "+GMM", "+CGMI", "+GMI", "+CGMR", "+GMR", "+CGSN", "+GSN", "+CIMI")
-def _identify(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _identify(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return []
     c = m.config
@@ -139,27 +109,27 @@ def _identify(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("+CMEE")
-def _cmee(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cmee(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CMEE: {m.settings.cmee}"]
     if cmd.kind == TEST:
         return ["+CMEE: (0,1)"]
-    m.settings.cmee = _setting(cmd, (0, 1)) if cmd.args else 0
+    m.settings.cmee = setting_value(cmd, (0, 1)) if cmd.args else 0
     return []
 
 
 @handler("+IPR")
-def _ipr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _ipr(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+IPR: {m.speed}"]
     if cmd.kind == TEST:
         return ["+IPR: (0,300,600,1200,2400,4800,9600,19200,38400,57600,115200)"]
-    m.speed = _setting(cmd, _SPEEDS) or m.speed
+    m.speed = setting_value(cmd, _SPEEDS) or m.speed
     return []
 
 
 @handler("+CPIN")
-def _cpin(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cpin(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     """``+CPIN: READY`` without ``OK``: a Wavecom ends ``AT+CPIN?`` there (Multi-Tech's
     WIPsoft guide, "AT Command Syntax"; gammu expects it so)."""
     if cmd.kind == READ:
@@ -168,7 +138,7 @@ def _cpin(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("+CSCS")
-def _cscs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cscs(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f'+CSCS: "{m.settings.charset}"']
     if cmd.kind == TEST:
@@ -182,27 +152,23 @@ def _cscs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 # -- network: radio, registration, signal ------------------------------------------------
 @handler("+CFUN")
-def _cfun(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cfun(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CFUN: {int(m.radio)}"]
     if cmd.kind == TEST:
         return ["+CFUN: (0,1),(0)"]
-    from sondalog.gsm import modem_calls
-
-    on = bool(_setting(cmd, (0, 1)))
+    on = bool(setting_value(cmd, (0, 1)))
     if on != m.radio:
         m.radio = on
         m.effect(ev.Radio(on))
         if not on:
-            from sondalog.gsm import wip
-
             wip.drop_all(m)
             _set_registered(m, False)
             modem_calls.end_call(m, "NO CARRIER")
     return []
 
 
-def _creg_stat(m: Modem, n: int | None = None) -> str:
+def _creg_stat(m: AtModem, n: int | None = None) -> str:
     """``<stat>``, and with ``AT+CREG=2`` the cell's ``"<lac>","<ci>"`` when registered."""
     stat = 1 if m.registered else (2 if m.radio else 0)
     if (m.settings.creg if n is None else n) == 2 and m.registered:
@@ -211,18 +177,18 @@ def _creg_stat(m: Modem, n: int | None = None) -> str:
 
 
 @handler("+CGREG")
-def _cgreg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cgreg(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     """GPRS registration (27.007 §10.1.20): GPRS service follows GSM registration."""
     if cmd.kind == READ:
         return [f"+CGREG: {m.settings.cgreg},{_creg_stat(m, m.settings.cgreg)}"]
     if cmd.kind == TEST:
         return ["+CGREG: (0-2)"]
-    m.settings.cgreg = _setting(cmd, (0, 1, 2))
+    m.settings.cgreg = setting_value(cmd, (0, 1, 2))
     return []
 
 
 @handler("+CGATT")
-def _cgatt(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cgatt(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     """GPRS attach state: attached while the WIPsoft GPRS bearer is started."""
     if cmd.kind == READ:
         return [f"+CGATT: {int(m.wip.started)}"]
@@ -232,7 +198,7 @@ def _cgatt(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("+COPS")
-def _cops(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cops(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     """Operator (27.007 §7.3): automatic selection; ``AT+COPS=3,<format>`` picks the name
     format shown (0 long name, 2 numeric)."""
     if cmd.kind == READ:
@@ -253,24 +219,24 @@ def _cops(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("+CREG")
-def _creg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _creg(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CREG: {m.settings.creg},{_creg_stat(m)}"]
     if cmd.kind == TEST:
         return ["+CREG: (0-2)"]
-    m.settings.creg = _setting(cmd, (0, 1, 2))
+    m.settings.creg = setting_value(cmd, (0, 1, 2))
     return []
 
 
 @handler("+CSQ")
-def _csq(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _csq(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return ["+CSQ: (0-31,99),(99)"]
     rssi = m.rssi if m.registered else 99
     return [f"+CSQ: {rssi},{0 if rssi != 99 else 99}"]
 
 
-def _set_registered(m: Modem, registered: bool) -> None:
+def _set_registered(m: AtModem, registered: bool) -> None:
     if registered == m.registered:
         return
     m.registered = registered
@@ -280,7 +246,7 @@ def _set_registered(m: Modem, registered: bool) -> None:
 
 # -- USSD --------------------------------------------------------------------------------
 @handler("+CUSD")
-def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _cusd(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CUSD: {int(m.settings.cusd)}"]
     if cmd.kind == TEST:
@@ -303,14 +269,10 @@ def _cusd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 # -- events from the network -------------------------------------------------------------
-def network_event(m: Modem, event: ev.Event, now: float) -> None:
-    from sondalog.gsm import modem_calls
-
+def network_event(m: AtModem, event: ev.Event, now: float) -> None:
     if isinstance(event, ev.Registration):
         _set_registered(m, event.registered and m.radio)
         if not m.registered:
-            from sondalog.gsm import wip
-
             wip.drop_all(m)
             modem_calls.end_call(m, "NO CARRIER")
     elif isinstance(event, ev.Signal):

@@ -5,15 +5,16 @@ auto-answer ``ATS0``, ``NO CARRIER`` (gsm.md §2, manual §3.4.6.3, §6.10.2.3-4
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
 from sondalog.gsm import events as ev
+from sondalog.gsm.at_modem import (
+    ActiveCall,
+    AtModem,
+    Handler,
+    handler_into,
+    number_type,
+    setting_value,
+)
 from sondalog.gsm.atline import READ, TEST, AtCommand, Finish
-from sondalog.gsm.modem_basic import Handler, _setting, handler_into, number_type
-
-if TYPE_CHECKING:
-    from sondalog.gsm.modem import Modem
 
 HANDLERS: dict[str, Handler] = {}
 handler = handler_into(HANDLERS)
@@ -22,40 +23,28 @@ handler = handler_into(HANDLERS)
 RING_PERIOD = 5.0
 
 
-@dataclass(slots=True)
-class ActiveCall:
-    """The modem's one call: ringing (incoming, not active), dialling, or connected."""
-
-    kind: str
-    caller: str | None
-    incoming: bool
-    active: bool = False
-    rings: int = 0
-    next_ring: float | None = None
-
-
 @handler("+CLIP")
-def _clip(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _clip(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CLIP: {int(m.settings.clip)},1"]
     if cmd.kind == TEST:
         return ["+CLIP: (0,1)"]
-    m.settings.clip = bool(_setting(cmd, (0, 1)))
+    m.settings.clip = bool(setting_value(cmd, (0, 1)))
     return []
 
 
 @handler("+CRC")
-def _crc(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _crc(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CRC: {int(m.settings.crc)}"]
     if cmd.kind == TEST:
         return ["+CRC: (0,1)"]
-    m.settings.crc = bool(_setting(cmd, (0, 1)))
+    m.settings.crc = bool(setting_value(cmd, (0, 1)))
     return []
 
 
 @handler("A")
-def _answer(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _answer(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     call = m.call
     if call is None or not call.incoming or call.active:
         raise Finish("NO CARRIER")
@@ -63,7 +52,7 @@ def _answer(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     raise Finish(None)
 
 
-def answer(m: Modem, now: float) -> None:
+def answer(m: AtModem, now: float) -> None:
     """Take the ringing call: ``OK`` for voice, ``CONNECT <rate>`` and data mode for data."""
     call = m.call
     assert call is not None
@@ -73,7 +62,7 @@ def answer(m: Modem, now: float) -> None:
     _connected(m, call, now)
 
 
-def _connected(m: Modem, call: ActiveCall, now: float) -> None:
+def _connected(m: AtModem, call: ActiveCall, now: float) -> None:
     """The call is up: ``CONNECT <rate>`` and data mode for data, ``OK`` for voice."""
     if call.kind == ev.DATA:
         m.final(f"CONNECT {m.config.data_rate}")
@@ -83,7 +72,7 @@ def _connected(m: Modem, call: ActiveCall, now: float) -> None:
 
 
 @handler("D")
-def _dial(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _dial(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     text = cmd.args.strip()
     voice = text.endswith(";")
     number = "".join(ch for ch in text.rstrip(";") if ch.isdigit() or ch in "+*#")
@@ -100,7 +89,7 @@ def _dial(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("H", "+CHUP")
-def _hang_up(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _hang_up(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return []
     if m.call is not None:
@@ -111,14 +100,14 @@ def _hang_up(m: Modem, cmd: AtCommand, now: float) -> list[str]:
 
 
 @handler("O")
-def _online(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def _online(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if m.call is None or not m.call.active or m.call.kind != ev.DATA:
         raise Finish("NO CARRIER")
     _connected(m, m.call, now)
     raise Finish(None)
 
 
-def end_call(m: Modem, result: str | None) -> None:
+def end_call(m: AtModem, result: str | None) -> None:
     call = m.call
     if call is None:
         return
@@ -130,7 +119,7 @@ def end_call(m: Modem, result: str | None) -> None:
         m.urc(result)
 
 
-def ring_timer(m: Modem, now: float) -> None:
+def ring_timer(m: AtModem, now: float) -> None:
     call = m.call
     if call is None or call.next_ring is None or now < call.next_ring:
         return
@@ -140,7 +129,7 @@ def ring_timer(m: Modem, now: float) -> None:
     _ring(m, now)
 
 
-def _ring(m: Modem, now: float) -> None:
+def _ring(m: AtModem, now: float) -> None:
     call = m.call
     assert call is not None
     if m.settings.crc:
@@ -154,7 +143,7 @@ def _ring(m: Modem, now: float) -> None:
     call.next_ring = now + RING_PERIOD
 
 
-def call_event(m: Modem, event: ev.Event, now: float) -> None:
+def call_event(m: AtModem, event: ev.Event, now: float) -> None:
     """Call events from the network."""
     if isinstance(event, ev.IncomingCall):
         if m.call is not None or not m.registered:

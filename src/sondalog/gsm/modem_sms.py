@@ -8,17 +8,12 @@ ESC cancels); a delivered SMS is stored and announced ``+CMTI: "SM",<index>``; `
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from sondalog.gsm import events as ev
 from sondalog.gsm import pdu
+from sondalog.gsm.at_modem import AtModem, Handler, number_type
 from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError, CmsError, Finish
-from sondalog.gsm.modem_basic import Handler, number_type
 from sondalog.gsm.smsstore import ALL, STAT_NUMBER, STAT_TEXT, STO_SENT, STO_UNSENT, StoredSms
 from sondalog.protocol import gsm7
-
-if TYPE_CHECKING:
-    from sondalog.gsm.modem import Modem
 
 HANDLERS: dict[str, Handler] = {}
 
@@ -31,7 +26,7 @@ MEMORY_FULL = 322
 NO_NETWORK = 331
 
 
-def cmgf(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cmgf(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f"+CMGF: {int(m.settings.text_mode)}"]
     if cmd.kind == TEST:
@@ -43,7 +38,7 @@ def cmgf(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return []
 
 
-def csca(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def csca(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return [f'+CSCA: "{m.smsc}",{number_type(m.smsc)}']
     if cmd.kind == TEST:
@@ -55,7 +50,7 @@ def csca(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return []
 
 
-def csmp(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def csmp(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return ["+CSMP: " + ",".join(str(v) for v in m.settings.csmp)]
     if cmd.kind == TEST:
@@ -65,7 +60,7 @@ def csmp(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return []
 
 
-def cnmi(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cnmi(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == READ:
         return ["+CNMI: " + ",".join(str(v) for v in m.settings.cnmi)]
     if cmd.kind == TEST:
@@ -75,7 +70,7 @@ def cnmi(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return []
 
 
-def cpms(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cpms(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     used, total = len(m.store), m.store.capacity
     if cmd.kind == READ:
         return [f'+CPMS: "SM",{used},{total},"SM",{used},{total},"SM",{used},{total}']
@@ -87,7 +82,7 @@ def cpms(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return [f"+CPMS: {used},{total},{used},{total},{used},{total}"]
 
 
-def cmgs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cmgs(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return []
     params = cmd.params()
@@ -103,7 +98,7 @@ def cmgs(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     raise Finish(None)
 
 
-def submit(m: Modem, body: bytes, now: float) -> None:
+def submit(m: AtModem, body: bytes, now: float) -> None:
     """Ctrl-Z ended the SMS text or PDU: send it, answer ``+CMGS: <mr>`` or the error."""
     try:
         sms = _text_sms(m, body) if m.settings.text_mode else _pdu_sms(m, body)
@@ -118,7 +113,7 @@ def submit(m: Modem, body: bytes, now: float) -> None:
     m.final("OK")
 
 
-def _text_sms(m: Modem, body: bytes) -> ev.SendSms:
+def _text_sms(m: AtModem, body: bytes) -> ev.SendSms:
     if m.settings.charset == "UCS2":
         try:
             text = gsm7.decode_ucs2(bytes.fromhex(body.decode("ascii")))
@@ -141,7 +136,7 @@ def _text_sms(m: Modem, body: bytes) -> ev.SendSms:
     return ev.SendSms(m.sms_destination, text, 0, alphabet)
 
 
-def _pdu_sms(m: Modem, body: bytes) -> ev.SendSms:
+def _pdu_sms(m: AtModem, body: bytes) -> ev.SendSms:
     hex_text = "".join(chr(b) for b in body if chr(b) not in " \r\n")
     try:
         raw = pdu.from_hex(hex_text)
@@ -155,7 +150,7 @@ def _pdu_sms(m: Modem, body: bytes) -> ev.SendSms:
     return ev.SendSms(sms.destination, sms.text, 0, sms.alphabet, sms.concat)
 
 
-def delivered(m: Modem, event: ev.SmsDelivered) -> None:
+def delivered(m: AtModem, event: ev.SmsDelivered) -> None:
     """The network delivers an SMS: store it and announce it, or refuse it (store full)."""
     index = m.store.add(
         StoredSms(event.sender, event.text, event.timestamp, event.alphabet, event.concat)
@@ -168,7 +163,7 @@ def delivered(m: Modem, event: ev.SmsDelivered) -> None:
         m.urc(f'+CMTI: "SM",{index}')
 
 
-def _index(m: Modem, cmd: AtCommand) -> int:
+def _index(m: AtModem, cmd: AtCommand) -> int:
     values = cmd.ints(1, 2)
     index = values[0]
     if index is None or not m.store.in_range(index):
@@ -176,7 +171,7 @@ def _index(m: Modem, cmd: AtCommand) -> int:
     return index
 
 
-def cmgr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cmgr(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return []
     index = _index(m, cmd)
@@ -188,7 +183,7 @@ def cmgr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return lines
 
 
-def cmgl(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cmgl(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     text_mode = m.settings.text_mode
     if cmd.kind == TEST:
         return (
@@ -211,7 +206,7 @@ def cmgl(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return lines
 
 
-def _show(m: Modem, sms: StoredSms, index: int | None) -> list[str]:
+def _show(m: AtModem, sms: StoredSms, index: int | None) -> list[str]:
     """``+CMGR``/``+CMGL`` header line and body for one SMS."""
     prefix = "+CMGR: " if index is None else f"+CMGL: {index},"
     if m.settings.text_mode:
@@ -230,7 +225,7 @@ def _show(m: Modem, sms: StoredSms, index: int | None) -> list[str]:
     return [f"{prefix}{sms.status},,{pdu.tpdu_length(raw)}", raw.hex().upper()]
 
 
-def _text_body(m: Modem, text: str) -> str:
+def _text_body(m: AtModem, text: str) -> str:
     if m.settings.charset == "UCS2":
         return gsm7.encode_ucs2(text).hex().upper()
     return text.encode("latin-1", "replace").decode("latin-1")
@@ -242,7 +237,7 @@ def _scts_text(posix: int, tz_quarters: int) -> str:
     return f"{y % 100:02d}/{mo:02d}/{d:02d},{h:02d}:{mi:02d}:{s:02d}{tz_quarters:+03d}"
 
 
-def cmgd(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def cmgd(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind == TEST:
         return [f"+CMGD: (1-{m.store.capacity}),(0-4)"]
     values = cmd.ints(1, 2)

@@ -24,15 +24,9 @@ Syntax and answers follow Sierra Wireless/Wavecom "WIP AT Commands User Guide, W
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
-
 from sondalog.gsm import events as ev
+from sondalog.gsm.at_modem import AtModem, Handler, Server, Socket, WipState
 from sondalog.gsm.atline import READ, TEST, AtCommand, AtSyntaxError, CmeError, Finish
-from sondalog.gsm.modem_basic import Handler
-
-if TYPE_CHECKING:
-    from sondalog.gsm.modem import Modem
 
 HANDLERS: dict[str, Handler] = {}
 
@@ -57,37 +51,6 @@ HOST_UNREACHABLE = 842
 STACK_STARTED = 844
 
 
-@dataclass(slots=True)
-class Socket:
-    handle: int
-    index: int
-    ready: bool = False
-    peer_closed: bool = False
-    held: bytearray = field(default_factory=bytearray)
-
-
-@dataclass(slots=True)
-class Server:
-    port: int
-    first: int
-    last: int
-
-
-@dataclass(slots=True)
-class WipState:
-    stack: bool = False
-    bearer_open: bool = False
-    started: bool = False
-    options: dict[int, str] = field(default_factory=dict)
-    sockets: dict[int, Socket] = field(default_factory=dict)  # by index
-    servers: dict[int, Server] = field(default_factory=dict)  # by server index
-    next_handle: int = 1
-    shutdown_pending: set[int] = field(default_factory=set)
-
-    def by_handle(self, handle: int) -> Socket | None:
-        return next((s for s in self.sockets.values() if s.handle == handle), None)
-
-
 def _ints(cmd: AtCommand, minimum: int) -> list[int]:
     values = cmd.ints()
     if len(values) < minimum or any(v is None for v in values[:minimum]):
@@ -95,7 +58,7 @@ def _ints(cmd: AtCommand, minimum: int) -> list[int]:
     return [v if v is not None else 0 for v in values]
 
 
-def wipcfg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def wipcfg(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind in (READ, TEST):
         return []
     (mode,) = _ints(cmd, 1)[:1]
@@ -112,7 +75,7 @@ def wipcfg(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     return []
 
 
-def wipbr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def wipbr(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     w = m.wip
     if cmd.kind == READ:
         return [f"+WIPBR: {GPRS_BEARER},{int(w.started)}"] if w.bearer_open else []
@@ -160,7 +123,7 @@ def wipbr(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     raise CmeError(BAD_OPTION)
 
 
-def _stop_bearer(m: Modem) -> None:
+def _stop_bearer(m: AtModem) -> None:
     w = m.wip
     for socket in list(w.sockets.values()):
         m.effect(ev.TcpClose(socket.handle))
@@ -173,7 +136,7 @@ def _stop_bearer(m: Modem) -> None:
         m.effect(ev.Detach())
 
 
-def drop_all(m: Modem) -> None:
+def drop_all(m: AtModem) -> None:
     """Radio off, coverage lost, stack stopped: every socket and the bearer go down."""
     if m.mode == "data" and m.data_target is not None:
         m.leave_data_mode()
@@ -181,7 +144,7 @@ def drop_all(m: Modem) -> None:
     _stop_bearer(m)
 
 
-def wipcreate(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def wipcreate(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     w = m.wip
     if cmd.kind in (READ, TEST):
         return []
@@ -228,7 +191,7 @@ def _reserved(w: WipState, index: int) -> bool:
     return any(s.first <= index <= s.last for s in w.servers.values())
 
 
-def wipdata(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def wipdata(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     if cmd.kind in (READ, TEST):
         return []
     values = _ints(cmd, 3)
@@ -249,7 +212,7 @@ def wipdata(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     raise Finish(None)
 
 
-def wipclose(m: Modem, cmd: AtCommand, now: float) -> list[str]:
+def wipclose(m: AtModem, cmd: AtCommand, now: float) -> list[str]:
     w = m.wip
     if cmd.kind in (READ, TEST):
         return []
@@ -270,14 +233,14 @@ def wipclose(m: Modem, cmd: AtCommand, now: float) -> list[str]:
     raise CmeError(BAD_PROTOCOL)
 
 
-def send(m: Modem, handle: int, data: bytes) -> None:
+def send(m: AtModem, handle: int, data: bytes) -> None:
     """Bytes from the DTE in continuous mode on socket ``handle``."""
     socket = m.wip.by_handle(handle)
     if socket is not None and socket.ready and not socket.peer_closed:
         m.effect(ev.TcpSend(data, handle))
 
 
-def network_event(m: Modem, event: ev.Event, now: float) -> None:
+def network_event(m: AtModem, event: ev.Event, now: float) -> None:
     w = m.wip
     if isinstance(event, ev.TcpIncoming):
         _accept(m, event)
@@ -311,14 +274,14 @@ def network_event(m: Modem, event: ev.Event, now: float) -> None:
             m.urc(f"+WIPPEERCLOSE: {TCP_CLIENT},{socket.index}")
 
 
-def after_escape(m: Modem) -> None:
+def after_escape(m: AtModem) -> None:
     """Back in command mode after ``+++``: report peers that closed meanwhile."""
     for index in sorted(m.wip.shutdown_pending):
         m.urc(f"+WIPPEERCLOSE: {TCP_CLIENT},{index}")
     m.wip.shutdown_pending.clear()
 
 
-def _accept(m: Modem, event: ev.TcpIncoming) -> None:
+def _accept(m: AtModem, event: ev.TcpIncoming) -> None:
     w = m.wip
     for server_index, server in sorted(w.servers.items()):
         if server.port != event.port:

@@ -23,7 +23,7 @@ import logging
 from collections import deque
 from collections.abc import Generator
 
-from sondalog.ala1.modem import jobs, mailjobs
+from sondalog.ala1.modem import jobs, mailjobs, steps
 from sondalog.ala1.modem.atio import (
     MAX_URCS,
     MODEM_OUTPUT,
@@ -49,8 +49,6 @@ from sondalog.ala1.outbox import Outgoing
 
 log = logging.getLogger(__name__)
 
-#: No answer to ``AT`` within this many seconds: no modem (§6.11.5.2.1).
-PROBE_TIMEOUT = 1.0
 #: How often an absent modem is looked for again.
 PROBE_INTERVAL = 30.0
 #: The line must have been quiet this long before a probe (a person may be typing).
@@ -407,7 +405,7 @@ class ModemDriver:
         if device != "WAVECOM42" and self.gprs:
             return "idle", mailjobs.gprs_down(self)
         if device == "WAVECOM40" and self.radio:
-            return "idle", jobs.radio(self, False)
+            return "idle", steps.radio(self, False)
         return None
 
     def network_back(self) -> None:

@@ -1,14 +1,15 @@
 """What the driver does, one job at a time, as AT conversations (gsm.md §2-§6).
 
-Each job is a generator of :mod:`~sondalog.ala1.modem.atio` requests. ``d`` is the
-:class:`~sondalog.ala1.modem.driver.ModemDriver`; ``d.now`` is the time of the resumption.
+Each job is a generator of :mod:`~sondalog.ala1.modem.atio` requests. ``d`` is the driver
+(:class:`~sondalog.ala1.modem.host.Driver`); ``d.now`` is the time of the resumption. The
+steps jobs share with the mail jobs (radio, registration, running a command) are in
+:mod:`~sondalog.ala1.modem.steps`.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Generator
-from typing import TYPE_CHECKING
 
 from sondalog.ala1.modem import mailjobs
 from sondalog.ala1.modem.atio import (
@@ -29,13 +30,12 @@ from sondalog.ala1.modem.atio import (
     reply_backoff,
 )
 from sondalog.ala1.modem.credit import credit_from_answer, parse_credit_code, rssi_from_csq
+from sondalog.ala1.modem.host import Driver
 from sondalog.ala1.modem.session import data_session, leave_data_mode
+from sondalog.ala1.modem.steps import execute, radio, registered
 from sondalog.ala1.modem.text import gsm7_text, split_sms
 from sondalog.ala1.outbox import Outgoing
 from sondalog.protocol.mail_command import BoundedCommand, extract_command
-
-if TYPE_CHECKING:
-    from sondalog.ala1.modem.driver import ModemDriver
 
 log = logging.getLogger(__name__)
 
@@ -46,17 +46,14 @@ RESYNC_QUIET = 2.0
 #: that stalled answers them all when it comes back; after this they count as lost).
 LATE_ANSWERS = 90.0
 ESC = b"\x1b"
-#: How long the driver waits for registration before a sending fails (no coverage).
-REGISTRATION_TIMEOUT = 60.0
-REGISTRATION_POLL = 2.0
+#: No answer to ``AT`` within this many seconds: no modem (§6.11.5.2.1).
+PROBE_TIMEOUT = 1.0
 SETUP = ("ATE0", "AT+CMEE=1", "AT+CMGF=1", "AT+CLIP=1", "AT+CRC=1", "AT+CNMI=2,1,0,0,0",
          "AT+CREG=1")  # fmt: skip
 
 
-def probe(d: ModemDriver) -> Job:
+def probe(d: Driver) -> Job:
     """§6.11.5.2.1: is a modem there? ``AT`` answered within 1 s."""
-    from sondalog.ala1.modem.driver import PROBE_TIMEOUT
-
     if d.reader.raw and not (yield from leave_data_mode(d)):  # gsm.md §7: no AT in it
         d.found(False)
         d.keep_looking()
@@ -86,7 +83,7 @@ def probe(d: ModemDriver) -> Job:
         d.keep_looking()
 
 
-def hang_up(d: ModemDriver) -> Job:
+def hang_up(d: Driver) -> Job:
     """The modem is in data mode with no job of the driver's (a ``CONNECT`` that came late):
     leave it and hang up; the set-up runs again after (gsm.md §7)."""
     log.warning("modem in data mode outside a session: leaving it")
@@ -94,7 +91,7 @@ def hang_up(d: ModemDriver) -> Job:
         yield from at("ATH")
 
 
-def init(d: ModemDriver, device: str) -> Job:
+def init(d: Driver, device: str) -> Job:
     """Set the modem up (echo off, errors, text-mode SMS, caller id...), then its idle mode."""
     for line in SETUP:
         if (yield from at(line)).final == "":
@@ -114,18 +111,7 @@ def init(d: ModemDriver, device: str) -> Job:
     d.drop_urcs("RING")  # rang before AT+CRC=1: a ringing call rings again, with its kind
 
 
-def radio(d: ModemDriver, on: bool) -> Job:
-    if d.radio != on:
-        yield from at(f"AT+CFUN={1 if on else 0}")
-        d.radio = on
-        if not on:
-            d.registered_since = None
-            d.gprs = d.listening = False
-        else:
-            d.listing_due = True  # SMS the centre held while the radio was off
-
-
-def list_store(d: ModemDriver) -> Job:
+def list_store(d: Driver) -> Job:
     """gsm.md §7: every SMS in the store, oldest first, read, deleted and handled as a
     ``+CMTI`` would have it (``+CMTI`` is only a hint)."""
     reply = yield from at('AT+CMGL="ALL"', 30.0)
@@ -144,30 +130,7 @@ def list_store(d: ModemDriver) -> Job:
         yield from read_sms(d, index)
 
 
-def registered(d: ModemDriver) -> Generator[Request, object, bool]:
-    """Radio on, registered, and ``com network delay`` passed since registration (§6.11.6.5)."""
-    yield from radio(d, True)
-    end = d.now + REGISTRATION_TIMEOUT
-    while True:
-        reply = yield from at("AT+CREG?")
-        line = reply.info("+CREG:") or ""
-        stat = line.split(",")[1].strip() if line.count(",") >= 1 else ""
-        if stat in ("1", "5"):
-            if d.registered_since is None:
-                d.registered_since = d.now
-                d.network_back()
-            delay = float(d.host.setting("com network delay") or 0)
-            wait = d.registered_since + delay - d.now
-            if wait > 0:
-                yield Sleep(wait)
-            return True
-        d.registered_since = None
-        if reply.final == "" or d.now >= end:
-            return False
-        yield Sleep(REGISTRATION_POLL)
-
-
-def ready(d: ModemDriver) -> Generator[Request, object, bool]:
+def ready(d: Driver) -> Generator[Request, object, bool]:
     """:func:`registered`, then the :func:`readings` taken: whether the modem can send."""
     ok = yield from registered(d)
     if ok:
@@ -175,7 +138,7 @@ def ready(d: ModemDriver) -> Generator[Request, object, bool]:
     return ok
 
 
-def readings(d: ModemDriver) -> Generator[Request, object, None]:
+def readings(d: Driver) -> Generator[Request, object, None]:
     """gsm.md §6: signal by ``AT+CSQ``, credit by USSD when ``com status sim credit code``."""
     reply = yield from at("AT+CSQ")
     line = reply.info("+CSQ:")
@@ -194,7 +157,7 @@ def readings(d: ModemDriver) -> Generator[Request, object, None]:
 
 
 def send_sms(
-    d: ModemDriver, number: str, text: str, reply: PendingReply | None = None
+    d: Driver, number: str, text: str, reply: PendingReply | None = None
 ) -> Generator[Request, object, bool]:
     """gsm.md §4: several SMS of at most 160 GSM-7 characters, in order; others become ``?``.
     With ``reply``: the parts it already sent are skipped, the ones sent now counted."""
@@ -217,7 +180,7 @@ def valid_number(number: str) -> bool:
     return bool(number) and not any(c in number for c in '"\r\n')
 
 
-def deliver(d: ModemDriver, item: Outgoing) -> Job:
+def deliver(d: Driver, item: Outgoing) -> Job:
     """One Outbox sending: every ``sms`` and ``email`` destination; then ``done``."""
     ok = yield from ready(d)
     subject = item.subject if item.subject is not None else d.host.setting("email send subject")
@@ -231,19 +194,7 @@ def deliver(d: ModemDriver, item: Outgoing) -> Job:
     d.host.outbox.done(item.ident, ok)
 
 
-def execute(d: ModemDriver, text: str) -> Generator[Request, object, str]:
-    """The command's answer exactly as a line carries it; ``pause``/sensor waits are slept."""
-    paused = False
-    for _ in range(1000):
-        answer = d.host.execute(text, d.now, paused)
-        if isinstance(answer, bytes):
-            return answer.decode("latin-1")
-        yield Sleep(answer)
-        paused = True
-    return ""
-
-
-def read_sms(d: ModemDriver, index: int) -> Job:
+def read_sms(d: Driver, index: int) -> Job:
     """§3.4.6.1: read, delete, run the bounded command, answer by SMS or e-mail."""
     reply = yield from at(f"AT+CMGR={index}")
     header = reply.info("+CMGR:")
@@ -280,7 +231,7 @@ def read_sms(d: ModemDriver, index: int) -> Job:
     yield from send_reply(d, PendingReply("sms", sender, answer, d.now))
 
 
-def send_reply(d: ModemDriver, reply: PendingReply) -> Job:
+def send_reply(d: Driver, reply: PendingReply) -> Job:
     """One try at a reply; a failed one is kept for later, within bounds (gsm.md §7)."""
     reply.tries += 1
     sent = False
@@ -299,7 +250,7 @@ def send_reply(d: ModemDriver, reply: PendingReply) -> Job:
     d.replies.append(reply)
 
 
-def call(d: ModemDriver, kind: str, number: str) -> Job:
+def call(d: Driver, kind: str, number: str) -> Job:
     """§6.10.2.3-4, §3.4.6.3: ring triggers, or a command session over a data call."""
     message = d.host.ring_message(kind, number) if number else None
     if kind == "voice" or message is not None:
@@ -313,7 +264,7 @@ def call(d: ModemDriver, kind: str, number: str) -> Job:
     yield from readings(d)
 
 
-def socket_session(d: ModemDriver, index: int) -> Job:
+def socket_session(d: Driver, index: int) -> Job:
     """§3.4.6.4: a connection to port 10001 (``wavecom42``) is a command session."""
     reply = as_reply((yield At(f"AT+WIPDATA=2,{index},1", finals=CONNECT_FINALS)))
     if reply.final.startswith("CONNECT"):

@@ -11,22 +11,41 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from sondalog.ala1.headers import MAX_LINE
+from sondalog.ala1.interpreter import Interpreter
+from sondalog.ala1.model import Identity
 from sondalog.ala1.modem.credit import ModemHardware
 from sondalog.ala1.modem.driver import ModemDriver
 from sondalog.ala1.modem.text import normalize_number
 from sondalog.ala1.outbox import Outbox
-from sondalog.ala1.state import NeedWait
-
-if TYPE_CHECKING:
-    from sondalog.ala1.engine import Engine
+from sondalog.ala1.state import ModuleState, NeedWait
 
 log = logging.getLogger(__name__)
 
 
-def execute(engine: Engine, text: str, now: float, paused: bool = False) -> bytes | float:
+class LinkEngine(Protocol):
+    """What the link needs of its engine (:class:`sondalog.ala1.engine.Engine`, which
+    passes itself): line time, the module, its interpreter, and lines to open, feed, drain,
+    write and close."""
+
+    @property
+    def scale(self) -> float: ...
+    @property
+    def identity(self) -> Identity: ...
+    @property
+    def state(self) -> ModuleState: ...
+    @property
+    def interpreter(self) -> Interpreter: ...
+    def open_line(self, *, paced: bool = False) -> int: ...
+    def accept(self, line_id: int, data: bytes, now: float) -> None: ...
+    def take_line_output(self, line_id: int, now: float) -> bytes: ...
+    def write_line(self, line_id: int, data: bytes, now: float) -> None: ...
+    def close_line(self, line_id: int) -> None: ...
+
+
+def execute(engine: LinkEngine, text: str, now: float, paused: bool = False) -> bytes | float:
     """Run command line ``text`` as a line would (§3.4.6): its answer bytes, or the seconds
     to wait (``pause``, a sensor) before asking again with ``paused=True``."""
     engine.state.run_sampling(now)
@@ -49,7 +68,9 @@ class ModemLink:
     probe, the 2-minute idle hang-up, mail timeouts) are real seconds even at ``--speed``.
     The link converts: clock time / ``engine.scale`` going in, times ``scale`` coming out."""
 
-    def __init__(self, engine: Engine, line: int, now: float, outbox: Outbox | None = None) -> None:
+    def __init__(
+        self, engine: LinkEngine, line: int, now: float, outbox: Outbox | None = None
+    ) -> None:
         self.engine = engine
         self.scale = engine.scale
         self.line = line

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from collections.abc import Generator
 from datetime import UTC, datetime
-from typing import TYPE_CHECKING
 
 from sondalog.ala1.modem.atio import (
     CONNECT_FINALS,
@@ -25,6 +24,7 @@ from sondalog.ala1.modem.atio import (
     as_reply,
     at,
 )
+from sondalog.ala1.modem.host import Driver
 from sondalog.ala1.modem.session import (
     NO_CARRIER,
     SHUTDOWN,
@@ -32,13 +32,11 @@ from sondalog.ala1.modem.session import (
     back_in_command_mode,
     leave_data_mode,
 )
+from sondalog.ala1.modem.steps import execute, registered
 from sondalog.protocol.mail_address import MailAddressError, parse_pop3_server, parse_smtp_server
 from sondalog.protocol.mail_command import MailCommand, build_mail, parse_command_mail
 from sondalog.protocol.pop3_client import Pop3Check
 from sondalog.protocol.smtp_client import SmtpClient
-
-if TYPE_CHECKING:
-    from sondalog.ala1.modem.driver import ModemDriver
 
 SOCKET = 1
 #: WIPsoft TCP server on port 10001 (wavecom42); its connections get sockets 5..8.
@@ -51,10 +49,8 @@ MAIL_TIMEOUT = 60.0
 DEFAULT_FROM = "ala1@localhost"
 
 
-def gprs_up(d: ModemDriver) -> Generator[Request, object, bool]:
+def gprs_up(d: Driver) -> Generator[Request, object, bool]:
     """Attach to GPRS (and listen on port 10001 in ``wavecom42``, §6.11.5.2.4)."""
-    from sondalog.ala1.modem.jobs import registered
-
     if not d.gprs:
         if not (yield from registered(d)):
             return False
@@ -77,7 +73,7 @@ def gprs_up(d: ModemDriver) -> Generator[Request, object, bool]:
     return d.gprs
 
 
-def gprs_down(d: ModemDriver) -> Generator[Request, object, None]:
+def gprs_down(d: Driver) -> Generator[Request, object, None]:
     if d.listening:
         yield At(f"AT+WIPCLOSE=3,{SERVER}")
     yield At("AT+WIPBR=5,6")
@@ -87,7 +83,7 @@ def gprs_down(d: ModemDriver) -> Generator[Request, object, None]:
 
 
 def tcp(
-    d: ModemDriver, host: str, port: int, client: SmtpClient | Pop3Check
+    d: Driver, host: str, port: int, client: SmtpClient | Pop3Check
 ) -> Generator[Request, object, None]:
     """Run ``client`` over a WIPsoft TCP socket to ``host:port``."""
     if not (yield from gprs_up(d)) or '"' in host:
@@ -146,7 +142,7 @@ def tcp(
 
 
 def send_mail(
-    d: ModemDriver, address: str, server: str | None, subject: str, body: str
+    d: Driver, address: str, server: str | None, subject: str, body: str
 ) -> Generator[Request, object, bool]:
     """Send one e-mail; when it went, check the command mailbox once (§6.11.6.4)."""
     try:
@@ -169,10 +165,8 @@ def send_mail(
     return sent
 
 
-def check_mailbox(d: ModemDriver) -> Generator[Request, object, None]:
+def check_mailbox(d: Driver) -> Generator[Request, object, None]:
     """The oldest command e-mail: too big -> deleted unread; else read, run, answered."""
-    from sondalog.ala1.modem.jobs import execute
-
     spec = d.host.setting("com network pop3 address").strip()
     if not spec:
         return

@@ -11,7 +11,6 @@ up shows as ``NO CARRIER`` (call) or ``SHUTDOWN`` (socket) in the data stream.
 from __future__ import annotations
 
 from collections.abc import Generator
-from typing import TYPE_CHECKING
 
 from sondalog.ala1.modem.atio import (
     At,
@@ -23,9 +22,7 @@ from sondalog.ala1.modem.atio import (
     Write,
     as_reply,
 )
-
-if TYPE_CHECKING:
-    from sondalog.ala1.modem.driver import ModemDriver
+from sondalog.ala1.modem.host import Driver
 
 #: §3.4.6.3-4: more than 2 minutes without a command ends the connection.
 IDLE_HANGUP = 120.0
@@ -61,7 +58,7 @@ class EndMarker:
         return data, False
 
 
-def leave_data_mode(d: ModemDriver) -> Generator[Request, object, bool]:
+def leave_data_mode(d: Driver) -> Generator[Request, object, bool]:
     """``+++`` between two guard times: back to command mode (the connection stays);
     whether the modem said so.
 
@@ -86,14 +83,14 @@ def leave_data_mode(d: ModemDriver) -> Generator[Request, object, bool]:
     return False
 
 
-def back_in_command_mode(d: ModemDriver, end: EndMarker) -> None:
+def back_in_command_mode(d: Driver, end: EndMarker) -> None:
     """``NO CARRIER`` came in the data: the modem is in command mode; what followed the
     marker is read as lines (URCs it held during the call)."""
     d.reader.command_mode(end.rest)
     d.take_lines()
 
 
-def data_session(d: ModemDriver, socket: int | None) -> Generator[Request, object, None]:
+def data_session(d: Driver, socket: int | None) -> Generator[Request, object, None]:
     session = d.host.open_session(d.now)
     d.session = session
     last = d.now

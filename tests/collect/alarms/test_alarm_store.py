@@ -124,3 +124,17 @@ def test_the_postgres_ddl_has_the_same_tables() -> None:
     for table in ("alarm_states", "alarm_events", "alarm_outbox"):
         assert f"CREATE TABLE IF NOT EXISTS {table}" in POSTGRES_ALARM_DDL
     assert "REAL" not in POSTGRES_ALARM_DDL and "AUTOINCREMENT" not in POSTGRES_ALARM_DDL
+
+
+def test_acknowledgements_asked_by_another_process_are_taken_once(tmp_path: Path) -> None:
+    from sondalog.collect.alarms.events import AlarmRecord
+
+    path = tmp_path / "alarms.sqlite"
+    with AlarmStore(path) as store:
+        store.save_states([AlarmRecord("A1", "r", "threshold", "s", state="raised")])
+        assert not store.request_ack("nope", "ops", 10.0)
+    with AlarmStore(path) as other:  # the dashboard or the CLI
+        assert other.request_ack("A1", "ops", 11.0)
+    with AlarmStore(path) as store:
+        assert store.take_ack_requests(12.0) == [("A1", "ops", 11.0)]
+        assert store.take_ack_requests(13.0) == []

@@ -7,6 +7,8 @@ they may live in the collector's SQLite store beside ``readings`` or in a file o
 - ``alarm_states``: one row per alarm (rule, subject) with its state and times, and what its
   rule needs to go on after a restart (``count``, ``last_value``, ``last_time``, ``ref``).
 - ``alarm_events``: the history of transitions, unique on (event, what).
+- ``alarm_acks``: acknowledgements asked for by a person (the dashboard's button,
+  ``sondalog alarms ack``), applied by the collector on its next turn (``done`` set then).
 - ``alarm_outbox``: one row per notification, unique on ``key`` = (event, what,
   destination); ``claimed_by``/``claimed_until`` let several collectors on one PostgreSQL
   share the sending (each row is claimed by one of them at a time).
@@ -74,6 +76,13 @@ CREATE TABLE IF NOT EXISTS alarm_outbox (
     claimed_until REAL
 );
 CREATE INDEX IF NOT EXISTS alarm_outbox_due ON alarm_outbox (state, next_try);
+CREATE TABLE IF NOT EXISTS alarm_acks (
+    id        INTEGER PRIMARY KEY AUTOINCREMENT,
+    alarm     TEXT NOT NULL,
+    by        TEXT NOT NULL DEFAULT '',
+    requested REAL NOT NULL,
+    done      REAL
+);
 CREATE INDEX IF NOT EXISTS alarm_outbox_rate ON alarm_outbox (destination, created);
 """
 

@@ -139,6 +139,32 @@ class AlarmStore:
             )
         )
 
+    # -- acknowledgements asked for by people ---------------------------------------------
+
+    def request_ack(self, alarm: str, by: str, now: float) -> bool:
+        """Ask the collector to acknowledge ``alarm`` (another process may ask: the dashboard,
+        ``sondalog alarms ack``). False if no such alarm is raised now."""
+        with self.transaction() as db:
+            row = db.execute("SELECT state FROM alarm_states WHERE alarm = ?", (alarm,)).fetchone()
+            if row is None or row[0] != "raised":
+                return False
+            db.execute(
+                "INSERT INTO alarm_acks (alarm, by, requested) VALUES (?, ?, ?)", (alarm, by, now)
+            )
+        return True
+
+    def take_ack_requests(self, now: float) -> list[tuple[str, str, float]]:
+        """The acknowledgements asked for and not applied yet, as (alarm, by, requested),
+        oldest first; marked applied at ``now`` (commit them with the states they change)."""
+        with self.transaction() as db:
+            rows = db.execute(
+                "SELECT id, alarm, by, requested FROM alarm_acks WHERE done IS NULL ORDER BY id"
+            ).fetchall()
+            db.executemany(
+                "UPDATE alarm_acks SET done = ? WHERE id = ?", [(now, r[0]) for r in rows]
+            )
+        return [(str(a), str(b), float(t)) for _, a, b, t in rows]
+
     # -- the outbox -----------------------------------------------------------------------
 
     def has(self, key: str) -> bool:

@@ -131,7 +131,7 @@ def _sms(t: Table) -> dict[str, Any]:
     return {
         "via": via,
         "device": t.path("device"),
-        "baud": t.integer("baud", 115200, lo=1, what="a baud rate"),
+        "baud": t.integer("baud", 9600, lo=1, what="a baud rate"),
         "number": tuple(numbers),
     }
 

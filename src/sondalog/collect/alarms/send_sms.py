@@ -136,7 +136,7 @@ def create(notify: Notify) -> Sender:
     numbers = tuple(t.texts("number"))
     if t.text("via") == "network":
         return NetworkSms(t.text("url"), t.text("from"), numbers)
-    return ModemSms(str(t.path("device")), t.integer("baud", 115200), numbers)
+    return ModemSms(str(t.path("device")), t.integer("baud", 9600), numbers)
 
 
 register_sender("sms", create)

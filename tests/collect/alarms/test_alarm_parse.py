@@ -201,7 +201,11 @@ def test_two_rules_with_one_name_are_refused() -> None:
             "number",
             "",
         ),
-        ('name = "x"\nkind = "sms"\nvia = "network"\nurl = "http://h"\nnumber = "+1234"', "from", ""),
+        (
+            'name = "x"\nkind = "sms"\nvia = "network"\nurl = "http://h"\nnumber = "+1234"',
+            "from",
+            "",
+        ),
         (
             'name = "x"\nkind = "sms"\nvia = "network"\nurl = "http://h"\nfrom = "+1234"\n'
             'number = "+1234"\nbaud = 9600',

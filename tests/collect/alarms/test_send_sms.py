@@ -24,7 +24,7 @@ from sondalog.collect.alarms.senders import DeliveryError, sender_for
 from sondalog.gsm import pdu
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "gsm"))
-from gsm_served import MODEM, PHONE, PHONE2, Served, free_port, serve, site_file  # noqa: E402
+from gsm_served import MODEM, PHONE, PHONE2, Served, free_port, serve, site_file
 
 
 def message(text: str = "F01/1 Air above 40: 41.5", what: str = "raised") -> Message:
@@ -86,7 +86,7 @@ def test_a_refusal_ends_the_conversation(answer: bytes) -> None:
     talk.start()
     for reply in (b"OK\r\n", b"OK\r\n", b"OK\r\n"):
         talk.receive(reply)
-    with pytest.raises(ModemError, match="AT\\+CMGS=.*ERROR"):
+    with pytest.raises(ModemError, match=r"AT\+CMGS=.*ERROR"):
         talk.receive(answer)
 
 
@@ -140,8 +140,14 @@ def test_sms_through_the_network_api(world: Served) -> None:
     with pytest.raises(DeliveryError, match=r"SMS to \+1"):
         asyncio.run(sender_for(bad).send(message()))
     gone = Notify(
-        "x", "sms", {"via": "network", "url": f"http://127.0.0.1:{free_port()}", "from": PHONE,
-                     "number": (PHONE2,)}
+        "x",
+        "sms",
+        {
+            "via": "network",
+            "url": f"http://127.0.0.1:{free_port()}",
+            "from": PHONE,
+            "number": (PHONE2,),
+        },
     )
     with pytest.raises(DeliveryError, match="cannot reach"):
         asyncio.run(sender_for(gone).send(message()))

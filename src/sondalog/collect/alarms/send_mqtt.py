@@ -23,6 +23,7 @@ Every publish is QoS 1 and waits for the broker's acknowledgement.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import json
 import ssl
@@ -166,6 +167,10 @@ class MqttAlarms:
         if client is not None:
             with contextlib.suppress(Exception):
                 await client.__aexit__(None, None, None)
+            # a lost connection's error is in this future: retrieve it (no "never retrieved")
+            lost = getattr(client, "_disconnected", None)
+            if isinstance(lost, asyncio.Future) and lost.done() and not lost.cancelled():
+                lost.exception()
 
     async def close(self) -> None:
         """Say ``offline`` (a clean disconnect sends no last will) and disconnect."""

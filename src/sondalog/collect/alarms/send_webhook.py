@@ -24,6 +24,7 @@ dependency. A redirect is not followed (it is a non-2xx answer).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import hashlib
 import hmac
 import json
@@ -127,10 +128,8 @@ class Webhook:
             return int(parts[1])
         finally:
             writer.close()
-            try:
+            with contextlib.suppress(OSError, ssl.SSLError, TimeoutError):
                 await asyncio.wait_for(writer.wait_closed(), 1.0)
-            except (OSError, ssl.SSLError, TimeoutError):
-                pass
 
     async def close(self) -> None:
         return None

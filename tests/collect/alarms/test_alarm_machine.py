@@ -40,6 +40,7 @@ name = "sms"
 kind = "sms"
 via = "network"
 url = "http://127.0.0.1:8025"
+from = "+420700000009"
 number = "+420700000001"
 rate = "3/h"
 [[notify]]

@@ -29,6 +29,7 @@ name = "oncall-sms"
 kind = "sms"
 via = "network"
 url = "http://127.0.0.1:8025"
+from = "+420700000009"
 number = "+420700000001"
 
 [[notify]]
@@ -198,6 +199,23 @@ def test_two_rules_with_one_name_are_refused() -> None:
         (
             'name = "x"\nkind = "sms"\nvia = "network"\nurl = "http://h"\nnumber = "12"',
             "number",
+            "",
+        ),
+        (
+            'name = "x"\nkind = "sms"\nvia = "network"\nurl = "http://h"\nnumber = "+1234"',
+            "from",
+            "",
+        ),
+        (
+            'name = "x"\nkind = "sms"\nvia = "network"\nurl = "http://h"\nfrom = "+1234"\n'
+            'number = "+1234"\nbaud = 9600',
+            "baud",
+            "modem",
+        ),
+        (
+            'name = "x"\nkind = "sms"\nvia = "modem"\ndevice = "/dev/x"\nnumber = "+1234"\n'
+            "baud = 0",
+            "baud",
             "",
         ),
         ('name = "x"\nkind = "webhook"\nurl = "ftp://h"', "url", "http"),

@@ -32,7 +32,7 @@ _COMMON = {"name", "kind", "repeat", "quiet", "quiet_mode", "rate", "retries"}
 _COMMON |= {"backoff", "backoff_max", "timezone"}
 KEYS: dict[str, set[str]] = {
     "email": _COMMON | {"smtp", "from", "to", "user", "password"},
-    "sms": _COMMON | {"via", "url", "device", "number"},
+    "sms": _COMMON | {"via", "url", "from", "device", "baud", "number"},
     "mqtt": _COMMON | {"url", "topic", "discovery", "discovery_prefix"},
     "webhook": _COMMON | {"url", "secret", "timeout"},
     "log": _COMMON | {"level"},
@@ -116,16 +116,24 @@ def _sms(t: Table) -> dict[str, Any]:
         if not _matches(_PHONE, number):
             raise t.fail("number", f"must be phone numbers like +420700000001, not {number!r}")
     if via == "network":
-        if "device" in t:
-            raise t.fail("device", 'is for via = "modem"; via = "network" takes url')
+        for key in ("device", "baud"):
+            if key in t:
+                raise t.fail(key, 'is for via = "modem"; via = "network" takes url and from')
         return {
             "via": via,
             "url": t.text("url", pattern=_HTTP, what="an http:// URL"),
+            "from": t.text("from", pattern=_PHONE, what="the phone number the SMS come from"),
             "number": tuple(numbers),
         }
-    if "url" in t:
-        raise t.fail("url", 'is for via = "network"; via = "modem" takes device')
-    return {"via": via, "device": t.path("device"), "number": tuple(numbers)}
+    for key in ("url", "from"):
+        if key in t:
+            raise t.fail(key, 'is for via = "network"; via = "modem" takes device and baud')
+    return {
+        "via": via,
+        "device": t.path("device"),
+        "baud": t.integer("baud", 9600, lo=1, what="a baud rate"),
+        "number": tuple(numbers),
+    }
 
 
 def _mqtt(t: Table) -> dict[str, Any]:

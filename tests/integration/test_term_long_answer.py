@@ -71,7 +71,9 @@ def test_a_line_that_dies_mid_answer_is_reported(serve: Serve, tmp_path: Path) -
             stderr=subprocess.PIPE,
             text=True,
         )
-    time.sleep(1.2)  # about 50 rows are out
+    # 500 rows take about 40 s at 9600 baud: after 4 s (term's start may take 2 on a loaded
+    # machine) a few dozen rows are out and most are still to come
+    time.sleep(4)
     served.proc.send_signal(signal.SIGSTOP)  # the line goes silent mid-answer
     try:
         out, err = term.communicate(timeout=30)

@@ -3,7 +3,8 @@
 Routes (see ``docs/dashboard.md``): ``/`` overview, ``/loggers/{logger}`` plot, ``/log``
 events; ``/api/loggers``, ``/api/loggers/{logger}``, ``/api/loggers/{logger}/series``,
 ``/api/loggers/{logger}/readings.csv``, ``/api/loggers/{logger}/stream`` (server-sent
-events), ``/api/events``. Bad parameters get HTTP 400 with the reason, an unknown logger 404,
+events), ``/api/events``, ``/api/alarms`` and ``POST /api/alarms/{alarm}/ack`` (issue 21,
+:mod:`.alarms`). Bad parameters get HTTP 400 with the reason, an unknown logger 404,
 a store that is not there (yet) 503.
 """
 
@@ -15,24 +16,34 @@ import io
 import json
 import re
 import sqlite3
+import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Any, TypeVar
+from urllib.parse import urlsplit
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
 from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.responses import (
+    HTMLResponse,
+    JSONResponse,
+    RedirectResponse,
+    Response,
+    StreamingResponse,
+)
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from sondalog.collect.alarms.store import AlarmStore
 from sondalog.collect.schema import COLUMNS
+from sondalog.config import ConfigError, of
 
-from . import overview, pages, series, store
+from . import alarms, overview, pages, series, store
 from .auth import TokenGate
 from .times import BadParameter, parse_time, shift, to_epoch
 
@@ -98,6 +109,8 @@ def create_app(
         Route("/api/loggers/{logger}/readings.csv", api.csv),
         Route("/api/loggers/{logger}/stream", api.stream),
         Route("/api/events", api.events),
+        Route("/api/alarms", api.alarm_list),
+        Route("/api/alarms/{alarm}/ack", api.ack, methods=["POST"]),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     app = Starlette(
@@ -157,6 +170,25 @@ def _range(request: Request) -> tuple[str | None, str | None]:
     return lo, hi
 
 
+def _ack_by(body: bytes) -> str:
+    """Who asks, from an optional JSON body ``{"by": "NAME"}`` (default ``dashboard``)."""
+    if not body.strip():
+        return "dashboard"
+    try:
+        data = json.loads(body)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ConfigError(None, "body", f"not JSON: {exc}") from None
+    table = of({"body": data}).table("body", ["by"])
+    return table.text(
+        "by", "dashboard", pattern=r"[^\x00-\x1f\x7f]{1,80}", what="1 to 80 characters"
+    )
+
+
+def _not_raised(alarm: str, state: str) -> Response:
+    message = f"alarm {alarm} is {state}, not raised: only a raised alarm can be acknowledged"
+    return JSONResponse({"error": message, "state": state}, status_code=409)
+
+
 class Api:
     """The request handlers over one :class:`Settings`."""
 
@@ -180,14 +212,31 @@ class Api:
     # pages
 
     async def page_overview(self, request: Request) -> Response:
-        data = await self._db(overview.overview)
-        return HTMLResponse(pages.overview(data, refresh_s=self.settings.overview_refresh_s))
+        def work(c: sqlite3.Connection) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+            return overview.overview(c), alarms.active(c, store.sources(c))
+
+        data, on = await self._db(work)
+        refresh = self.settings.overview_refresh_s
+        return HTMLResponse(pages.overview(data, refresh_s=refresh, alarms=on))
 
     async def page_plot(self, request: Request) -> Response:
         logger = request.path_params["logger"]
         await self._known(logger)
-        chans = await self._db(lambda c: store.channels(c, logger))
-        return HTMLResponse(pages.plot(logger, [overview.channel_json(c) for c in chans]))
+
+        def work(c: sqlite3.Connection) -> tuple[list[store.Channel], list[dict[str, Any]]]:
+            return store.channels(c, logger), alarms.active(c, store.sources(c))
+
+        chans, on = await self._db(work)
+        mine = [a for a in on if a["logger"] == logger]
+        return HTMLResponse(
+            pages.plot(
+                logger,
+                [overview.channel_json(c) for c in chans],
+                alarms=mine,
+                alarm_count=len(on),
+                refresh_s=self.settings.overview_refresh_s,
+            )
+        )
 
     async def page_log(self, request: Request) -> Response:
         try:
@@ -196,8 +245,15 @@ class Api:
             raise HTTPException(400, str(exc)) from None
         source = request.query_params.get("source") or None
         limit = 50
-        evs = await self._db(lambda c: store.events(c, before=before, limit=limit, source=source))
-        return HTMLResponse(pages.log(evs, source=source, limit=limit))
+
+        def work(c: sqlite3.Connection) -> tuple[Any, ...]:
+            evs = store.events(c, before=before, limit=limit, source=source)
+            return evs, alarms.history(c), len(alarms.active(c, []))
+
+        evs, past, count = await self._db(work)
+        return HTMLResponse(
+            pages.log(evs, source=source, limit=limit, alarm_history=past, alarm_count=count)
+        )
 
     # JSON
 
@@ -279,6 +335,61 @@ class Api:
         evs = await self._db(lambda c: store.events(c, before=before, limit=limit, source=source))
         nxt = evs[-1]["id"] if len(evs) == limit else None
         return JSONResponse({"events": evs, "before": nxt})
+
+    async def alarm_list(self, request: Request) -> Response:
+        """The active alarms and the latest transitions (``?logger=``: that logger's)."""
+        logger = request.query_params.get("logger") or None
+
+        def work(c: sqlite3.Connection) -> dict[str, Any]:
+            on = alarms.active(c, store.sources(c))
+            past = alarms.history(c)
+            if logger is not None:
+                on = [a for a in on if a["logger"] == logger]
+                names = {a["id"] for a in on}
+                loggers = {str(s["name"]): str(s["logger"]) for s in store.sources(c)}
+                past = [
+                    h
+                    for h in past
+                    if h["id"] in names or alarms.logger_of(str(h["subject"]), loggers) == logger
+                ]
+            return {"active": on, "history": past}
+
+        return JSONResponse(await self._db(work))
+
+    async def ack(self, request: Request) -> Response:
+        """Ask the collector to acknowledge a raised alarm (202; it applies it on its next
+        turn). Cross-site 403, unknown alarm 404, an alarm not raised now 409."""
+        headers = {k.lower(): v for k, v in request.headers.items()}
+        refused = alarms.cross_site(headers, token_set=self.settings.token is not None)
+        if refused is not None:
+            return JSONResponse({"error": refused}, status_code=403)
+        alarm = request.path_params["alarm"]
+        form = headers.get("content-type", "").startswith("application/x-www-form-urlencoded")
+        try:
+            by = "dashboard" if form else _ack_by(await request.body())
+        except ConfigError as exc:
+            return JSONResponse({"error": str(exc)}, status_code=400)
+        state = await self._db(lambda c: alarms.state_of(c, alarm))
+        if state is None:
+            return JSONResponse({"error": f"unknown alarm {alarm!r}"}, status_code=404)
+        if state != "raised":
+            return _not_raised(alarm, state)
+        now = time.time()
+
+        def write() -> bool:
+            with AlarmStore(self.settings.store) as alarm_store:
+                return alarm_store.request_ack(alarm, by, now)
+
+        if not await run_in_threadpool(write):  # changed in the meantime
+            state = await self._db(lambda c: alarms.state_of(c, alarm))
+            return _not_raised(alarm, state or "gone")
+        if form:  # the button without JavaScript: back to the page it was on
+            back = urlsplit(headers.get("referer", "/"))
+            return RedirectResponse(
+                (back.path or "/") + (f"?{back.query}" if back.query else ""), 303
+            )
+        body = {"alarm": alarm, "ack_requested": True, "by": by, "requested": now}
+        return JSONResponse(body, status_code=202)
 
     async def stream(self, request: Request) -> Response:
         logger = request.path_params["logger"]

@@ -364,7 +364,9 @@ class Api:
         if refused is not None:
             return JSONResponse({"error": refused}, status_code=403)
         alarm = request.path_params["alarm"]
+        # the button without JavaScript: a browser's form POST, answered with the page
         form = headers.get("content-type", "").startswith("application/x-www-form-urlencoded")
+        form = form and "text/html" in headers.get("accept", "")
         try:
             by = "dashboard" if form else _ack_by(await request.body())
         except ConfigError as exc:
@@ -383,7 +385,7 @@ class Api:
         if not await run_in_threadpool(write):  # changed in the meantime
             state = await self._db(lambda c: alarms.state_of(c, alarm))
             return _not_raised(alarm, state or "gone")
-        if form:  # the button without JavaScript: back to the page it was on
+        if form:  # back to the page it was on
             back = urlsplit(headers.get("referer", "/"))
             return RedirectResponse(
                 (back.path or "/") + (f"?{back.query}" if back.query else ""), 303

@@ -16,13 +16,11 @@ import io
 import json
 import re
 import sqlite3
-import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Any, TypeVar
-from urllib.parse import urlsplit
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
@@ -32,18 +30,16 @@ from starlette.requests import Request
 from starlette.responses import (
     HTMLResponse,
     JSONResponse,
-    RedirectResponse,
     Response,
     StreamingResponse,
 )
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
-from sondalog.collect.alarms.store import AlarmStore
 from sondalog.collect.schema import COLUMNS
-from sondalog.config import ConfigError, of
 
 from . import alarms, overview, pages, series, store
+from .alarm_api import AlarmHandlers
 from .auth import TokenGate
 from .times import BadParameter, parse_time, shift, to_epoch
 
@@ -170,27 +166,10 @@ def _range(request: Request) -> tuple[str | None, str | None]:
     return lo, hi
 
 
-def _ack_by(body: bytes) -> str:
-    """Who asks, from an optional JSON body ``{"by": "NAME"}`` (default ``dashboard``)."""
-    if not body.strip():
-        return "dashboard"
-    try:
-        data = json.loads(body)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ConfigError(None, "body", f"not JSON: {exc}") from None
-    table = of({"body": data}).table("body", ["by"])
-    return table.text(
-        "by", "dashboard", pattern=r"[^\x00-\x1f\x7f]{1,80}", what="1 to 80 characters"
-    )
+class Api(AlarmHandlers):
+    """The request handlers over one :class:`Settings` (the alarms' in :mod:`.alarm_api`)."""
 
-
-def _not_raised(alarm: str, state: str) -> Response:
-    message = f"alarm {alarm} is {state}, not raised: only a raised alarm can be acknowledged"
-    return JSONResponse({"error": message, "state": state}, status_code=409)
-
-
-class Api:
-    """The request handlers over one :class:`Settings`."""
+    settings: Settings
 
     def __init__(self, settings: Settings) -> None:
         self.settings = settings
@@ -252,7 +231,14 @@ class Api:
 
         evs, past, count = await self._db(work)
         return HTMLResponse(
-            pages.log(evs, source=source, limit=limit, alarm_history=past, alarm_count=count)
+            pages.log(
+                evs,
+                source=source,
+                limit=limit,
+                alarm_history=past,
+                alarm_count=count,
+                refresh_s=self.settings.overview_refresh_s,
+            )
         )
 
     # JSON
@@ -335,63 +321,6 @@ class Api:
         evs = await self._db(lambda c: store.events(c, before=before, limit=limit, source=source))
         nxt = evs[-1]["id"] if len(evs) == limit else None
         return JSONResponse({"events": evs, "before": nxt})
-
-    async def alarm_list(self, request: Request) -> Response:
-        """The active alarms and the latest transitions (``?logger=``: that logger's)."""
-        logger = request.query_params.get("logger") or None
-
-        def work(c: sqlite3.Connection) -> dict[str, Any]:
-            on = alarms.active(c, store.sources(c))
-            past = alarms.history(c)
-            if logger is not None:
-                on = [a for a in on if a["logger"] == logger]
-                names = {a["id"] for a in on}
-                loggers = {str(s["name"]): str(s["logger"]) for s in store.sources(c)}
-                past = [
-                    h
-                    for h in past
-                    if h["id"] in names or alarms.logger_of(str(h["subject"]), loggers) == logger
-                ]
-            return {"active": on, "history": past}
-
-        return JSONResponse(await self._db(work))
-
-    async def ack(self, request: Request) -> Response:
-        """Ask the collector to acknowledge a raised alarm (202; it applies it on its next
-        turn). Cross-site 403, unknown alarm 404, an alarm not raised now 409."""
-        headers = {k.lower(): v for k, v in request.headers.items()}
-        refused = alarms.cross_site(headers, token_set=self.settings.token is not None)
-        if refused is not None:
-            return JSONResponse({"error": refused}, status_code=403)
-        alarm = request.path_params["alarm"]
-        # the button without JavaScript: a browser's form POST, answered with the page
-        form = headers.get("content-type", "").startswith("application/x-www-form-urlencoded")
-        form = form and "text/html" in headers.get("accept", "")
-        try:
-            by = "dashboard" if form else _ack_by(await request.body())
-        except ConfigError as exc:
-            return JSONResponse({"error": str(exc)}, status_code=400)
-        state = await self._db(lambda c: alarms.state_of(c, alarm))
-        if state is None:
-            return JSONResponse({"error": f"unknown alarm {alarm!r}"}, status_code=404)
-        if state != "raised":
-            return _not_raised(alarm, state)
-        now = time.time()
-
-        def write() -> bool:
-            with AlarmStore(self.settings.store) as alarm_store:
-                return alarm_store.request_ack(alarm, by, now)
-
-        if not await run_in_threadpool(write):  # changed in the meantime
-            state = await self._db(lambda c: alarms.state_of(c, alarm))
-            return _not_raised(alarm, state or "gone")
-        if form:  # back to the page it was on
-            back = urlsplit(headers.get("referer", "/"))
-            return RedirectResponse(
-                (back.path or "/") + (f"?{back.query}" if back.query else ""), 303
-            )
-        body = {"alarm": alarm, "ack_requested": True, "by": by, "requested": now}
-        return JSONResponse(body, status_code=202)
 
     async def stream(self, request: Request) -> Response:
         logger = request.path_params["logger"]

@@ -146,6 +146,7 @@ def log(
     limit: int,
     alarm_history: list[dict[str, Any]] | None = None,
     alarm_count: int | None = None,
+    refresh_s: float = 10.0,
 ) -> str:
     params = {"source": source} if source else {}
     older = None
@@ -158,6 +159,7 @@ def log(
         events=events,
         alarm_history=alarm_history or [],
         alarm_count=alarm_count,
+        refresh_s=refresh_s,
         source=source,
         newest="/log?" + urlencode(params),
         older=older,

@@ -3,7 +3,8 @@
 Routes (see ``docs/dashboard.md``): ``/`` overview, ``/loggers/{logger}`` plot, ``/log``
 events; ``/api/loggers``, ``/api/loggers/{logger}``, ``/api/loggers/{logger}/series``,
 ``/api/loggers/{logger}/readings.csv``, ``/api/loggers/{logger}/stream`` (server-sent
-events), ``/api/events``. Bad parameters get HTTP 400 with the reason, an unknown logger 404,
+events), ``/api/events``, ``/api/alarms`` and ``POST /api/alarms/{alarm}/ack`` (issue 21,
+:mod:`.alarms`). Bad parameters get HTTP 400 with the reason, an unknown logger 404,
 a store that is not there (yet) 503.
 """
 
@@ -26,13 +27,19 @@ from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
 from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.responses import (
+    HTMLResponse,
+    JSONResponse,
+    Response,
+    StreamingResponse,
+)
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from sondalog.collect.schema import COLUMNS
 
-from . import overview, pages, series, store
+from . import alarms, overview, pages, series, store
+from .alarm_api import AlarmHandlers
 from .auth import TokenGate
 from .times import BadParameter, parse_time, shift, to_epoch
 
@@ -98,6 +105,8 @@ def create_app(
         Route("/api/loggers/{logger}/readings.csv", api.csv),
         Route("/api/loggers/{logger}/stream", api.stream),
         Route("/api/events", api.events),
+        Route("/api/alarms", api.alarm_list),
+        Route("/api/alarms/{alarm}/ack", api.ack, methods=["POST"]),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     app = Starlette(
@@ -157,8 +166,10 @@ def _range(request: Request) -> tuple[str | None, str | None]:
     return lo, hi
 
 
-class Api:
-    """The request handlers over one :class:`Settings`."""
+class Api(AlarmHandlers):
+    """The request handlers over one :class:`Settings` (the alarms' in :mod:`.alarm_api`)."""
+
+    settings: Settings
 
     def __init__(self, settings: Settings) -> None:
         self.settings = settings
@@ -180,14 +191,31 @@ class Api:
     # pages
 
     async def page_overview(self, request: Request) -> Response:
-        data = await self._db(overview.overview)
-        return HTMLResponse(pages.overview(data, refresh_s=self.settings.overview_refresh_s))
+        def work(c: sqlite3.Connection) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+            return overview.overview(c), alarms.active(c, store.sources(c))
+
+        data, on = await self._db(work)
+        refresh = self.settings.overview_refresh_s
+        return HTMLResponse(pages.overview(data, refresh_s=refresh, alarms=on))
 
     async def page_plot(self, request: Request) -> Response:
         logger = request.path_params["logger"]
         await self._known(logger)
-        chans = await self._db(lambda c: store.channels(c, logger))
-        return HTMLResponse(pages.plot(logger, [overview.channel_json(c) for c in chans]))
+
+        def work(c: sqlite3.Connection) -> tuple[list[store.Channel], list[dict[str, Any]]]:
+            return store.channels(c, logger), alarms.active(c, store.sources(c))
+
+        chans, on = await self._db(work)
+        mine = [a for a in on if a["logger"] == logger]
+        return HTMLResponse(
+            pages.plot(
+                logger,
+                [overview.channel_json(c) for c in chans],
+                alarms=mine,
+                alarm_count=len(on),
+                refresh_s=self.settings.overview_refresh_s,
+            )
+        )
 
     async def page_log(self, request: Request) -> Response:
         try:
@@ -196,8 +224,22 @@ class Api:
             raise HTTPException(400, str(exc)) from None
         source = request.query_params.get("source") or None
         limit = 50
-        evs = await self._db(lambda c: store.events(c, before=before, limit=limit, source=source))
-        return HTMLResponse(pages.log(evs, source=source, limit=limit))
+
+        def work(c: sqlite3.Connection) -> tuple[Any, ...]:
+            evs = store.events(c, before=before, limit=limit, source=source)
+            return evs, alarms.history(c), len(alarms.active(c, []))
+
+        evs, past, count = await self._db(work)
+        return HTMLResponse(
+            pages.log(
+                evs,
+                source=source,
+                limit=limit,
+                alarm_history=past,
+                alarm_count=count,
+                refresh_s=self.settings.overview_refresh_s,
+            )
+        )
 
     # JSON
 

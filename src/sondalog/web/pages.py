@@ -95,14 +95,18 @@ ENV.filters.update(
     logger_url=logger_url,
     record_fill=record_fill,
 )
-ENV.globals.update(clock=LOGGER_CLOCK, current="")
+ENV.globals.update(clock=LOGGER_CLOCK, current="", alarm_count=None)
 
 
 def render(name: str, **context: Any) -> str:
     return ENV.get_template(name).render(**context)
 
 
-def overview(data: dict[str, Any], *, refresh_s: float = 10.0) -> str:
+def overview(
+    data: dict[str, Any], *, refresh_s: float = 10.0, alarms: list[dict[str, Any]] | None = None
+) -> str:
+    """The overview; ``alarms``: the active ones (:func:`sondalog.web.alarms.active`)."""
+    alarms = alarms or []
     return render(
         "overview.html",
         title="Overview",
@@ -110,14 +114,40 @@ def overview(data: dict[str, Any], *, refresh_s: float = 10.0) -> str:
         refresh_s=refresh_s,
         loggers=data["loggers"],
         unbound_sources=data["unbound_sources"],
+        alarms=alarms,
+        alarm_count=len(alarms),
     )
 
 
-def plot(logger: str, channels: list[dict[str, Any]]) -> str:
-    return render("plot.html", title=logger, logger=logger, channels=channels)
+def plot(
+    logger: str,
+    channels: list[dict[str, Any]],
+    *,
+    alarms: list[dict[str, Any]] | None = None,
+    alarm_count: int | None = None,
+    refresh_s: float = 10.0,
+) -> str:
+    """A logger's page: its plot and its active ``alarms``."""
+    return render(
+        "plot.html",
+        title=logger,
+        logger=logger,
+        channels=channels,
+        alarms=alarms or [],
+        alarm_count=alarm_count,
+        refresh_s=refresh_s,
+    )
 
 
-def log(events: list[dict[str, Any]], *, source: str | None, limit: int) -> str:
+def log(
+    events: list[dict[str, Any]],
+    *,
+    source: str | None,
+    limit: int,
+    alarm_history: list[dict[str, Any]] | None = None,
+    alarm_count: int | None = None,
+    refresh_s: float = 10.0,
+) -> str:
     params = {"source": source} if source else {}
     older = None
     if len(events) == limit:
@@ -127,6 +157,9 @@ def log(events: list[dict[str, Any]], *, source: str | None, limit: int) -> str:
         title="Log",
         current="/log",
         events=events,
+        alarm_history=alarm_history or [],
+        alarm_count=alarm_count,
+        refresh_s=refresh_s,
         source=source,
         newest="/log?" + urlencode(params),
         older=older,

@@ -12,6 +12,10 @@ async function refresh() {
     const doc = new DOMParser().parseFromString(await r.text(), "text/html");
     const fresh = doc.getElementById("main");
     if (fresh && fresh.innerHTML !== main.innerHTML) main.innerHTML = fresh.innerHTML;
+    // the count of active alarms in the header
+    const count = doc.getElementById("alarm-count");
+    const shown = document.getElementById("alarm-count");
+    if (count && shown && count.outerHTML !== shown.outerHTML) shown.replaceWith(count);
     main.dataset.refreshed = String(Number(main.dataset.refreshed || "0") + 1);
   } catch {
     // the next round tries again

@@ -62,9 +62,9 @@ from typing import Any
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
+from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.collect.alarms import AlarmPlan, parse_alarms
 from sondalog.collect.alarms.senders import find_sender
-from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.collect.message_url import check_message_url
 from sondalog.collect.sinks import SinkError, find_sink, known_names
 from sondalog.collect.store_sqlite import parse_store

@@ -35,7 +35,7 @@ class MailSink:
             await asyncio.sleep(self.hold)
         return "250 OK"
 
-    def keys(self) -> list[str]:
+    def sent_keys(self) -> list[str]:
         with self._lock:
             return [str(m["X-Sondalog-Key"]) for m in self.mails]
 

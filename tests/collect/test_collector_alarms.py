@@ -98,7 +98,7 @@ def _outbox(store: Path) -> list[tuple[str, str]]:
 
 
 def _what(mail: MailSink) -> list[str]:
-    return [key.split("/")[1] for key in mail.keys()]
+    return [key.split("/")[1] for key in mail.sent_keys()]
 
 
 THRESHOLD = f"""[[alarm]]
@@ -138,22 +138,22 @@ def test_threshold_raises_mails_is_listed_acknowledged_cleared_and_survives_rest
             acked = _cli("alarms", "ack", str(config), ident)
             assert acked.returncode == 0, acked.stderr
             time.sleep(1.5)  # the collector applies it on its next turn
-            count = len(mail.keys())
+            count = len(mail.sent_keys())
             assert "acknowledged" in _cli("alarms", "list", str(config)).stdout
             again = _cli("alarms", "ack", str(config), ident)
             assert again.returncode == 2 and "acknowledged, not raised" in again.stderr
             time.sleep(3)  # two repeat periods: nothing more while acknowledged
-            assert len(mail.keys()) == count, mail.subjects()
+            assert len(mail.sent_keys()) == count, mail.subjects()
             mail.wait(lambda: "cleared" in _what(mail), 20)
             assert "CLEARED" in mail.subjects()[-1]
             time.sleep(1)
         err = _stop(proc)
         assert "alarm raised " + ident in err and "alarm cleared " + ident in err
-        sent = mail.keys()
+        sent = mail.sent_keys()
         assert len(sent) == len(set(sent))  # nothing sent twice
         with _collecting(config):  # a restart neither forgets nor notifies again
             time.sleep(3)
-        assert mail.keys() == sent
+        assert mail.sent_keys() == sent
         history = _cli("alarms", "list", "--all", str(config)).stdout
         assert "raised" in history and "cleared" in history and "acknowledged" in history
         assert {state for _, state in _outbox(store)} == {"sent"}
@@ -199,7 +199,7 @@ def test_no_contact_raised_when_the_logger_stops_and_a_kill_during_delivery_lose
             os.kill(served.proc.pid, signal.SIGCONT)
             mail.wait(lambda: "cleared" in _what(mail), 15)
         _stop(again)
-    raised = [k for k in mail.keys() if k.split("/")[1] == "raised"]
+    raised = [k for k in mail.sent_keys() if k.split("/")[1] == "raised"]
     assert 1 <= len(raised) <= 2 and len(set(raised)) == 1  # at least once, at most twice
     assert [w for w in _what(mail) if w == "cleared"] == ["cleared"]
     assert {state for _, state in _outbox(store)} == {"sent"}
@@ -208,10 +208,12 @@ def test_no_contact_raised_when_the_logger_stops_and_a_kill_during_delivery_lose
 
 
 def _query_ok(store: Path) -> bool:
-    with contextlib.suppress(sqlite3.OperationalError):
-        with contextlib.closing(sqlite3.connect(store)) as db:
-            row = db.execute("SELECT state FROM sources WHERE name = 'station'").fetchone()
-            return row is not None and row[0] == "ok"
+    with (
+        contextlib.suppress(sqlite3.OperationalError),
+        contextlib.closing(sqlite3.connect(store)) as db,
+    ):
+        row = db.execute("SELECT state FROM sources WHERE name = 'station'").fetchone()
+        return row is not None and row[0] == "ok"
     return False
 
 

@@ -1,9 +1,9 @@
 """The collector raises alarms and notifies (issue 21), for real: ``sondalog collect`` as a
 subprocess against a served logger, e-mail to a real aiosmtpd, ``sondalog alarms list|ack``.
 
-The logger's level channel follows a schedule (low, high for ten seconds, low again) and
-its clock is set to now, so the readings' own times are the wall clock's (repeats count
-from the raise's time)."""
+The logger's level channel follows a schedule (low, then high until the test switches the
+channel to a low input) and its clock is set to now, so the readings' own times are the wall
+clock's (repeats count from the raise's time)."""
 
 from __future__ import annotations
 
@@ -31,16 +31,19 @@ SUBJECT = "000001/2"
 
 
 def _site(tmp: Path, schedule: str) -> Path:
+    """Analog input 16 follows ``schedule``; input 17 stays low (channel 2 is switched to it
+    to clear the alarm when the test wants)."""
     site = tmp / "site.toml"
     site.write_text(
         "[logger]\n[[logger.analog]]\naddress = 16\n"
         f'signal = {{ model = "steps", schedule = {schedule} }}\n'
+        '[[logger.analog]]\naddress = 17\nsignal = { model = "constant", value = 1.0 }\n'
     )
     return site
 
 
 def _configure(served: Served) -> None:
-    """Level on channel 2 (analog, address 16), both channels sampled every second, the
+    """Level on channel 2 (analog input 16), both channels sampled every second, the
     logger's clock at now (UTC)."""
     served.ask(
         "write date " + datetime.now(UTC).strftime("%Y%m%d%H%M%S"),
@@ -97,6 +100,12 @@ def _outbox(store: Path) -> list[tuple[str, str]]:
         return db.execute("SELECT key, state FROM alarm_outbox ORDER BY created, key").fetchall()
 
 
+def _state(store: Path, alarm: str) -> str | None:
+    with contextlib.closing(sqlite3.connect(store)) as db:
+        row = db.execute("SELECT state FROM alarm_states WHERE alarm = ?", (alarm,)).fetchone()
+        return None if row is None else str(row[0])
+
+
 def _what(mail: MailSink) -> list[str]:
     return [key.split("/")[1] for key in mail.sent_keys()]
 
@@ -114,7 +123,7 @@ notify = ["mail", "log"]
 def test_threshold_raises_mails_is_listed_acknowledged_cleared_and_survives_restart(
     tmp_path: Path,
 ) -> None:
-    site = _site(tmp_path, "[[0, 1.0], [4, 2.0], [14, 1.0]]")
+    site = _site(tmp_path, "[[0, 1.0], [3, 2.0]]")
     ident = alarm_id(RULE, SUBJECT)
     with (
         serving(tmp_path, "--site", str(site)) as served,
@@ -137,13 +146,15 @@ def test_threshold_raises_mails_is_listed_acknowledged_cleared_and_survives_rest
             mail.wait(lambda: any(w.startswith("repeat") for w in _what(mail)), 6)
             acked = _cli("alarms", "ack", str(config), ident)
             assert acked.returncode == 0, acked.stderr
-            time.sleep(1.5)  # the collector applies it on its next turn
+            mail.wait(lambda: _state(store, ident) == "acknowledged", 10)  # its next turn
+            time.sleep(0.5)  # a repeat already being sent may still arrive
             count = len(mail.sent_keys())
             assert "acknowledged" in _cli("alarms", "list", str(config)).stdout
             again = _cli("alarms", "ack", str(config), ident)
             assert again.returncode == 2 and "acknowledged, not raised" in again.stderr
             time.sleep(3)  # two repeat periods: nothing more while acknowledged
             assert len(mail.sent_keys()) == count, mail.subjects()
+            served.ask("write channel 2 address 17")  # the level falls
             mail.wait(lambda: "cleared" in _what(mail), 20)
             assert "CLEARED" in mail.subjects()[-1]
             time.sleep(1)

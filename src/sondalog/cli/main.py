@@ -51,6 +51,11 @@ COMMANDS: dict[str, LazyCommand] = {
         "collect",
         "Collect readings from loggers and buses into SQLite (and PostgreSQL, MQTT).",
     ),
+    "alarms": LazyCommand(
+        "sondalog.cli.alarms_cmd",
+        "alarms",
+        "The collector's alarms: list them, acknowledge one.",
+    ),
     "phone": LazyCommand(
         "sondalog.cli.phone_cmd",
         "phone",

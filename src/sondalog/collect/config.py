@@ -63,6 +63,8 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.collect.alarms import AlarmPlan, parse_alarms
+from sondalog.collect.alarms.senders import find_sender
 from sondalog.collect.message_url import check_message_url
 from sondalog.collect.sinks import SinkError, find_sink, known_names
 from sondalog.collect.store_sqlite import parse_store
@@ -70,7 +72,7 @@ from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.config import Table, load
 
 #: The collector's own tables; any other top-level table is a sink's (``sinks.find_sink``).
-OWN_TABLES = ("sqlite", "buffer", "source", "web")
+OWN_TABLES = ("sqlite", "buffer", "source", "web", "alarm", "notify")
 _SOURCE = (
     "url",
     "interval",
@@ -133,6 +135,8 @@ class CollectorConfig:
     #: Sink name -> the configuration its registration's ``parse`` made of its table.
     sinks: dict[str, Any]
     web: WebConfig = field(default_factory=WebConfig)
+    #: ``[[alarm]]`` rules and ``[[notify]]`` destinations (docs/alarms.md).
+    alarms: AlarmPlan = field(default_factory=AlarmPlan)
 
 
 def load_config(path: Path) -> CollectorConfig:
@@ -164,7 +168,23 @@ def parse_config(root: Table) -> CollectorConfig:
             raise table.fail("name", f"{source.name!r} is used by another source")
         seen.add(source.name)
     web = parse_web(root.table("web"), os.environ)
-    return CollectorConfig(path, store.path, store.readings, buffer, tuple(sources), sinks, web)
+    alarms = _alarms(root)
+    return CollectorConfig(
+        path, store.path, store.readings, buffer, tuple(sources), sinks, web, alarms
+    )
+
+
+def _alarms(root: Table) -> AlarmPlan:
+    """``[[alarm]]`` and ``[[notify]]``; a destination kind without a registered sender is
+    refused now (its module is imported, nothing connects)."""
+    plan = parse_alarms(root)
+    for i, notify in enumerate(plan.notify.values()):
+        if find_sender(notify.kind) is None:
+            raise root.source.fail(
+                f"notify[{i}].kind",
+                f"no sender for notifications of kind {notify.kind!r} is installed",
+            )
+    return plan
 
 
 def _sink(root: Table, name: str) -> Any:

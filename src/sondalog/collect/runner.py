@@ -21,6 +21,7 @@ import logging
 import time
 from typing import Any
 
+from sondalog.collect.alarm_loop import AlarmLoop
 from sondalog.collect.buffer import DiskBuffer, deliver, drain
 from sondalog.collect.config import CollectorConfig
 from sondalog.collect.model import Announcing, Reading, Sink, SinkUnavailable
@@ -53,6 +54,8 @@ class Collector:
         self.contacts = 0
         #: Sources whose last contact failed.
         self.failing: set[str] = set()
+        #: The alarms (docs/alarms.md), when the file has ``[[alarm]]`` rules.
+        self.alarms: AlarmLoop | None = AlarmLoop(config) if config.alarms.rules else None
 
     def open(self) -> None:
         """Build the sinks (their tables were checked when the file was loaded) and open the
@@ -64,6 +67,8 @@ class Collector:
         for source_config in self.config.sources:
             self.store.add_source(source_config.name, source_config.url, source_config.kind)
             self.sources.append(make_source(source_config, self.store))
+        if self.alarms is not None:
+            self.alarms.open(self.store, self.config.sources)
 
     async def run(self, stop: asyncio.Event, *, once: bool = False) -> None:
         """Contact every source until ``stop`` is set (``once``: one contact each, then return)."""
@@ -83,18 +88,24 @@ class Collector:
             for i, source in enumerate(self.sources)
         ]
         replay = asyncio.create_task(self._replay(), name="sink replay")
+        background = [replay]
+        if self.alarms is not None:
+            background.append(asyncio.create_task(self.alarms.run(), name="alarms"))
         try:
             if once:
                 await asyncio.gather(*tasks)
                 await self._replay_once()
+                if self.alarms is not None:  # one turn: timers, and what is due now
+                    self.alarms.turn(time.time())
+                    await self.alarms.deliver_due(time.time())
             else:
                 stopper = asyncio.create_task(stop.wait())
                 await asyncio.wait([stopper, *tasks], return_when=asyncio.FIRST_COMPLETED)
                 stopper.cancel()
         finally:
-            for task in [*tasks, replay]:
+            for task in [*tasks, *background]:
                 task.cancel()
-            for task in [*tasks, replay]:
+            for task in [*tasks, *background]:
                 with contextlib.suppress(asyncio.CancelledError, Exception):
                     await task
             await self.close()
@@ -105,6 +116,8 @@ class Collector:
                 with contextlib.suppress(Exception):
                     await sink.close()
         self._opened.clear()
+        if self.alarms is not None:
+            await self.alarms.close()
         if self.buffer is not None:
             self.buffer.close()
             self.buffer = None
@@ -117,6 +130,7 @@ class Collector:
             log.warning(
                 "sink %s is down (%s): batches wait in %s", sink.name, exc, self.config.buffer
             )
+            self._sink_state(sink, up=False)
             return False
         self._opened.add(sink.name)
         return True
@@ -128,10 +142,18 @@ class Collector:
         if batch and self.buffer is not None:
             for sink in self.sinks:
                 if sink.name in self._opened:
-                    await deliver(self.buffer, sink, batch)
+                    up = await deliver(self.buffer, sink, batch)
                 else:
                     self.buffer.append(sink.name, batch)
+                    up = False
+                self._sink_state(sink, up)
+        if self.alarms is not None:  # alarms and their notifications before the cursor
+            self.alarms.readings(source, batch, **state)
         self.store.commit_chunk(source, batch, cursor, **state)
+
+    def _sink_state(self, sink: Sink, up: bool) -> None:
+        if self.alarms is not None and self.buffer is not None:
+            self.alarms.sink(sink.name, up, self.buffer.count(sink.name))
 
     async def _loop(self, source: Source, delay: float, once: bool) -> None:
         cfg = source.config
@@ -140,6 +162,8 @@ class Collector:
         while True:
             started = time.monotonic()
             self.store.set_state(cfg.name, state="contacting")
+            if self.alarms is not None:
+                self.alarms.contact_started(cfg.name)
             try:
                 summary = await source.poll(self.deliver)
             except asyncio.CancelledError:
@@ -152,6 +176,8 @@ class Collector:
                 self.store.set_state(cfg.name, state="offline", last_error=describe(exc))
                 self.store.event(cfg.name, "error", text)
                 self.failing.add(cfg.name)
+                if self.alarms is not None:
+                    self.alarms.contact(cfg.name, ok=False, error=describe(exc))
             else:
                 failures = 0
                 self.failing.discard(cfg.name)
@@ -159,6 +185,8 @@ class Collector:
                 log.info("source %s: %s", cfg.name, summary)
                 self.store.set_state(cfg.name, state="ok", last_error=None, last_contact=now_text())
                 self.store.event(cfg.name, "download", summary)
+                if self.alarms is not None:
+                    self.alarms.contact(cfg.name, ok=True)
             self.contacts += 1
             if once:
                 return
@@ -180,5 +208,6 @@ class Collector:
             except Exception as exc:  # a sink's bug must not stop the collector
                 log.warning("sink %s: replay failed: %s", sink.name, describe(exc))
                 continue
+            self._sink_state(sink, up=self.buffer.count(sink.name) == 0)
             if done:
                 log.info("sink %s: %d buffered batches delivered", sink.name, done)

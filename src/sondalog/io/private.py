@@ -104,7 +104,10 @@ def connect_private(
     threads (mail delivery, the collector's sinks) create files at the same time."""
     name = os.fspath(path)
     if name not in ("", ":memory:") and not name.startswith("file:"):
-        private_file(name)
+        try:  # an existing file is not opened here: closing a descriptor of it would drop
+            os.chmod(name, PRIVATE_FILE)  # the POSIX locks this process's other SQLite
+        except FileNotFoundError:  # connections hold on it (then another process may
+            private_file(name)  # checkpoint and delete the WAL under them: disk I/O error)
         for suffix in SQLITE_SIDECARS:
             with contextlib.suppress(FileNotFoundError):
                 os.chmod(name + suffix, PRIVATE_FILE)

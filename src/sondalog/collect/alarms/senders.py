@@ -46,15 +46,22 @@ def register_sender(kind: str, factory: SenderFactory) -> None:
     _REGISTERED[kind] = factory
 
 
+def find_sender(kind: str) -> SenderFactory | None:
+    """The factory registered for ``kind`` (its module ``send_KIND`` imported on first use),
+    or ``None``: nothing is built and nothing connects (the collector's file is checked with
+    it at load)."""
+    if kind not in _REGISTERED:
+        try:
+            importlib.import_module(f"{__package__}.send_{kind}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__package__}.send_{kind}":
+                raise
+    return _REGISTERED.get(kind)
+
+
 def sender_for(notify: Notify) -> Sender:
     """A sender for ``notify`` (its kind's module is imported on first use)."""
-    if notify.kind not in _REGISTERED:
-        try:
-            importlib.import_module(f"{__package__}.send_{notify.kind}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__package__}.send_{notify.kind}":
-                raise
-    factory = _REGISTERED.get(notify.kind)
+    factory = find_sender(notify.kind)
     if factory is None:
         raise LookupError(f"no sender for notifications of kind {notify.kind!r}")
     return factory(notify)

@@ -214,6 +214,17 @@ class AlarmStore:
             ).fetchall()
         return sorted((Message(*row) for row in rows), key=lambda m: (m.next_try, m.key))
 
+    def release(self, owner: str) -> int:
+        """Give back the pending rows ``owner`` holds (a restart of a collector killed while
+        sending: it sends them again now rather than after the lease); how many."""
+        with self.transaction() as db:
+            cur = db.execute(
+                "UPDATE alarm_outbox SET claimed_by = NULL, claimed_until = NULL "
+                "WHERE claimed_by = ? AND state = 'pending'",
+                (owner,),
+            )
+            return cur.rowcount
+
     def delivered(self, key: str, now: float) -> None:
         with self.transaction() as db:
             db.execute(

@@ -1,0 +1,312 @@
+"""The collector's alarms (issue 21): the pure core of :mod:`sondalog.collect.alarms` fed by
+the runner, its store in the collector's SQLite file, and a task that notifies.
+
+What the runner feeds (docs/alarms.md "What the collector feeds"):
+
+- every delivered reading (:meth:`AlarmLoop.readings`), before its cursor is committed;
+  readings of a channel of type 1 (supply voltage, §6.5.6) are the logger's ``supply`` too,
+  and the GSM signal and credit a batch brings (channel types 12 and 11, or a message
+  source's ``signal``/``credit`` channels) its ``signal``/``credit``;
+- every contact, good or failed (:meth:`AlarmLoop.contact`): no contact, a source refusing;
+  after a good one the logger's record fill (``record status``), its clock offset and the
+  gaps this contact's download noticed (the ``gap`` events it wrote);
+- the sinks (:meth:`AlarmLoop.sink`): down or up, and how many batches wait in the buffer.
+
+Every observation's transitions, their history rows, their outbox rows and the alarms'
+states are written in one transaction of the alarm store, before the runner commits the
+readings' cursor: a crash in between reads the rows again and finds the transitions taken.
+:meth:`AlarmLoop.run` is the timer and the postman: it applies acknowledgements asked for
+by people (the dashboard, ``sondalog alarms ack``), raises no-contact and sink timers,
+adds repeats, then claims due outbox rows and hands each to its destination's sender.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import re
+import socket
+import time
+from collections.abc import Callable, Iterable, Sequence
+from datetime import UTC, datetime
+from typing import Any
+
+from sondalog.collect.alarms import (
+    LEASE,
+    Alarms,
+    AlarmStore,
+    Condition,
+    Contact,
+    Health,
+    Message,
+    Policy,
+    Sample,
+    Transition,
+)
+from sondalog.collect.alarms.senders import DeliveryError, Sender, sender_for
+from sondalog.collect.config import CollectorConfig, SourceConfig
+from sondalog.collect.model import Reading
+from sondalog.collect.store_sqlite import SqliteStore
+
+log = logging.getLogger(__name__)
+#: Seconds between looks for acknowledgements asked for by another process.
+ACK_POLL = 1.0
+#: Channel type of a supply voltage (§6.5.6).
+SUPPLY_TYPE = 1
+_GAP_ROWS = re.compile(r"about (\d+) rows")
+
+
+def reading_time(r: Reading) -> float:
+    """A reading's own time: its UTC time when the logger's zone is known, else its clock
+    time taken as UTC (the order of a logger's readings is what the rules need)."""
+    when = r.utc if r.utc is not None else r.time.replace(tzinfo=UTC)
+    return when.timestamp()
+
+
+def text_time(text: object) -> float | None:
+    """An ISO 8601 text of the store (``last_contact``) as seconds since the epoch."""
+    if not text:
+        return None
+    try:
+        return datetime.fromisoformat(str(text)).timestamp()
+    except ValueError:
+        return None
+
+
+def fill_ratio(record_fill: object) -> float | None:
+    """``record status`` = ``chars,fraction,STATE`` -> the fraction (0..1)."""
+    parts = str(record_fill or "").split(",")
+    try:
+        return float(parts[1]) if len(parts) > 1 else None
+    except ValueError:
+        return None
+
+
+class AlarmLoop:
+    """The alarms of ``config`` on its store; ``clock``: the wall clock (seconds)."""
+
+    def __init__(self, config: CollectorConfig, clock: Callable[[], float] = time.time) -> None:
+        self.config = config
+        self.plan = config.alarms
+        self.clock = clock
+        self.store = AlarmStore(config.store)
+        self.alarms = Alarms(self.plan)
+        self.policy = Policy(self.plan, self.store, zone=_local_zone())
+        #: Who claims outbox rows: stable across restarts of this collector, so a restart
+        #: takes back the rows it held when it was killed instead of waiting for the lease.
+        self.owner = f"{socket.gethostname()}:{config.path.resolve()}"
+        self.senders: dict[str, Sender] = {}
+        self.sqlite: SqliteStore | None = None
+        self._supply: dict[str, set[int]] = {}
+        self._gap_mark: dict[str, int] = {}
+        self._wake: asyncio.Event | None = None
+        self.sent = 0
+
+    # -- opening --------------------------------------------------------------------------
+
+    def open(self, sqlite: SqliteStore, sources: Iterable[SourceConfig]) -> None:
+        """Open the alarm tables (in the collector's store file), restore the alarms' states,
+        and watch every source for no contact from its last stored contact."""
+        self.sqlite = sqlite
+        self.store.open()
+        self.store.release(self.owner)
+        self.alarms = Alarms(self.plan, self.store.load_states())
+        now = self.clock()
+        for source in sources:
+            row = sqlite.source(source.name) or {}
+            self.alarms.watch_source(
+                source.name,
+                source.interval,
+                now=now,
+                last_contact=text_time(row.get("last_contact")),
+                logger=row.get("logger"),
+            )
+        self._commit([], now)
+
+    async def close(self) -> None:
+        for sender in self.senders.values():
+            with contextlib.suppress(Exception):
+                await sender.close()
+        self.senders.clear()
+        self.store.close()
+
+    # -- observations ---------------------------------------------------------------------
+
+    def _commit(self, transitions: Sequence[Transition], now: float) -> None:
+        with self.store.transaction():
+            self.store.record(transitions)
+            added = self.policy.notify(transitions, now)
+            added += self.policy.repeats(self.alarms.active(), now)
+            self.store.save_states(self.alarms.changed())
+        for t in transitions:
+            log.warning("alarm %s %s: %s", t.what, t.alarm, t.text)
+        if (transitions or added) and self._wake is not None:
+            self._wake.set()
+
+    def readings(self, source: str, batch: Sequence[Reading], **state: Any) -> None:
+        """A delivered batch (``state``: what the source's row gets with it: signal, credit)."""
+        samples = [
+            Sample(source, r.logger, r.channel, r.value, reading_time(r), r.name, r.counter)
+            for r in batch
+            if r.value is not None
+        ]
+        out = self.alarms.readings(samples)
+        if samples:
+            out += self._batch_health(source, batch, samples, state)
+        if out or samples:
+            self._commit(out, self.clock())
+
+    def _batch_health(
+        self,
+        source: str,
+        batch: Sequence[Reading],
+        samples: Sequence[Sample],
+        state: dict[str, Any],
+    ) -> list[Transition]:
+        out: list[Transition] = []
+        for r, s in zip((r for r in batch if r.value is not None), samples, strict=True):
+            if r.channel in self._supply_channels(r.logger):
+                out += self.alarms.health(Health(source, s.time, r.logger, supply=s.value))
+        signal, credit = state.get("signal"), state.get("credit")
+        if signal is not None or credit is not None:
+            last = samples[-1]
+            out += self.alarms.health(
+                Health(source, last.time, last.logger, signal=signal, credit=credit)
+            )
+        return out
+
+    def _supply_channels(self, logger: str) -> set[int]:
+        found = self._supply.get(logger)
+        if found is None and self.sqlite is not None:
+            rows = self.sqlite.db.execute(
+                "SELECT channel FROM channels WHERE logger = ? AND type = ?",
+                (logger, SUPPLY_TYPE),
+            )
+            found = self._supply[logger] = {int(r[0]) for r in rows}
+        return found or set()
+
+    def contact_started(self, source: str) -> None:
+        """Remember where the events table stands (the gaps this contact writes count)."""
+        if self.sqlite is not None:
+            row = self.sqlite.db.execute("SELECT coalesce(max(id), 0) FROM events").fetchone()
+            self._gap_mark[source] = int(row[0])
+
+    def contact(self, source: str, ok: bool, error: str | None = None) -> None:
+        """A contact of ``source`` ended, well or not."""
+        now = self.clock()
+        out = self.alarms.contact(Contact(source, ok, now, error))
+        if ok:
+            out += self._contact_health(source, now)
+        self._commit(out, now)
+
+    def _contact_health(self, source: str, now: float) -> list[Transition]:
+        if self.sqlite is None:
+            return []
+        row = self.sqlite.source(source) or {}
+        logger = row.get("logger")
+        if logger is not None:
+            self._supply.pop(str(logger), None)  # the channels may have changed
+        gaps: float | None = None
+        mark = self._gap_mark.pop(source, None)
+        if mark is not None:
+            texts = self.sqlite.db.execute(
+                "SELECT text FROM events WHERE id > ? AND source = ? AND kind = 'gap'",
+                (mark, source),
+            ).fetchall()
+            gaps = 0.0
+            for (text,) in texts:
+                found = _GAP_ROWS.search(str(text))
+                gaps += float(found.group(1)) if found else 1.0
+        offset = row.get("offset_s")
+        health = Health(
+            source,
+            now,
+            None if logger is None else str(logger),
+            memory=fill_ratio(row.get("record_fill")),
+            clock=None if offset is None else float(offset),
+            gaps=gaps if row.get("kind") == "logger" else None,
+        )
+        return self.alarms.health(health)
+
+    def sink(self, name: str, up: bool, waiting: int) -> None:
+        """A sink's state after a delivery or a replay: up or down, ``waiting`` batches."""
+        now = self.clock()
+        out = self.alarms.condition(Condition("sink", name, 0.0 if up else 1.0, now))
+        out += self.alarms.condition(Condition("buffer", name, float(waiting), now))
+        self._commit(out, now)
+
+    # -- the timer and the postman --------------------------------------------------------
+
+    def turn(self, now: float) -> None:
+        """Acknowledgements asked for, timers, repeats: one transaction."""
+        with self.store.transaction():
+            out: list[Transition] = []
+            for alarm, by, requested in self.store.take_ack_requests(now):
+                acked = self.alarms.acknowledge(alarm, requested, by)
+                if acked is not None:
+                    out.append(acked)
+            out += self.alarms.advance(now)
+            self._commit(out, now)
+
+    def next_wake(self, now: float) -> float:
+        times = [
+            self.alarms.next_deadline(),
+            self.policy.next_repeat(self.alarms.active(), now),
+            self.store.next_try(),
+        ]
+        return min([now + ACK_POLL, *(t for t in times if t is not None)])
+
+    async def deliver_due(self, now: float) -> int:
+        """Claim the due outbox rows and send them (destinations side by side); how many
+        were delivered."""
+        by_dest: dict[str, list[Message]] = {}
+        for message in self.store.claim(now, self.owner, LEASE):
+            by_dest.setdefault(message.destination, []).append(message)
+        done = await asyncio.gather(*(self._send_all(ms) for ms in by_dest.values()))
+        return sum(done)
+
+    async def _send_all(self, messages: list[Message]) -> int:
+        done = 0
+        for message in messages:
+            notify = self.plan.notify.get(message.destination)
+            try:
+                if notify is None:
+                    raise DeliveryError(f"no [[notify]] named {message.destination!r} any more")
+                sender = self.senders.get(notify.name)
+                if sender is None:
+                    sender = self.senders[notify.name] = sender_for(notify)
+                await sender.send(message)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # DeliveryError, or a sender's bug: retried, logged
+                error = str(exc) if isinstance(exc, DeliveryError) else repr(exc)
+                log.warning("notification %s not delivered: %s", message.key, error)
+                self.policy.failed(message, self.clock(), error)
+                continue
+            self.store.delivered(message.key, self.clock())
+            done += 1
+        self.sent += done
+        return done
+
+    async def run(self) -> None:
+        """Until cancelled: a turn, the deliveries, then sleep until the next deadline or
+        until an observation adds something."""
+        self._wake = wake = asyncio.Event()
+        while True:
+            wake.clear()
+            now = self.clock()
+            try:
+                self.turn(now)
+                await self.deliver_due(now)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # a locked store, a bug: try again, never stop
+                log.warning("alarms: %s", exc)
+            delay = max(0.0, self.next_wake(self.clock()) - self.clock())
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(wake.wait(), timeout=max(delay, 0.05))
+
+
+def _local_zone() -> Any:
+    return datetime.now().astimezone().tzinfo or UTC

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from fnmatch import fnmatchcase
+from typing import TYPE_CHECKING
 
 from .describe import cleared_text, raised_text
 from .events import (
@@ -36,9 +37,13 @@ from .events import (
     Transition,
     alarm_id,
     event_key,
+    reading_time,
 )
-from .kinds import READINGS, Track, Verdict, level, refusing
+from .kinds import READINGS, Check, Track, Verdict, compile_check, level, refusing
 from .rules import AlarmPlan, Rule
+
+if TYPE_CHECKING:
+    from sondalog.collect.model import Reading
 
 #: ``no_contact`` without ``after``: this many of the source's intervals.
 INTERVALS = 3
@@ -57,6 +62,9 @@ class Alarms:
         self._timers: dict[str, Track] = {}
         self._reading_rules = plan.of_kind(*READINGS)
         self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
+        self._checks: dict[tuple[str, str, int, str | None], tuple[Check, ...]] = {}
+        self._logger_rules: dict[tuple[str, str], list[Rule]] = {}
+        self._channel_names: dict[tuple[str, str | None], bool] = {}
         for record in records:
             rule = self._rules.get(record.rule)
             if rule is None or rule.kind != record.kind:
@@ -159,6 +167,62 @@ class Alarms:
         for sample in samples:
             out += self.reading(sample)
         return out
+
+    def ingest(self, source: str, readings: Iterable[Reading]) -> list[Transition]:
+        """The collector's readings of ``source`` as they are stored: the same answer as
+        ``readings(Sample.of(source, r) for r in readings)``, made fast for the ingest path
+        (issue 21: 10 rules on every channel cost a fraction of the ingest). Each (logger,
+        channel) gets its matching rules compiled once (:func:`~.kinds.compile_check`); a
+        row's time is computed once for its channels."""
+        out: list[Transition] = []
+        compiled = self._checks
+        stamp: object = None
+        utc: object = None
+        t = 0.0
+        for r in readings:
+            v = r.value
+            if v is None:
+                continue
+            key = (source, r.logger, r.channel, r.name)
+            checks = compiled.get(key)
+            if checks is None:
+                checks = self._compile(key)
+            if not checks:
+                continue
+            if r.time is not stamp or r.utc is not utc:
+                stamp, utc = r.time, r.utc
+                t = reading_time(r)
+            c = r.counter
+            for check in checks:
+                got = check(t, c, v)
+                if got:
+                    out += got
+        return out
+
+    def _compile(self, key: tuple[str, str, int, str | None]) -> tuple[Check, ...]:
+        source, logger, channel, name = key
+        rules = self._logger_rules.get((source, logger))
+        if rules is None:
+            rules = [r for r in self._reading_rules if r.matches(source, logger)]
+            self._logger_rules[(source, logger)] = rules
+        subject = f"{logger}/{channel}"
+        checks = tuple(
+            compile_check(r, self._track(r, subject), self._dirty, self._apply)
+            for r in rules
+            if self._channel_matches(r, channel, name)
+        )
+        self._checks[key] = checks
+        return checks
+
+    def _channel_matches(self, rule: Rule, channel: int, name: str | None) -> bool:
+        if rule.channel is not None or rule.channel_name is None or name is None:
+            return rule.matches_channel(channel, name)
+        known = self._channel_names.get((rule.channel_name, name))
+        if known is None:
+            known = self._channel_names[(rule.channel_name, name)] = fnmatchcase(
+                name, rule.channel_name
+            )
+        return known
 
     def watch_source(
         self,

@@ -17,15 +17,18 @@ rule wait for ``for`` observations and its clear condition, so that nothing flap
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields
+from operator import attrgetter
 from typing import Literal
 
-from .events import ACTIVE, AlarmRecord, State
+from .events import ACTIVE, AlarmRecord, State, Transition
 from .rules import Rule
 
 Verdict = Literal["raise", "clear"] | None
 #: What an :class:`AlarmRecord` holds, in order (the first fields of a :class:`Track`).
 _RECORD_FIELDS = tuple(f.name for f in fields(AlarmRecord))
+_record_values = attrgetter(*_RECORD_FIELDS)
 
 
 @dataclass(slots=True)
@@ -57,7 +60,7 @@ class Track:
         return self.state in ACTIVE
 
     def record(self) -> AlarmRecord:
-        return AlarmRecord(*[getattr(self, name) for name in _RECORD_FIELDS])
+        return AlarmRecord(*_record_values(self))
 
     @classmethod
     def of(cls, record: AlarmRecord) -> Track:
@@ -124,3 +127,157 @@ def refusing(rule: Rule, track: Track, ok: bool) -> Verdict:
 
 
 READINGS = {"threshold": level, "stuck": stuck, "step": step}
+
+
+# -- compiled for ingest ------------------------------------------------------------------
+#
+# The same three kinds as closures over one (rule, alarm) pair, built once per (logger,
+# channel) by :meth:`~.evaluate.Alarms.ingest`: the rule's numbers are locals, the ordering
+# test (:meth:`Track.newer`) is inlined, and the common case (a threshold in ``ok`` on its
+# good side) is one comparison. They must answer exactly as ``level``/``stuck``/``step``
+# above through :meth:`~.evaluate.Alarms.reading` (tests/collect/alarms/test_alarm_ingest.py
+# checks it on random rules and readings).
+
+#: ``apply(rule, track, verdict, time, value, extra)``: the transition a verdict makes.
+Apply = Callable[[Rule, Track, Verdict, float, "float | None", str], "list[Transition]"]
+#: ``check(time, counter, value)``: the transitions of one reading (None or []: none).
+Check = Callable[[float, int, float], "list[Transition] | None"]
+
+
+def compile_check(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    """``rule`` (``threshold``, ``stuck`` or ``step``) on ``track``'s alarm as one closure;
+    a reading it takes marks the alarm in ``dirty`` (what :meth:`Alarms.changed` writes)."""
+    if rule.kind == "threshold":
+        return (
+            _level_above(rule, track, dirty, apply)
+            if rule.direction == "above"
+            else (_level_below(rule, track, dirty, apply))
+        )
+    if rule.kind == "stuck":
+        return _stuck(rule, track, dirty, apply)
+    if rule.kind == "step":
+        return _step(rule, track, dirty, apply)
+    raise ValueError(f"not a reading rule: {rule.kind}")
+
+
+def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    alarm, limit, clear, n_raise, n_clear = (
+        track.alarm,
+        rule.limit,
+        rule.clear,
+        rule.count,
+        rule.clear_count,
+    )
+
+    def check(t: float, c: int, v: float) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        state = track.state
+        if state != "raised" and state != "acknowledged":
+            n = track.count + 1 if v > limit else 0
+            if n >= n_raise:
+                track.count = 0
+                return apply(rule, track, "raise", t, v, "")
+        else:
+            n = track.count + 1 if v <= clear else 0
+            if n >= n_clear:
+                track.count = 0
+                return apply(rule, track, "clear", t, v, "")
+        track.count = n
+        return None
+
+    return check
+
+
+def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    alarm, limit, clear, n_raise, n_clear = (
+        track.alarm,
+        rule.limit,
+        rule.clear,
+        rule.count,
+        rule.clear_count,
+    )
+
+    def check(t: float, c: int, v: float) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        state = track.state
+        if state != "raised" and state != "acknowledged":
+            n = track.count + 1 if v < limit else 0
+            if n >= n_raise:
+                track.count = 0
+                return apply(rule, track, "raise", t, v, "")
+        else:
+            n = track.count + 1 if v >= clear else 0
+            if n >= n_clear:
+                track.count = 0
+                return apply(rule, track, "clear", t, v, "")
+        track.count = n
+        return None
+
+    return check
+
+
+def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    alarm, tolerance, n_raise = track.alarm, rule.tolerance, rule.count
+
+    def check(t: float, c: int, v: float) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        last = track.last_value
+        state = track.state
+        if last is not None and abs(v - last) <= tolerance:
+            n = track.count = track.count + 1
+            if n >= n_raise and state != "raised" and state != "acknowledged":
+                return apply(rule, track, "raise", t, v, "")
+            return None
+        track.count = 1
+        track.last_value = v
+        if state == "raised" or state == "acknowledged":
+            return apply(rule, track, "clear", t, v, "")
+        if n_raise <= 1:
+            return apply(rule, track, "raise", t, v, "")
+        return None
+
+    return check
+
+
+def _step(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    alarm, jump, n_clear = track.alarm, rule.step, rule.count
+
+    def check(t: float, c: int, v: float) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        last = track.last_value
+        track.last_value = v
+        state = track.state
+        active = state == "raised" or state == "acknowledged"
+        if last is not None and abs(v - last) > jump:
+            track.count = 0
+            return None if active else apply(rule, track, "raise", t, v, f"from {last:g}")
+        if active:
+            n = track.count + 1
+            if n >= n_clear:
+                track.count = 0
+                extra = f"from {last:g}" if last is not None else ""
+                return apply(rule, track, "clear", t, v, extra)
+            track.count = n
+        return None
+
+    return check

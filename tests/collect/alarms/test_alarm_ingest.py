@@ -12,13 +12,15 @@ when both start from states a previous run exported.
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 from datetime import UTC, datetime, timedelta
+from pathlib import Path
 
 from alarm_helpers import plan_of
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sondalog.collect.alarms import AlarmPlan, AlarmRecord, Alarms, Rule, Sample
+from sondalog.collect.alarms import AlarmPlan, AlarmRecord, Alarms, AlarmStore, Rule, Sample
 from sondalog.collect.model import Reading
 
 T0 = datetime(2026, 1, 1)
@@ -87,22 +89,38 @@ def chunks(draw: st.DrawFn) -> list[tuple[str, list[Reading]]]:
     return out
 
 
-def run(
-    plan: AlarmPlan, feed: list[tuple[str, list[Reading]]], records: list[AlarmRecord]
-) -> tuple[str, str, str]:
-    """(transitions, changed, export) of both paths, compared as text (NaN equals NaN)."""
+def run(plan: AlarmPlan, feed: list[tuple[str, list[Reading]]], records: list[AlarmRecord]) -> None:
+    """Both paths on the same chunks, each with a table of states saved after every chunk
+    (the slow one whole by ``changed()``, the fast one by ``changes()``: progress columns
+    only where that is all that changed), compared as text (NaN equals NaN)."""
     slow, fast = Alarms(plan, records), Alarms(plan, records)
+    slow_table = {r.alarm: _row(r) for r in records}
+    fast_table = dict(slow_table)
     for source, readings in feed:
         expected = slow.readings(Sample.of(source, r) for r in readings)
         got = fast.ingest(source, readings)
         assert repr(got) == repr(expected)
-        assert _sorted(fast.changed()) == _sorted(slow.changed())
-    assert _sorted(fast.export()) == _sorted(slow.export())
-    return repr(expected), _sorted(slow.changed()), _sorted(slow.export())
+        changed = slow.changed()
+        slow_table |= {r.alarm: _row(r) for r in changed}
+        changes = fast.changes()
+        fast_table |= {row[0]: row for row in changes.states}
+        for row in changes.counters:
+            old = fast_table[row[0]]  # only the progress of a row the store has
+            fast_table[row[0]] = old[:12] + row[12:16] + old[16:]
+        assert sorted(row[0] for row in changes.states + changes.counters) == sorted(
+            r.alarm for r in changed
+        )
+        assert repr(sorted(fast_table.items())) == repr(sorted(slow_table.items()))
+    assert repr(sorted(fast_table.values())) == repr(sorted(_row(r) for r in fast.export()))
+    assert repr(sorted(fast.export(), key=_alarm)) == repr(sorted(slow.export(), key=_alarm))
 
 
-def _sorted(records: list[AlarmRecord]) -> str:
-    return repr(sorted(records, key=lambda r: r.alarm))
+def _row(record: AlarmRecord) -> tuple[object, ...]:
+    return tuple(getattr(record, f.name) for f in fields(AlarmRecord))
+
+
+def _alarm(record: AlarmRecord) -> str:
+    return record.alarm
 
 
 @settings(max_examples=300, deadline=None)
@@ -146,3 +164,56 @@ for = 2
         ("cleared", (T0 + timedelta(minutes=4)).replace(tzinfo=UTC).timestamp()),
     ]
     assert alarms.ingest("s1", readings) == []  # the same rows again: ignored
+
+
+def test_save_changes_writes_progress_alone_and_whole_rows_the_store_lacks(tmp_path: Path) -> None:
+    plan = plan_of(
+        """
+[[alarm]]
+name = "flat"
+kind = "stuck"
+channel = 1
+for = 3
+
+[[alarm]]
+name = "hot"
+kind = "threshold"
+channel = 1
+above = 5
+"""
+    )
+    alarms = Alarms(plan)
+
+    def rows(first: int, values: list[float]) -> list[Reading]:
+        return [
+            Reading("F01", 1, T0 + timedelta(minutes=first + i), 0, 1, v)
+            for i, v in enumerate(values)
+        ]
+
+    def stored(store: AlarmStore) -> dict[str, AlarmRecord]:
+        return {r.alarm: r for r in store.load_states()}
+
+    with AlarmStore(tmp_path / "collector.sqlite") as store:
+        assert alarms.ingest("s1", rows(0, [1.0, 2.0])) == []
+        changes = alarms.changes()
+        assert len(changes.states) == 2 and changes.counters == []  # new alarms: whole
+        store.save_changes(changes)
+        assert alarms.ingest("s1", rows(2, [2.0, 3.0])) == []
+        changes = alarms.changes()
+        assert changes.states == [] and len(changes.counters) == 2  # progress only
+        store.save_changes(changes)
+        assert stored(store) == {r.alarm: r for r in alarms.export()}
+        out = alarms.ingest("s1", rows(4, [3.0, 3.0, 6.0]))
+        assert [t.what for t in out] == ["raised", "cleared", "raised"]
+        store.save_changes(alarms.changes())
+        assert stored(store) == {r.alarm: r for r in alarms.export()}
+        store.db.execute("DELETE FROM alarm_states")  # say a save that was rolled back
+        alarms.ingest("s1", rows(7, [6.0]))
+        changes = alarms.changes()
+        assert changes.states == [] and len(changes.counters) == 2
+        store.save_changes(changes)
+        assert stored(store) == {r.alarm: r for r in alarms.export()}
+    with AlarmStore(tmp_path / "collector.sqlite") as store:  # a restart goes on from there
+        again = Alarms(plan, store.load_states())
+        assert again.ingest("s1", rows(7, [6.0])) == []  # an old row: ignored
+        assert {r.alarm: r for r in again.export()} == {r.alarm: r for r in alarms.export()}

@@ -34,12 +34,22 @@ from .events import (
     Health,
     Raised,
     Sample,
+    StateChanges,
     Transition,
     alarm_id,
     event_key,
     reading_time,
 )
-from .kinds import READINGS, Check, Track, Verdict, compile_check, level, refusing
+from .kinds import (
+    READINGS,
+    Check,
+    Track,
+    Verdict,
+    compile_check,
+    level,
+    refusing,
+    state_row,
+)
 from .rules import AlarmPlan, Rule
 
 if TYPE_CHECKING:
@@ -58,7 +68,10 @@ class Alarms:
         self._rules = {rule.name: rule for rule in plan.rules}
         self._tracks: dict[tuple[str, str], Track] = {}
         self._by_id: dict[str, Track] = {}
+        #: Alarms changed since the last :meth:`changes`: in full (state, times, new ones),
+        #: and in their rule's progress only (count, last value, last reading's time).
         self._dirty: dict[str, Track] = {}
+        self._progress: dict[str, Track] = {}
         self._timers: dict[str, Track] = {}
         self._reading_rules = plan.of_kind(*READINGS)
         self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
@@ -98,6 +111,7 @@ class Alarms:
         extra: str = "",
     ) -> list[Transition]:
         if verdict == "raise" and not track.active:
+            self._dirty[track.alarm] = track
             track.state, track.since, track.raised_at = "raised", time, time
             track.acked_at = track.cleared_at = None
             track.event = event_key(track.alarm, time)
@@ -105,6 +119,7 @@ class Alarms:
             track.text = raised_text(rule, track.subject, value, extra)
             return [self._transition(Raised, track, time, value, track.text)]
         if verdict == "clear" and track.active:
+            self._dirty[track.alarm] = track
             track.state, track.since, track.cleared_at = "cleared", time, time
             text = cleared_text(rule, track.subject, value)
             return [self._transition(Cleared, track, time, value, text)]
@@ -154,7 +169,7 @@ class Alarms:
         for rule, track in pairs:
             if not track.newer(sample.time, sample.counter):
                 continue
-            self._dirty[track.alarm] = track
+            self._progress[track.alarm] = track
             last = track.last_value
             verdict = READINGS[rule.kind](rule, track, sample.value)
             if verdict is not None:
@@ -207,7 +222,7 @@ class Alarms:
             self._logger_rules[(source, logger)] = rules
         subject = f"{logger}/{channel}"
         checks = tuple(
-            compile_check(r, self._track(r, subject), self._dirty, self._apply)
+            compile_check(r, self._track(r, subject), self._progress, self._apply)
             for r in rules
             if self._channel_matches(r, channel, name)
         )
@@ -368,5 +383,21 @@ class Alarms:
     def changed(self) -> list[AlarmRecord]:
         """The alarms changed since the last call (what the store has to write)."""
         out = [t.record() for t in self._dirty.values()]
+        out += [t.record() for a, t in self._progress.items() if a not in self._dirty]
         self._dirty.clear()
+        self._progress.clear()
+        return out
+
+    def changes(self) -> StateChanges:
+        """What :meth:`changed` says, as the rows :meth:`AlarmStore.save_changes` writes
+        (cheaper, for the ingest path): an alarm whose only change is its rule's progress
+        (count, last value, last reading's time: every reading changes them) has only those
+        columns written."""
+        dirty, progress = self._dirty, self._progress
+        out = StateChanges(
+            [state_row(t) for t in dirty.values()],
+            [state_row(t) for a, t in progress.items() if a not in dirty],
+        )
+        dirty.clear()
+        progress.clear()
         return out

@@ -16,7 +16,7 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass
 from datetime import UTC
-from typing import TYPE_CHECKING, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 if TYPE_CHECKING:
     from sondalog.collect.model import Reading
@@ -173,3 +173,13 @@ class AlarmRecord:
     @property
     def active(self) -> bool:
         return self.state in ACTIVE
+
+
+@dataclass(frozen=True, slots=True)
+class StateChanges:
+    """Rows of ``alarm_states`` to write (:meth:`~.evaluate.Alarms.changes`): ``states``
+    whole, ``counters`` only in their rule's progress columns (``count``, ``last_value``,
+    ``last_time``, ``last_counter``; the rest of the row is as the store has it)."""
+
+    states: list[tuple[Any, ...]]
+    counters: list[tuple[Any, ...]]

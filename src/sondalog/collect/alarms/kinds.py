@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from operator import attrgetter
-from typing import Literal
+from typing import Any, Literal
 
 from .events import ACTIVE, AlarmRecord, State, Transition
 from .rules import Rule
@@ -29,6 +29,13 @@ Verdict = Literal["raise", "clear"] | None
 #: What an :class:`AlarmRecord` holds, in order (the first fields of a :class:`Track`).
 _RECORD_FIELDS = tuple(f.name for f in fields(AlarmRecord))
 _record_values = attrgetter(*_RECORD_FIELDS)
+
+
+def state_row(track: Track) -> tuple[Any, ...]:
+    """The alarm's state as a row of ``alarm_states`` (its columns are the record's
+    fields, in order)."""
+    row: tuple[Any, ...] = _record_values(track)
+    return row
 
 
 @dataclass(slots=True)

@@ -168,15 +168,21 @@ def compile_check(rule: Rule, track: Track, dirty: dict[str, Track], apply: Appl
 
 
 def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    alarm, limit, clear, n_raise, n_clear = (
-        track.alarm,
-        rule.limit,
-        rule.clear,
-        rule.count,
-        rule.clear_count,
-    )
-
-    def check(t: float, c: int, v: float) -> list[Transition] | None:
+    # the rule's numbers and the alarm as defaults: fast locals, and no cells to allocate
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        limit: float = rule.limit,
+        clear: float = rule.clear,
+        n_raise: int = rule.count,
+        n_clear: int = rule.clear_count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
         lt = track.last_time
         if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
             return None
@@ -201,15 +207,21 @@ def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
 
 
 def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    alarm, limit, clear, n_raise, n_clear = (
-        track.alarm,
-        rule.limit,
-        rule.clear,
-        rule.count,
-        rule.clear_count,
-    )
-
-    def check(t: float, c: int, v: float) -> list[Transition] | None:
+    # the rule's numbers and the alarm as defaults: fast locals, and no cells to allocate
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        limit: float = rule.limit,
+        clear: float = rule.clear,
+        n_raise: int = rule.count,
+        n_clear: int = rule.clear_count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
         lt = track.last_time
         if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
             return None
@@ -234,9 +246,18 @@ def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
 
 
 def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    alarm, tolerance, n_raise = track.alarm, rule.tolerance, rule.count
-
-    def check(t: float, c: int, v: float) -> list[Transition] | None:
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        tolerance: float = rule.tolerance,
+        n_raise: int = rule.count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
         lt = track.last_time
         if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
             return None
@@ -262,9 +283,18 @@ def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> C
 
 
 def _step(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    alarm, jump, n_clear = track.alarm, rule.step, rule.count
-
-    def check(t: float, c: int, v: float) -> list[Transition] | None:
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        jump: float = rule.step,
+        n_clear: int = rule.count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
         lt = track.last_time
         if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
             return None

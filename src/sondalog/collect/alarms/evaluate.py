@@ -75,7 +75,8 @@ class Alarms:
         self._timers: dict[str, Track] = {}
         self._reading_rules = plan.of_kind(*READINGS)
         self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
-        self._checks: dict[tuple[str, str, int, str | None], tuple[Check, ...]] = {}
+        #: (source, logger) -> (channel, name) -> the compiled checks of its rules.
+        self._checks: dict[tuple[str, str], dict[tuple[int, str | None], tuple[Check, ...]]] = {}
         self._logger_rules: dict[tuple[str, str], list[Rule]] = {}
         self._channel_names: dict[tuple[str, str | None], bool] = {}
         for record in records:
@@ -190,7 +191,9 @@ class Alarms:
         channel) gets its matching rules compiled once (:func:`~.kinds.compile_check`); a
         row's time is computed once for its channels."""
         out: list[Transition] = []
-        compiled = self._checks
+        loggers = self._checks
+        logger: object = None
+        compiled: dict[tuple[int, str | None], tuple[Check, ...]] = {}
         stamp: object = None
         utc: object = None
         t = 0.0
@@ -198,10 +201,16 @@ class Alarms:
             v = r.value
             if v is None:
                 continue
-            key = (source, r.logger, r.channel, r.name)
+            if r.logger is not logger:  # a chunk is mostly one logger's
+                logger = r.logger
+                known = loggers.get((source, r.logger))
+                if known is None:
+                    known = loggers[(source, r.logger)] = {}
+                compiled = known
+            key = (r.channel, r.name)
             checks = compiled.get(key)
             if checks is None:
-                checks = self._compile(key)
+                checks = compiled[key] = self._compile(source, r.logger, r.channel, r.name)
             if not checks:
                 continue
             if r.time is not stamp or r.utc is not utc:
@@ -214,20 +223,20 @@ class Alarms:
                     out += got
         return out
 
-    def _compile(self, key: tuple[str, str, int, str | None]) -> tuple[Check, ...]:
-        source, logger, channel, name = key
+    def _compile(
+        self, source: str, logger: str, channel: int, name: str | None
+    ) -> tuple[Check, ...]:
         rules = self._logger_rules.get((source, logger))
         if rules is None:
             rules = [r for r in self._reading_rules if r.matches(source, logger)]
             self._logger_rules[(source, logger)] = rules
         subject = f"{logger}/{channel}"
-        checks = tuple(
-            compile_check(r, self._track(r, subject), self._progress, self._apply)
+        apply = self._apply
+        return tuple(
+            compile_check(r, self._track(r, subject), self._progress, apply)
             for r in rules
             if self._channel_matches(r, channel, name)
         )
-        self._checks[key] = checks
-        return checks
 
     def _channel_matches(self, rule: Rule, channel: int, name: str | None) -> bool:
         if rule.channel is not None or rule.channel_name is None or name is None:

@@ -191,10 +191,14 @@ def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
         dirty[alarm] = track
         state = track.state
         if state != "raised" and state != "acknowledged":
-            n = track.count + 1 if v > limit else 0
-            if n >= n_raise:
+            if v > limit:
+                n = track.count + 1
+                if n >= n_raise:
+                    track.count = 0
+                    return apply(rule, track, "raise", t, v, "")
+            else:  # the common case: on the good side, nothing happens
                 track.count = 0
-                return apply(rule, track, "raise", t, v, "")
+                return apply(rule, track, "raise", t, v, "") if n_raise <= 0 else None
         else:
             n = track.count + 1 if v <= clear else 0
             if n >= n_clear:
@@ -230,10 +234,14 @@ def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
         dirty[alarm] = track
         state = track.state
         if state != "raised" and state != "acknowledged":
-            n = track.count + 1 if v < limit else 0
-            if n >= n_raise:
+            if v < limit:
+                n = track.count + 1
+                if n >= n_raise:
+                    track.count = 0
+                    return apply(rule, track, "raise", t, v, "")
+            else:  # the common case: on the good side, nothing happens
                 track.count = 0
-                return apply(rule, track, "raise", t, v, "")
+                return apply(rule, track, "raise", t, v, "") if n_raise <= 0 else None
         else:
             n = track.count + 1 if v >= clear else 0
             if n >= n_clear:

@@ -5,10 +5,12 @@
     alarms = Alarms(plan, records=store.load_states())
     alarms.watch_source("station-1", interval=60, last_contact=t0, now=now)
     out = alarms.reading(Sample("station-1", "000123", 3, 41.2, t, name="Air"))
+    out += alarms.ingest("station-1", readings)     # the collector's stored readings, fast
     out += alarms.contact(Contact("station-1", ok=True, time=now))
     out += alarms.advance(now)                      # no-contact and sink timers
     wake = alarms.next_deadline()                   # when to call advance again
     store.save_states(alarms.changed())             # with the outbox rows, one transaction
+    # or store.save_changes(alarms.changes()): the same, cheaper (after every chunk)
 
 No clock is read here: every time comes in with the observation (a reading's own time, so a
 download of old rows raises and clears with those times) or as ``now``. The state of every

@@ -3,9 +3,10 @@
 1,000 loggers x 12 channels, 10 rules that apply to every logger (thresholds above and
 below with hysteresis, stuck, step, on named and numbered channels, globs on the logger),
 fed the readings of downloads: one row of 12 channels per logger per minute, ``--minutes``
-rows of each logger a download; two downloads one after the other (the first after the
-collector started: each (logger, channel) has its rules matched and compiled then; the
-next one is what a running collector does every time).
+rows of each logger a download; three downloads one after the other: the first one ever
+(each (logger, channel) has its rules matched and compiled, and every alarm's row is
+created in the store), the next one (what a running collector does every time), and one
+after a restart (the alarms come back from the store; the rules are compiled again).
 
 Figures over the same readings, in download-sized chunks (one per logger):
 
@@ -161,13 +162,19 @@ def ingest(store: SqliteStore, per_logger: dict[str, list[str]]) -> tuple[float,
 def alarms(
     path: Path, plan: AlarmPlan, downloads: list[Chunks], fast: bool
 ) -> tuple[list[float], int]:
-    """The alarm path's time for each download, and the transitions it made."""
+    """The alarm path's time for each download, and the transitions it made; the collector
+    restarts before the last download (its alarms come back from the store)."""
     store = AlarmStore(path).open()
     core = Alarms(plan, store.load_states())
     policy = Policy(plan, store, UTC)
     times: list[float] = []
     transitions = 0
-    for chunks in downloads:
+    for n, chunks in enumerate(downloads):
+        if n == len(downloads) - 1:
+            store.close()
+            store = AlarmStore(path).open()
+            core = Alarms(plan, store.load_states())
+            policy = Policy(plan, store, UTC)
         started = time.perf_counter()
         for logger, readings in chunks:
             if fast:
@@ -195,7 +202,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     plan = parse_alarms(loads(RULES, Path("collector.toml")))
-    texts = [rows(args.loggers, args.minutes, k * args.minutes) for k in range(2)]
+    texts = [rows(args.loggers, args.minutes, k * args.minutes) for k in range(3)]
     total = args.loggers * args.minutes * 12
     best: dict[str, list[float]] = {}
     for _ in range(args.repeat):
@@ -215,7 +222,7 @@ def main() -> None:
         f"{args.loggers:,} loggers x 12 channels, {len(plan.rules)} rules each, "
         f"{total:,} readings a download, best of {args.repeat}"
     )
-    print(f"{'':31}{'first download':>22}{'next download':>24}")
+    print(f"{'':31}{'first download':>22}{'next download':>24}{'after a restart':>24}")
     labels = {
         "ingest": "ingest (parse + commit)",
         "alarms": "alarms (ingest + store)",
@@ -227,7 +234,7 @@ def main() -> None:
     print(f"  transitions: {transitions:,}")
     for key in ("alarms", "samples"):
         ratios = "   ".join(f"{a / i:.3f}" for a, i in zip(best[key], best["ingest"], strict=True))
-        print(f"  {key} : ingest = {ratios} (first, next; goal <= 0.10)")
+        print(f"  {key} : ingest = {ratios} (first, next, after a restart; goal <= 0.10)")
 
 
 if __name__ == "__main__":

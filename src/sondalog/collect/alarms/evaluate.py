@@ -104,6 +104,15 @@ class Alarms:
         self._dirty[track.alarm] = track
         return track
 
+    def _reading_track(self, rule: Rule, subject: str) -> Track:
+        """A reading rule's alarm, marked changed only if it is new (a reading it takes
+        marks its progress; an alarm back from the store is not written again for nothing)."""
+        track = self._tracks.get((rule.name, subject))
+        if track is None:
+            track = self._add(Track(alarm_id(rule.name, subject), rule.name, rule.kind, subject))
+            self._dirty[track.alarm] = track
+        return track
+
     def _apply(
         self,
         rule: Rule,
@@ -162,7 +171,7 @@ class Alarms:
         if pairs is None:
             subject = f"{sample.logger}/{sample.channel}"
             pairs = [
-                (r, self._track(r, subject))
+                (r, self._reading_track(r, subject))
                 for r in self._reading_rules
                 if r.matches(sample.source, sample.logger)
                 and r.matches_channel(sample.channel, sample.name)
@@ -235,7 +244,7 @@ class Alarms:
         subject = f"{logger}/{channel}"
         apply = self._apply
         return tuple(
-            compile_check(r, self._track(r, subject), self._progress, apply)
+            compile_check(r, self._reading_track(r, subject), self._progress, apply)
             for r in rules
             if self._channel_matches(r, channel, name)
         )

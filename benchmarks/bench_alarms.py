@@ -31,6 +31,7 @@ Run: ``.venv/bin/python benchmarks/bench_alarms.py [--loggers 1000] [--minutes 1
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from dataclasses import replace
@@ -201,6 +202,7 @@ def main() -> None:
     parser.add_argument("--minutes", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
+    print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     plan = parse_alarms(loads(RULES, Path("collector.toml")))
     texts = [rows(args.loggers, args.minutes, k * args.minutes) for k in range(3)]
     total = args.loggers * args.minutes * 12

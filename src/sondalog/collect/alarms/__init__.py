@@ -2,9 +2,10 @@
 
 - :func:`parse_alarms` (:mod:`.parse`): ``[[alarm]]`` and ``[[notify]]`` of the collector's
   file -> :class:`AlarmPlan`, through the typed config reader;
-- :class:`Alarms` (:mod:`.evaluate`): observations (:class:`Sample`, :class:`Contact`,
-  :class:`Health`, :class:`Condition`) in, transitions (:class:`Raised`, :class:`Cleared`,
-  :class:`Acknowledged`) out; timers by ``advance(now)``/``next_deadline()``;
+- :class:`Alarms` (:mod:`.evaluate`): observations (:class:`Sample` or the collector's
+  readings straight by ``ingest``, :class:`Contact`, :class:`Health`, :class:`Condition`)
+  in, transitions (:class:`Raised`, :class:`Cleared`, :class:`Acknowledged`) out; timers by
+  ``advance(now)``/``next_deadline()``; changed states out as :class:`StateChanges`;
 - :class:`Policy` (:mod:`.policy`): transitions and the clock -> outbox rows (repeat, quiet
   windows, rate limit with one summary, retry with backoff);
 - :class:`AlarmStore` (:mod:`.store`): states, history and outbox on SQLite;
@@ -23,6 +24,7 @@ from .events import (
     Health,
     Raised,
     Sample,
+    StateChanges,
     Transition,
     alarm_id,
 )
@@ -51,6 +53,7 @@ __all__ = [
     "Raised",
     "Rule",
     "Sample",
+    "StateChanges",
     "Transition",
     "alarm_id",
     "parse_alarms",

@@ -15,7 +15,11 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from datetime import UTC
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
+
+if TYPE_CHECKING:
+    from sondalog.collect.model import Reading
 
 State = Literal["ok", "raised", "acknowledged", "cleared"]
 #: The states of an alarm that is on (shown, repeated until acknowledged).
@@ -46,6 +50,25 @@ class Sample:
     time: float
     name: str | None = None
     counter: int = 0
+
+    @classmethod
+    def of(cls, source: str, reading: Reading) -> Sample:
+        """The collector's reading as a sample (what :meth:`Alarms.ingest` sees)."""
+        return cls(
+            source,
+            reading.logger,
+            reading.channel,
+            reading.value,
+            reading_time(reading),
+            reading.name,
+            reading.counter,
+        )
+
+
+def reading_time(reading: Reading) -> float:
+    """A reading's time in seconds since the epoch: its UTC time when the logger's zone is
+    known, else its own clock read as UTC."""
+    return (reading.utc or reading.time.replace(tzinfo=UTC)).timestamp()
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,3 +173,13 @@ class AlarmRecord:
     @property
     def active(self) -> bool:
         return self.state in ACTIVE
+
+
+@dataclass(frozen=True, slots=True)
+class StateChanges:
+    """Rows of ``alarm_states`` to write (:meth:`~.evaluate.Alarms.changes`): ``states``
+    whole, ``counters`` only in their rule's progress columns (``count``, ``last_value``,
+    ``last_time``, ``last_counter``; the rest of the row is as the store has it)."""
+
+    states: list[tuple[Any, ...]]
+    counters: list[tuple[Any, ...]]

@@ -17,15 +17,25 @@ rule wait for ``for`` observations and its clear condition, so that nothing flap
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields
-from typing import Literal
+from operator import attrgetter
+from typing import Any, Literal
 
-from .events import ACTIVE, AlarmRecord, State
+from .events import ACTIVE, AlarmRecord, State, Transition
 from .rules import Rule
 
 Verdict = Literal["raise", "clear"] | None
 #: What an :class:`AlarmRecord` holds, in order (the first fields of a :class:`Track`).
 _RECORD_FIELDS = tuple(f.name for f in fields(AlarmRecord))
+_record_values = attrgetter(*_RECORD_FIELDS)
+
+
+def state_row(track: Track) -> tuple[Any, ...]:
+    """The alarm's state as a row of ``alarm_states`` (its columns are the record's
+    fields, in order)."""
+    row: tuple[Any, ...] = _record_values(track)
+    return row
 
 
 @dataclass(slots=True)
@@ -57,7 +67,7 @@ class Track:
         return self.state in ACTIVE
 
     def record(self) -> AlarmRecord:
-        return AlarmRecord(*[getattr(self, name) for name in _RECORD_FIELDS])
+        return AlarmRecord(*_record_values(self))
 
     @classmethod
     def of(cls, record: AlarmRecord) -> Track:
@@ -124,3 +134,195 @@ def refusing(rule: Rule, track: Track, ok: bool) -> Verdict:
 
 
 READINGS = {"threshold": level, "stuck": stuck, "step": step}
+
+
+# -- compiled for ingest ------------------------------------------------------------------
+#
+# The same three kinds as closures over one (rule, alarm) pair, built once per (logger,
+# channel) by :meth:`~.evaluate.Alarms.ingest`: the rule's numbers are locals, the ordering
+# test (:meth:`Track.newer`) is inlined, and the common case (a threshold in ``ok`` on its
+# good side) is one comparison. They must answer exactly as ``level``/``stuck``/``step``
+# above through :meth:`~.evaluate.Alarms.reading` (tests/collect/alarms/test_alarm_ingest.py
+# checks it on random rules and readings).
+
+#: ``apply(rule, track, verdict, time, value, extra)``: the transition a verdict makes.
+Apply = Callable[[Rule, Track, Verdict, float, "float | None", str], "list[Transition]"]
+#: ``check(time, counter, value)``: the transitions of one reading (None or []: none).
+Check = Callable[[float, int, float], "list[Transition] | None"]
+
+
+def compile_check(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    """``rule`` (``threshold``, ``stuck`` or ``step``) on ``track``'s alarm as one closure;
+    a reading it takes marks the alarm in ``dirty`` (what :meth:`Alarms.changed` writes)."""
+    if rule.kind == "threshold":
+        return (
+            _level_above(rule, track, dirty, apply)
+            if rule.direction == "above"
+            else (_level_below(rule, track, dirty, apply))
+        )
+    if rule.kind == "stuck":
+        return _stuck(rule, track, dirty, apply)
+    if rule.kind == "step":
+        return _step(rule, track, dirty, apply)
+    raise ValueError(f"not a reading rule: {rule.kind}")
+
+
+def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    # the rule's numbers and the alarm as defaults: fast locals, and no cells to allocate
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        limit: float = rule.limit,
+        clear: float = rule.clear,
+        n_raise: int = rule.count,
+        n_clear: int = rule.clear_count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        state = track.state
+        if state != "raised" and state != "acknowledged":
+            if v > limit:
+                n = track.count + 1
+                if n >= n_raise:
+                    track.count = 0
+                    return apply(rule, track, "raise", t, v, "")
+            else:  # the common case: on the good side, nothing happens
+                track.count = 0
+                return apply(rule, track, "raise", t, v, "") if n_raise <= 0 else None
+        else:
+            n = track.count + 1 if v <= clear else 0
+            if n >= n_clear:
+                track.count = 0
+                return apply(rule, track, "clear", t, v, "")
+        track.count = n
+        return None
+
+    return check
+
+
+def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    # the rule's numbers and the alarm as defaults: fast locals, and no cells to allocate
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        limit: float = rule.limit,
+        clear: float = rule.clear,
+        n_raise: int = rule.count,
+        n_clear: int = rule.clear_count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        state = track.state
+        if state != "raised" and state != "acknowledged":
+            if v < limit:
+                n = track.count + 1
+                if n >= n_raise:
+                    track.count = 0
+                    return apply(rule, track, "raise", t, v, "")
+            else:  # the common case: on the good side, nothing happens
+                track.count = 0
+                return apply(rule, track, "raise", t, v, "") if n_raise <= 0 else None
+        else:
+            n = track.count + 1 if v >= clear else 0
+            if n >= n_clear:
+                track.count = 0
+                return apply(rule, track, "clear", t, v, "")
+        track.count = n
+        return None
+
+    return check
+
+
+def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        tolerance: float = rule.tolerance,
+        n_raise: int = rule.count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        last = track.last_value
+        state = track.state
+        if last is not None and abs(v - last) <= tolerance:
+            n = track.count = track.count + 1
+            if n >= n_raise and state != "raised" and state != "acknowledged":
+                return apply(rule, track, "raise", t, v, "")
+            return None
+        track.count = 1
+        track.last_value = v
+        if state == "raised" or state == "acknowledged":
+            return apply(rule, track, "clear", t, v, "")
+        if n_raise <= 1:
+            return apply(rule, track, "raise", t, v, "")
+        return None
+
+    return check
+
+
+def _step(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+    def check(
+        t: float,
+        c: int,
+        v: float,
+        track: Track = track,
+        alarm: str = track.alarm,
+        jump: float = rule.step,
+        n_clear: int = rule.count,
+        dirty: dict[str, Track] = dirty,
+        apply: Apply = apply,
+        rule: Rule = rule,
+    ) -> list[Transition] | None:
+        lt = track.last_time
+        if lt is not None and (t < lt or (t == lt and c <= track.last_counter)):
+            return None
+        track.last_time = t
+        track.last_counter = c
+        dirty[alarm] = track
+        last = track.last_value
+        track.last_value = v
+        state = track.state
+        active = state == "raised" or state == "acknowledged"
+        if last is not None and abs(v - last) > jump:
+            track.count = 0
+            return None if active else apply(rule, track, "raise", t, v, f"from {last:g}")
+        if active:
+            n = track.count + 1
+            if n >= n_clear:
+                track.count = 0
+                extra = f"from {last:g}" if last is not None else ""
+                return apply(rule, track, "clear", t, v, extra)
+            track.count = n
+        return None
+
+    return check

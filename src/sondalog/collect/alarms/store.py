@@ -22,16 +22,34 @@ from __future__ import annotations
 import contextlib
 import sqlite3
 from collections.abc import Iterable, Iterator
+from operator import attrgetter, itemgetter
 from pathlib import Path
 
 from sondalog.io.private import connect_private, private_parents
 
-from .events import AlarmRecord, Transition
+from .events import AlarmRecord, StateChanges, Transition
 from .outbox import Message, add_line
 from .schema import OUTBOX_COLUMNS, SQLITE_ALARM_DDL, STATE_COLUMNS
 
 _STATES = ", ".join(STATE_COLUMNS)
 _OUTBOX = ", ".join(OUTBOX_COLUMNS)
+_state_values = attrgetter(*STATE_COLUMNS)
+#: What the alarm id is a hash of: an upsert leaves them (and their unique index) alone.
+_KEY = ("alarm", "rule", "subject")
+#: An alarm's row written in place (an upsert, not ``INSERT OR REPLACE``: a known alarm's row
+#: keeps its rowid and neither index is touched, which makes saving every reading's counters
+#: cheap; the id is a hash of (rule, subject), so the unique pair cannot conflict apart).
+_SAVE_STATE = (
+    f"INSERT INTO alarm_states ({_STATES}) VALUES ({', '.join('?' * len(STATE_COLUMNS))}) "
+    "ON CONFLICT (alarm) DO UPDATE SET "
+    + ", ".join(f"{c} = excluded.{c}" for c in STATE_COLUMNS if c not in _KEY)
+)
+#: The columns of an alarm's rule's progress, which every reading changes.
+_COUNTERS = ("count", "last_value", "last_time", "last_counter")
+_counter_values = itemgetter(*(STATE_COLUMNS.index(c) for c in (*_COUNTERS, "alarm")))
+_SAVE_COUNTERS = (
+    f"UPDATE alarm_states SET {', '.join(f'{c} = ?' for c in _COUNTERS)} WHERE alarm = ?"
+)
 
 
 class AlarmStore:
@@ -107,12 +125,24 @@ class AlarmStore:
         return [AlarmRecord(*row) for row in rows]
 
     def save_states(self, records: Iterable[AlarmRecord]) -> None:
-        marks = ", ".join("?" * len(STATE_COLUMNS))
-        rows = [tuple(getattr(r, c) for c in STATE_COLUMNS) for r in records]
+        rows = [_state_values(r) for r in records]
+        if not rows:
+            return
         with self.transaction() as db:
-            db.executemany(
-                f"INSERT OR REPLACE INTO alarm_states ({_STATES}) VALUES ({marks})", rows
-            )
+            db.executemany(_SAVE_STATE, rows)
+
+    def save_changes(self, changes: StateChanges) -> None:
+        """:meth:`Alarms.changes`: whole rows, and the progress columns of the others (a
+        row the store does not have yet, say after a failed save, is written whole)."""
+        if not changes.states and not changes.counters:
+            return
+        with self.transaction() as db:
+            if changes.states:
+                db.executemany(_SAVE_STATE, changes.states)
+            if changes.counters:
+                rows = [_counter_values(row) for row in changes.counters]
+                if db.executemany(_SAVE_COUNTERS, rows).rowcount < len(rows):
+                    db.executemany(_SAVE_STATE, changes.counters)
 
     def record(self, transitions: Iterable[Transition]) -> None:
         """Add ``transitions`` to the history (each (event, what) once)."""

@@ -1,0 +1,219 @@
+"""``Alarms.ingest`` (the compiled fast path of issue 21) answers exactly as ``Alarms.reading``.
+
+Random rule sets (threshold above/below with clear and for, stuck with for and tolerance,
+step with for; logger globs; channels by number, by name glob, or all) and random chunks of
+the collector's readings (late and old rows, the same reading twice, rows of one time,
+None values, NaN and infinities, counters, with and without a UTC time, several sources):
+the transitions of every chunk, the alarms each chunk changed and the exported states must
+be the same from ``ingest(source, readings)`` as from ``readings(Sample.of(...))``, also
+when both start from states a previous run exported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+from alarm_helpers import plan_of
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sondalog.collect.alarms import AlarmPlan, AlarmRecord, Alarms, AlarmStore, Rule, Sample
+from sondalog.collect.model import Reading
+
+T0 = datetime(2026, 1, 1)
+LOGGERS = ("F01", "F02", "G1")
+NAMES = (None, "T1", "T2", "Air")
+VALUES = (0.0, 0.5, 1.0, 1.0005, 2.0, 2.5, -1.0, 10.0, math.nan, math.inf, -math.inf)
+
+
+@st.composite
+def rules(draw: st.DrawFn) -> AlarmPlan:
+    out = []
+    for i in range(draw(st.integers(1, 6))):
+        kind = draw(st.sampled_from(["threshold", "stuck", "step"]))
+        where = draw(st.sampled_from(["number", "name", "all"]))
+        fields: dict[str, object] = {
+            "logger": draw(st.sampled_from(["*", "F*", "F01", "G?", "X*"])),
+            "source": draw(st.sampled_from(["*", "*", "s1", "s?"])),
+            "count": draw(st.integers(0, 4)),
+        }
+        if where == "number":
+            fields["channel"] = draw(st.integers(1, 3))
+        elif where == "name":
+            fields["channel_name"] = draw(st.sampled_from(["T*", "Air", "T1", "*"]))
+        if kind == "threshold":
+            limit = draw(st.sampled_from([0.5, 1.0, 2.0, 2.4]))
+            direction = draw(st.sampled_from(["above", "below"]))
+            gap = draw(st.sampled_from([0.0, 0.5, 1.0]))
+            fields |= {
+                "direction": direction,
+                "limit": limit,
+                "clear": limit - gap if direction == "above" else limit + gap,
+                "clear_count": draw(st.integers(0, 3)),
+            }
+        elif kind == "stuck":
+            fields["tolerance"] = draw(st.sampled_from([0.0, 0.001, 0.5]))
+        else:
+            fields["step"] = draw(st.sampled_from([0.0, 0.4, 1.5]))
+        out.append(Rule(f"r{i}", kind, **fields))  # type: ignore[arg-type]
+    return AlarmPlan(tuple(out))
+
+
+@st.composite
+def chunks(draw: st.DrawFn) -> list[tuple[str, list[Reading]]]:
+    out = []
+    for _ in range(draw(st.integers(1, 5))):
+        source = draw(st.sampled_from(["s1", "s2", "t1"]))
+        readings: list[Reading] = []
+        stamps: list[datetime] = []
+        for _ in range(draw(st.integers(0, 6))):
+            if stamps and draw(st.booleans()):  # a row of the same time object, maybe in UTC
+                stamp = draw(st.sampled_from(stamps))
+            else:
+                stamp = T0 + timedelta(minutes=draw(st.integers(0, 12)))  # late rows too
+                stamps.append(stamp)
+            utc = draw(st.sampled_from([None, stamp.replace(tzinfo=UTC) + timedelta(hours=1)]))
+            logger = draw(st.sampled_from(LOGGERS))
+            counter = draw(st.integers(0, 2))
+            for channel in draw(st.lists(st.integers(1, 4), min_size=1, max_size=4)):
+                value = draw(st.one_of(st.none(), st.sampled_from(VALUES), st.floats(-3, 3)))
+                name = draw(st.sampled_from(NAMES))
+                reading = Reading(logger, channel, stamp, counter, 1, value, None, name, None, utc)
+                readings.append(reading)
+                if draw(st.booleans()) and draw(st.booleans()):
+                    readings.append(reading)  # the same reading twice
+        out.append((source, readings))
+    return out
+
+
+def run(plan: AlarmPlan, feed: list[tuple[str, list[Reading]]], records: list[AlarmRecord]) -> None:
+    """Both paths on the same chunks, each with a table of states saved after every chunk
+    (the slow one whole by ``changed()``, the fast one by ``changes()``: progress columns
+    only where that is all that changed), compared as text (NaN equals NaN)."""
+    slow, fast = Alarms(plan, records), Alarms(plan, records)
+    slow_table = {r.alarm: _row(r) for r in records}
+    fast_table = dict(slow_table)
+    for source, readings in feed:
+        expected = slow.readings(Sample.of(source, r) for r in readings)
+        got = fast.ingest(source, readings)
+        assert repr(got) == repr(expected)
+        changed = slow.changed()
+        slow_table |= {r.alarm: _row(r) for r in changed}
+        changes = fast.changes()
+        fast_table |= {row[0]: row for row in changes.states}
+        for row in changes.counters:
+            old = fast_table[row[0]]  # only the progress of a row the store has
+            fast_table[row[0]] = old[:12] + row[12:16] + old[16:]
+        assert sorted(row[0] for row in changes.states + changes.counters) == sorted(
+            r.alarm for r in changed
+        )
+        assert repr(sorted(fast_table.items())) == repr(sorted(slow_table.items()))
+    assert repr(sorted(fast_table.values())) == repr(sorted(_row(r) for r in fast.export()))
+    assert repr(sorted(fast.export(), key=_alarm)) == repr(sorted(slow.export(), key=_alarm))
+
+
+def _row(record: AlarmRecord) -> tuple[object, ...]:
+    return tuple(getattr(record, f.name) for f in fields(AlarmRecord))
+
+
+def _alarm(record: AlarmRecord) -> str:
+    return record.alarm
+
+
+@settings(max_examples=300, deadline=None)
+@given(rules(), chunks(), chunks())
+def test_ingest_answers_as_reading_on_random_rules_and_readings(
+    plan: AlarmPlan,
+    first: list[tuple[str, list[Reading]]],
+    then: list[tuple[str, list[Reading]]],
+) -> None:
+    run(plan, first, [])
+    # a restart: both start from the states the first run exported, then go on
+    before = Alarms(plan)
+    for source, readings in first:
+        before.readings(Sample.of(source, r) for r in readings)
+    run(plan, then, before.export())
+
+
+def test_ingest_raises_and_clears_with_the_rows_own_times() -> None:
+    """The benchmark's kind of config, fed as the collector stores it."""
+    plan = plan_of(
+        """
+[[alarm]]
+name = "hot"
+kind = "threshold"
+logger = "F*"
+channel = "T1"
+above = 2
+clear = 1
+for = 2
+"""
+    )
+    alarms = Alarms(plan)
+    values = [1.0, 2.5, 2.5, 1.0, 0.5]
+    readings = [
+        Reading("F01", 1, T0 + timedelta(minutes=i), 0, 1, v, None, "T1")
+        for i, v in enumerate(values)
+    ]
+    out = alarms.ingest("s1", readings)
+    assert [(t.what, t.time) for t in out] == [
+        ("raised", (T0 + timedelta(minutes=2)).replace(tzinfo=UTC).timestamp()),
+        ("cleared", (T0 + timedelta(minutes=4)).replace(tzinfo=UTC).timestamp()),
+    ]
+    assert alarms.ingest("s1", readings) == []  # the same rows again: ignored
+
+
+def test_save_changes_writes_progress_alone_and_whole_rows_the_store_lacks(tmp_path: Path) -> None:
+    plan = plan_of(
+        """
+[[alarm]]
+name = "flat"
+kind = "stuck"
+channel = 1
+for = 3
+
+[[alarm]]
+name = "hot"
+kind = "threshold"
+channel = 1
+above = 5
+"""
+    )
+    alarms = Alarms(plan)
+
+    def rows(first: int, values: list[float]) -> list[Reading]:
+        return [
+            Reading("F01", 1, T0 + timedelta(minutes=first + i), 0, 1, v)
+            for i, v in enumerate(values)
+        ]
+
+    def stored(store: AlarmStore) -> dict[str, AlarmRecord]:
+        return {r.alarm: r for r in store.load_states()}
+
+    with AlarmStore(tmp_path / "collector.sqlite") as store:
+        assert alarms.ingest("s1", rows(0, [1.0, 2.0])) == []
+        changes = alarms.changes()
+        assert len(changes.states) == 2 and changes.counters == []  # new alarms: whole
+        store.save_changes(changes)
+        assert alarms.ingest("s1", rows(2, [2.0, 3.0])) == []
+        changes = alarms.changes()
+        assert changes.states == [] and len(changes.counters) == 2  # progress only
+        store.save_changes(changes)
+        assert stored(store) == {r.alarm: r for r in alarms.export()}
+        out = alarms.ingest("s1", rows(4, [3.0, 3.0, 6.0]))
+        assert [t.what for t in out] == ["raised", "cleared", "raised"]
+        store.save_changes(alarms.changes())
+        assert stored(store) == {r.alarm: r for r in alarms.export()}
+        store.db.execute("DELETE FROM alarm_states")  # say a save that was rolled back
+        alarms.ingest("s1", rows(7, [6.0]))
+        changes = alarms.changes()
+        assert changes.states == [] and len(changes.counters) == 2
+        store.save_changes(changes)
+        assert stored(store) == {r.alarm: r for r in alarms.export()}
+    with AlarmStore(tmp_path / "collector.sqlite") as store:  # a restart goes on from there
+        again = Alarms(plan, store.load_states())
+        assert again.ingest("s1", rows(7, [6.0])) == []  # an old row: ignored
+        assert {r.alarm: r for r in again.export()} == {r.alarm: r for r in alarms.export()}

@@ -41,9 +41,9 @@ from sondalog.collect.alarms import (
     Health,
     Message,
     Policy,
-    Sample,
     Transition,
 )
+from sondalog.collect.alarms.events import reading_time
 from sondalog.collect.alarms.senders import DeliveryError, Sender, sender_for
 from sondalog.collect.config import CollectorConfig, SourceConfig
 from sondalog.collect.model import Reading
@@ -55,13 +55,6 @@ ACK_POLL = 1.0
 #: Channel type of a supply voltage (§6.5.6).
 SUPPLY_TYPE = 1
 _GAP_ROWS = re.compile(r"about (\d+) rows")
-
-
-def reading_time(r: Reading) -> float:
-    """A reading's own time: its UTC time when the logger's zone is known, else its clock
-    time taken as UTC (the order of a logger's readings is what the rules need)."""
-    when = r.utc if r.utc is not None else r.time.replace(tzinfo=UTC)
-    return when.timestamp()
 
 
 def text_time(text: object) -> float | None:
@@ -133,46 +126,48 @@ class AlarmLoop:
 
     # -- observations ---------------------------------------------------------------------
 
-    def _commit(self, transitions: Sequence[Transition], now: float) -> None:
+    def _commit(
+        self, transitions: Sequence[Transition], now: float, *, repeats: bool = False
+    ) -> None:
+        """Record ``transitions``, queue their notifications (and, on the timer's turn, the
+        repeats due: they depend on the time, not on readings, and finding them looks at
+        every alarm) and save the states, in one transaction."""
         with self.store.transaction():
             self.store.record(transitions)
             added = self.policy.notify(transitions, now)
-            added += self.policy.repeats(self.alarms.active(), now)
-            self.store.save_states(self.alarms.changed())
+            if repeats:
+                added += self.policy.repeats(self.alarms.active(), now)
+            self.store.save_changes(self.alarms.changes())
         for t in transitions:
             log.warning("alarm %s %s: %s", t.what, t.alarm, t.text)
         if (transitions or added) and self._wake is not None:
             self._wake.set()
 
     def readings(self, source: str, batch: Sequence[Reading], **state: Any) -> None:
-        """A delivered batch (``state``: what the source's row gets with it: signal, credit)."""
-        samples = [
-            Sample(source, r.logger, r.channel, r.value, reading_time(r), r.name, r.counter)
-            for r in batch
-            if r.value is not None
-        ]
-        out = self.alarms.readings(samples)
-        if samples:
-            out += self._batch_health(source, batch, samples, state)
-        if out or samples:
-            self._commit(out, self.clock())
+        """A delivered batch (``state``: what the source's row gets with it: signal, credit).
+
+        The rules see the readings through :meth:`Alarms.ingest` (the fast path, proven the
+        same as one :class:`Sample` a reading); only supply channels and the batch's last
+        reading are made samples, for the health rules."""
+        valued = [r for r in batch if r.value is not None]
+        if not valued:
+            return
+        out = self.alarms.ingest(source, valued)
+        out += self._batch_health(source, valued, state)
+        self._commit(out, self.clock())
 
     def _batch_health(
-        self,
-        source: str,
-        batch: Sequence[Reading],
-        samples: Sequence[Sample],
-        state: dict[str, Any],
+        self, source: str, valued: Sequence[Reading], state: dict[str, Any]
     ) -> list[Transition]:
         out: list[Transition] = []
-        for r, s in zip((r for r in batch if r.value is not None), samples, strict=True):
+        for r in valued:
             if r.channel in self._supply_channels(r.logger):
-                out += self.alarms.health(Health(source, s.time, r.logger, supply=s.value))
+                out += self.alarms.health(Health(source, reading_time(r), r.logger, supply=r.value))
         signal, credit = state.get("signal"), state.get("credit")
         if signal is not None or credit is not None:
-            last = samples[-1]
+            last = valued[-1]
             out += self.alarms.health(
-                Health(source, last.time, last.logger, signal=signal, credit=credit)
+                Health(source, reading_time(last), last.logger, signal=signal, credit=credit)
             )
         return out
 
@@ -247,7 +242,7 @@ class AlarmLoop:
                 if acked is not None:
                     out.append(acked)
             out += self.alarms.advance(now)
-            self._commit(out, now)
+            self._commit(out, now, repeats=True)
 
     def next_wake(self, now: float) -> float:
         times = [

@@ -1,5 +1,6 @@
 """The collector's alarms (issue 21): the pure core of :mod:`sondalog.collect.alarms` fed by
-the runner, its store in the collector's SQLite file, and a task that notifies.
+the runner, its store in the collector's SQLite file (or on the ``[postgres]`` server with
+``alarms = true``: :func:`alarm_store`), and a task that notifies.
 
 What the runner feeds (docs/alarms.md "What the collector feeds"):
 
@@ -30,7 +31,7 @@ import socket
 import time
 from collections.abc import Callable, Iterable, Sequence
 from datetime import UTC, datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sondalog.collect.alarms import (
     LEASE,
@@ -49,12 +50,30 @@ from sondalog.collect.config import CollectorConfig, SourceConfig
 from sondalog.collect.model import Reading
 from sondalog.collect.store_sqlite import SqliteStore
 
+if TYPE_CHECKING:
+    from sondalog.collect.alarms.store_pg import PostgresAlarmStore
+
+    #: Either alarm store: the same methods.
+    Store = AlarmStore | PostgresAlarmStore
+
 log = logging.getLogger(__name__)
 #: Seconds between looks for acknowledgements asked for by another process.
 ACK_POLL = 1.0
 #: Channel type of a supply voltage (§6.5.6).
 SUPPLY_TYPE = 1
 _GAP_ROWS = re.compile(r"about (\d+) rows")
+
+
+def alarm_store(config: CollectorConfig) -> Store:
+    """Where the alarm tables of ``config`` are: on the ``[postgres]`` server when its table
+    says ``alarms = true`` (shared by every collector using it), otherwise in the
+    collector's SQLite store file. Not opened yet."""
+    postgres = config.sinks.get("postgres")
+    if postgres is not None and getattr(postgres, "alarms", False):
+        from sondalog.collect.alarms.store_pg import PostgresAlarmStore
+
+        return PostgresAlarmStore(postgres.dsn, postgres.connect_timeout)
+    return AlarmStore(config.store)
 
 
 def text_time(text: object) -> float | None:
@@ -83,7 +102,7 @@ class AlarmLoop:
         self.config = config
         self.plan = config.alarms
         self.clock = clock
-        self.store = AlarmStore(config.store)
+        self.store: Store = alarm_store(config)
         self.alarms = Alarms(self.plan)
         self.policy = Policy(self.plan, self.store, zone=_local_zone())
         #: Who claims outbox rows: stable across restarts of this collector, so a restart

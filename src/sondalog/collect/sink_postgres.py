@@ -6,6 +6,7 @@ Configured by the ``[postgres]`` table::
     dsn = "host=db.example port=5432 dbname=sensors user=collector"  # or postgresql://...
     timescaledb = "auto"      # "auto" (hypertable when the extension is there), "on", "off"
     connect_timeout = 5       # seconds
+    alarms = false            # true: the alarm tables live here too (docs/alarms.md)
 
 The schema (:data:`DDL`, the columns of :mod:`sondalog.collect.schema` with PostgreSQL types)
 is created and migrated by the sink when it connects, under an advisory lock so that several
@@ -40,7 +41,7 @@ from sondalog.config import Table, of
 
 log = logging.getLogger(__name__)
 
-_KEYS = {"dsn", "timescaledb", "connect_timeout"}
+_KEYS = {"dsn", "timescaledb", "connect_timeout", "alarms"}
 _LOCK_ID = 0x50D4_1064  # advisory lock of the schema migration ("sondalog")
 
 HYPERTABLE = "hypertable"
@@ -261,6 +262,9 @@ class PostgresConfig:
     dsn: str
     timescaledb: str = "auto"
     connect_timeout: int = 5
+    #: The collector's alarm tables on this server, shared by the collectors that use it
+    #: (:mod:`sondalog.collect.alarms.store_pg`), not in its SQLite store.
+    alarms: bool = False
 
 
 def _dsn(value: str) -> str:
@@ -280,6 +284,7 @@ def parse_config(table: Table) -> PostgresConfig:
         connect_timeout=table.integer(
             "connect_timeout", 5, lo=1, what="a whole number of seconds >= 1"
         ),
+        alarms=table.flag("alarms", False),
     )
 
 

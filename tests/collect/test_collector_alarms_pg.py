@@ -1,7 +1,8 @@
 """Two collectors share their alarms on one PostgreSQL (issue 21), for real: two
 ``sondalog collect`` processes, each with its own SQLite store, download the same served
 logger with the same threshold rule and ``[postgres] alarms = true``; a real aiosmtpd gets
-exactly one e-mail per event (raised, cleared) although both collectors see it."""
+exactly one e-mail per event (raised, cleared) although both collectors see it, and an
+acknowledgement asked with ``sondalog alarms ack`` reaches both."""
 
 from __future__ import annotations
 
@@ -57,6 +58,10 @@ def _collecting(config: Path) -> Iterator[subprocess.Popen[bytes]]:
             proc.communicate()
 
 
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=60)
+
+
 def _stderr(proc: subprocess.Popen[bytes]) -> str:
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
@@ -84,6 +89,11 @@ def test_two_collectors_on_one_postgres_mail_once_per_event(tmp_path: Path, pg_d
             )
             mail.wait(lambda: len(mail.mails) >= 1, 30)
             time.sleep(3)  # both collectors have read the rows that raised it
+            listed = _cli("alarms", "list", str(configs[1]))
+            assert listed.returncode == 0 and f"{ident}  raised" in listed.stdout, listed
+            acked = _cli("alarms", "ack", str(configs[0]), ident)
+            assert acked.returncode == 0, acked.stderr
+            time.sleep(2)  # both collectors take the acknowledgement on their next turn
             served.ask("write channel 2 address 17")  # the level falls
             mail.wait(lambda: len(mail.mails) >= 2, 30)
             time.sleep(3)
@@ -91,7 +101,8 @@ def test_two_collectors_on_one_postgres_mail_once_per_event(tmp_path: Path, pg_d
         keys = mail.sent_keys()
         assert [k.split("/")[1] for k in keys] == ["raised", "cleared"], mail.subjects()
         for err in errors:  # each collector saw both events itself
-            assert f"alarm raised {ident}" in err and f"alarm cleared {ident}" in err, err
+            for what in ("raised", "acknowledged", "cleared"):
+                assert f"alarm {what} {ident}" in err, err
         for config in configs:  # each collector's own store holds no alarm table
             with contextlib.closing(sqlite3.connect(config.parent / "store.sqlite")) as db:
                 tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master")}
@@ -100,4 +111,4 @@ def test_two_collectors_on_one_postgres_mail_once_per_event(tmp_path: Path, pg_d
             rows = db.execute("SELECT what, state FROM alarm_outbox ORDER BY created").fetchall()
             events = db.execute("SELECT what FROM alarm_events ORDER BY time").fetchall()
         assert rows == [("raised", "sent"), ("cleared", "sent")]
-        assert events == [("raised",), ("cleared",)]
+        assert events == [("raised",), ("acknowledged",), ("cleared",)]

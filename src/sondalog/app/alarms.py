@@ -2,7 +2,8 @@
 (issue 21). The command only parses; the work is here.
 
 Both read the collector's file (``FILE.toml``) for the store's path and open the alarm
-tables there, beside a running collector (SQLite WAL). An acknowledgement is a request
+tables there, beside a running collector (SQLite WAL), or on the ``[postgres]`` server when
+its table says ``alarms = true``. An acknowledgement is a request
 (:meth:`~sondalog.collect.alarms.AlarmStore.request_ack`): the collector applies it on its
 next turn (within about a second), which stops the alarm's repeats.
 """
@@ -14,9 +15,14 @@ import time
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from sondalog.collect.alarm_loop import alarm_store
 from sondalog.collect.alarms import AlarmRecord, AlarmStore
 from sondalog.collect.config import load_config
+
+if TYPE_CHECKING:
+    from sondalog.collect.alarm_loop import Store
 
 
 class AlarmRefused(Exception):
@@ -28,21 +34,26 @@ class AlarmList:
     """What ``alarms list`` shows: the alarms (active ones, or every one) and the latest
     transitions (with ``--all``), newest first."""
 
-    store: Path
+    store: Path | str
     alarms: list[AlarmRecord]
     history: list[tuple[object, ...]]
 
 
-def _store(config_file: Path) -> Path:
-    return load_config(config_file).store
+def _store(config_file: Path) -> tuple[Path | str, Store | None]:
+    """Where the alarm tables are, and their store (``None``: an SQLite file not there)."""
+    config = load_config(config_file)
+    store = alarm_store(config)
+    if not isinstance(store, AlarmStore):
+        return "the [postgres] server", store
+    return config.store, store if config.store.exists() else None
 
 
 def list_alarms(config_file: Path, every: bool = False, limit: int = 100) -> AlarmList:
     """The alarms of the collector of ``config_file`` (raises ``ConfigError``)."""
-    path = _store(config_file)
-    if not path.exists():
+    path, found = _store(config_file)
+    if found is None:
         return AlarmList(path, [], [])
-    with AlarmStore(path) as store:
+    with found as store:
         records = store.load_states()
         history = store.history(limit) if every else []
     shown = records if every else [r for r in records if r.active]
@@ -53,11 +64,11 @@ def list_alarms(config_file: Path, every: bool = False, limit: int = 100) -> Ala
 def acknowledge(config_file: Path, alarm: str, by: str | None = None) -> AlarmRecord:
     """Ask the collector of ``config_file`` to acknowledge ``alarm`` (its id); raises
     :class:`AlarmRefused` for an unknown id or an alarm that is not raised."""
-    path = _store(config_file)
-    if not path.exists():
+    path, found = _store(config_file)
+    if found is None:
         raise AlarmRefused(f"no alarm {alarm!r}: the store {path} does not exist yet")
     who = by if by is not None else f"{getpass.getuser()} (command line)"
-    with AlarmStore(path) as store:
+    with found as store:
         record = next((r for r in store.load_states() if r.alarm == alarm), None)
         if record is None:
             raise AlarmRefused(f"no alarm {alarm!r} in {path} (sondalog alarms list shows them)")

@@ -110,6 +110,8 @@ class AlarmLoop:
         self.owner = f"{socket.gethostname()}:{config.path.resolve()}"
         self.senders: dict[str, Sender] = {}
         self.sqlite: SqliteStore | None = None
+        self._sources: list[SourceConfig] = []
+        self._stale = False
         self._supply: dict[str, set[int]] = {}
         self._gap_mark: dict[str, int] = {}
         self._wake: asyncio.Event | None = None
@@ -121,11 +123,20 @@ class AlarmLoop:
         """Open the alarm tables (in the collector's store file), restore the alarms' states,
         and watch every source for no contact from its last stored contact."""
         self.sqlite = sqlite
+        self._sources = list(sources)
         self.store.open()
         self.store.release(self.owner)
+        self._restore()
+
+    def _restore(self) -> None:
+        """The alarms as the store has them (at the start, and after a failed write: the
+        transitions it lost are computed again from the readings read again)."""
+        assert self.sqlite is not None
+        sqlite = self.sqlite
         self.alarms = Alarms(self.plan, self.store.load_states())
+        self._stale = False
         now = self.clock()
-        for source in sources:
+        for source in self._sources:
             row = sqlite.source(source.name) or {}
             self.alarms.watch_source(
                 source.name,
@@ -150,13 +161,19 @@ class AlarmLoop:
     ) -> None:
         """Record ``transitions``, queue their notifications (and, on the timer's turn, the
         repeats due: they depend on the time, not on readings, and finding them looks at
-        every alarm) and save the states, in one transaction."""
-        with self.store.transaction():
-            self.store.record(transitions)
-            added = self.policy.notify(transitions, now)
-            if repeats:
-                added += self.policy.repeats(self.alarms.active(), now)
-            self.store.save_changes(self.alarms.changes())
+        every alarm) and save the states, in one transaction. If it fails (the PostgreSQL
+        server went away) the memory no longer matches the store: it is read again first
+        on the next observation."""
+        try:
+            with self.store.transaction():
+                self.store.record(transitions)
+                added = self.policy.notify(transitions, now)
+                if repeats:
+                    added += self.policy.repeats(self.alarms.active(), now)
+                self.store.save_changes(self.alarms.changes())
+        except BaseException:
+            self._stale = True
+            raise
         for t in transitions:
             log.warning("alarm %s %s: %s", t.what, t.alarm, t.text)
         if (transitions or added) and self._wake is not None:
@@ -171,6 +188,7 @@ class AlarmLoop:
         valued = [r for r in batch if r.value is not None]
         if not valued:
             return
+        self._fresh()
         out = self.alarms.ingest(source, valued)
         out += self._batch_health(source, valued, state)
         self._commit(out, self.clock())
@@ -206,13 +224,22 @@ class AlarmLoop:
             row = self.sqlite.db.execute("SELECT coalesce(max(id), 0) FROM events").fetchone()
             self._gap_mark[source] = int(row[0])
 
+    def _fresh(self) -> None:
+        if self._stale and self.sqlite is not None:
+            self._restore()
+
     def contact(self, source: str, ok: bool, error: str | None = None) -> None:
-        """A contact of ``source`` ended, well or not."""
-        now = self.clock()
-        out = self.alarms.contact(Contact(source, ok, now, error))
-        if ok:
-            out += self._contact_health(source, now)
-        self._commit(out, now)
+        """A contact of ``source`` ended, well or not (a store that fails is logged: the
+        source goes on)."""
+        try:
+            self._fresh()
+            now = self.clock()
+            out = self.alarms.contact(Contact(source, ok, now, error))
+            if ok:
+                out += self._contact_health(source, now)
+            self._commit(out, now)
+        except Exception as exc:
+            log.warning("alarms: %s", exc)
 
     def _contact_health(self, source: str, now: float) -> list[Transition]:
         if self.sqlite is None:
@@ -245,15 +272,20 @@ class AlarmLoop:
 
     def sink(self, name: str, up: bool, waiting: int) -> None:
         """A sink's state after a delivery or a replay: up or down, ``waiting`` batches."""
-        now = self.clock()
-        out = self.alarms.condition(Condition("sink", name, 0.0 if up else 1.0, now))
-        out += self.alarms.condition(Condition("buffer", name, float(waiting), now))
-        self._commit(out, now)
+        try:
+            self._fresh()
+            now = self.clock()
+            out = self.alarms.condition(Condition("sink", name, 0.0 if up else 1.0, now))
+            out += self.alarms.condition(Condition("buffer", name, float(waiting), now))
+            self._commit(out, now)
+        except Exception as exc:  # the sink's delivery goes on
+            log.warning("alarms: %s", exc)
 
     # -- the timer and the postman --------------------------------------------------------
 
     def turn(self, now: float) -> None:
         """Acknowledgements asked for, timers, repeats: one transaction."""
+        self._fresh()
         with self.store.transaction():
             out: list[Transition] = []
             for alarm, by, requested in self.store.take_ack_requests(now):

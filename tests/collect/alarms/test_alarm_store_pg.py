@@ -150,3 +150,39 @@ def test_alarms_true_in_postgres_puts_the_alarm_tables_there(tmp_path: Path) -> 
     assert isinstance(alarm_store(load_config(_config(tmp_path, ""))), AlarmStore)
     with pytest.raises(ConfigError, match=r"collector.toml:3: postgres.alarms: must be true"):
         load_config(_config(tmp_path, 'alarms = "yes"'))
+
+
+def test_a_write_lost_with_the_connection_is_computed_again(pg_dsn: str, tmp_path: Path) -> None:
+    """The server drops the collector's connection while a batch raises: the batch fails
+    (its cursor is not committed), and reading it again raises and notifies after all."""
+    from datetime import datetime
+
+    from sondalog.collect.alarm_loop import AlarmLoop
+    from sondalog.collect.model import Reading
+    from sondalog.collect.store_sqlite import SqliteStore
+
+    path = tmp_path / "collector.toml"
+    path.write_text(
+        f'[postgres]\ndsn = "{pg_dsn}"\nalarms = true\n\n'
+        '[[source]]\nurl = "tcp://127.0.0.1:1"\nname = "s"\n\n'
+        '[[notify]]\nname = "log"\nkind = "log"\n\n'
+        '[[alarm]]\nname = "hot"\nkind = "threshold"\nchannel = 1\nabove = 40\nnotify = ["log"]\n'
+    )
+    config = load_config(path)
+    sqlite = SqliteStore(config.store).open_sync()
+    loop = AlarmLoop(config)
+    loop.open(sqlite, config.sources)
+    store = loop.store
+    assert isinstance(store, PostgresAlarmStore)
+    batch = [Reading("F01", 1, datetime(2026, 1, 1, 12), 1, 3, 41.0)]
+    pid = store.db.execute("SELECT pg_backend_pid()").fetchone()
+    with PostgresAlarmStore(pg_dsn) as other:
+        other.db.execute("SELECT pg_terminate_backend(%s)", pid)
+    with pytest.raises(Exception):  # noqa: B017 - psycopg's OperationalError
+        loop.readings("s", batch)
+    loop.contact("s", ok=False, error="the batch failed")  # logged, never raised
+    loop.readings("s", batch)  # read again after the failed contact
+    assert [m.what for m in store.messages()] == ["raised"]
+    assert [r.state for r in store.load_states() if r.rule == "hot"] == ["raised"]
+    store.close()
+    sqlite.close_sync()

@@ -69,6 +69,7 @@ def test_supply_below_its_limit_and_a_filling_record_raise_and_clear(tmp_path: P
     assert low[1][2] == 12.6
     full = events(store, MEMORY)
     assert [w for w, _, _ in full] == ["raised", "cleared"], full
-    assert full[0][2] is not None and 0.3 < full[0][2] < 0.6 and full[1][2] == 0.0
+    assert full[0][2] is not None and 0.3 < full[0][2] < 0.6
+    assert full[1][2] is not None and full[1][2] <= 0.3  # erased (maybe a row or two since)
     log = collect_log(config)
     assert "alarm RAISED" in log and SUPPLY in log and MEMORY in log

@@ -13,7 +13,10 @@ event loop:
   e-mails its new rows every module hour to the mail hub, and the collector reads them from
   the mailbox;
 - an RS-485 bus with two HCTMPS1 modules on 10485, the mail hub (SMTP 2525, POP3 1110);
-- the collector (``state/demo/collector.toml``) into SQLite, with its dashboard on 8080.
+- the collector (``state/demo/collector.toml``) into SQLite, with its dashboard on 8080, and
+  its alarms (:mod:`sondalog.app.demo_alarms`): the river at ``CABLE-01`` floods a module
+  hour after the start; the alarm is raised, e-mailed to ``ops@example.net`` and texted
+  through the GSM network to ``+420700000001``, shown, and cleared a few module hours later.
 
 A default port that is taken is replaced by a free one, and the demo says which; a port given
 with ``--listen`` is used or the demo stops with a message (exit 1). It prints how to reach
@@ -35,6 +38,7 @@ from typing import TypeVar
 
 from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.collector import collect_with_dashboard
+from sondalog.app.demo_alarms import ALARM_PHONE, LEVEL_LOGGER, OPS_MAIL, RULE, AlarmWorld
 from sondalog.app.demo_world import (
     BUS_MODULES,
     GSM,
@@ -195,8 +199,10 @@ class Demo:
         # the GSM logger is in the field: its rows come by e-mail only
         addresses = {s.key: self.loggers[s.key].servers[0].address for s in LOGGERS}
         pop3 = (HOST, self.mail.pop3_port)
+        alarms = AlarmWorld((HOST, self.mail.smtp_port), self.gsm_api, GSM_PHONE)
         config.write_text(
-            collector_toml(addresses, self.bus.address, (HOST, web_port), pop3), encoding="utf-8"
+            collector_toml(addresses, self.bus.address, (HOST, web_port), pop3, alarms),
+            encoding="utf-8",
         )
 
         def on_web(host: str, port: int) -> None:
@@ -298,6 +304,13 @@ class Demo:
             f"Mail hub: SMTP {HOST}:{self.mail.smtp_port}, POP3 {HOST}:{self.mail.pop3_port}"
             f" (accounts {', '.join(MAIL_ACCOUNTS)}, password secret)",
             f"Collector: {STATE_DIR}/collector.toml -> {STATE_DIR}/collector.sqlite",
+            "",
+            f"Alarms: the river at {LEVEL_LOGGER} floods about a module hour after the start: "
+            f"the alarm {RULE!r} is raised (dashboard, e-mail to {OPS_MAIL}, SMS from "
+            f"{ALARM_PHONE} to {GSM_PHONE}) and cleared a few module hours later.",
+            f"  .venv/bin/sondalog alarms list {STATE_DIR}/collector.toml",
+            f"  .venv/bin/sondalog alarms ack {STATE_DIR}/collector.toml ID",
+            f"  .venv/bin/sondalog phone {api}inbox {GSM_PHONE}",
             "",
             "Serving until Ctrl-C.",
         ]

@@ -21,6 +21,14 @@ from datetime import datetime
 from pathlib import Path
 
 from sondalog.ala1.model import Version
+from sondalog.app.demo_alarms import (
+    ALARM_PHONE,
+    LEVEL_FILE,
+    OPS_MAIL,
+    AlarmWorld,
+    alarm_toml,
+    level_csv,
+)
 from sondalog.app.logger import DATABASE_FILE, load_identity
 from sondalog.app.virtual import VirtualLogger
 from sondalog.backends.sim.logger import SimHardware
@@ -58,14 +66,8 @@ supply_power = 1
 [[logger.analog]]               # a water-level sensor on K2 pin 5, powered by output 2
 address = 16
 power = 2
-[logger.analog.signal]
-model = "random_walk"
-start = 1.1
-step = 0.01
-interval = 300
-seed = 3
-min = 0.3
-max = 1.9
+# its level: a wandering river with a flood wave an hour after the demo starts (level.csv)
+signal = { model = "csv", path = "level.csv", loop = true }
 
 [[logger.ds18b20]]              # a thermometer in the water on P6 bit 4
 pin = 4
@@ -193,6 +195,9 @@ ussd = {{ "{GSM_CREDIT_CODE}" = "Your credit is {{credit:.2f}} CZK. Thank you." 
 
 [[gsm.phone]]
 number = "{GSM_PHONE}"
+
+[[gsm.phone]]                   # the collector's SIM: it sends the alarms' SMS
+number = "{ALARM_PHONE}"
 """
 
 
@@ -240,12 +245,14 @@ seed = 9
 min = 30
 max = 70
 """
-MAIL_ACCOUNTS = {LOGGER_MAIL: "secret", USER_MAIL: "secret"}
+MAIL_ACCOUNTS = {LOGGER_MAIL: "secret", USER_MAIL: "secret", OPS_MAIL: "secret"}
 
 
 def write_world(state: Path) -> None:
-    """The site files of :data:`LOGGERS` and of the bus (``bus.toml``)."""
+    """The site files of :data:`LOGGERS` and of the bus (``bus.toml``), and the water level
+    ``CABLE-01``'s site file reads (:func:`~sondalog.app.demo_alarms.level_csv`)."""
     private_dir(state)  # the demo's state, private like any (docs/security.md)
+    (state / LEVEL_FILE).write_text(level_csv(HISTORY_DAYS), encoding="utf-8")
     for logger in (*LOGGERS, GSM):
         (state / f"{logger.key}.toml").write_text(
             f"# The demo logger {logger.serial}: {logger.what}.\n{logger.site}", encoding="utf-8"
@@ -260,9 +267,11 @@ def collector_toml(
     bus: tuple[str, int],
     web: tuple[str, int],
     pop3: tuple[str, int] | None = None,
+    alarms: AlarmWorld | None = None,
 ) -> str:
-    """The collector's configuration: every logger, the bus, the dashboard on ``web``, and
-    the GSM logger's e-mails in the mailbox on ``pop3``."""
+    """The collector's configuration: every logger, the bus, the dashboard on ``web``, the
+    GSM logger's e-mails in the mailbox on ``pop3``, and the demo's alarms notifying through
+    ``alarms`` (:mod:`sondalog.app.demo_alarms`)."""
     parts = [
         "# The demo's collector: written by `make demo`, see docs/collector.md.",
         '[sqlite]\npath = "collector.sqlite"',
@@ -285,6 +294,8 @@ def collector_toml(
             f'loggers = {{ "{LOGGER_MAIL}" = "{GSM.serial}" }}\n'
             "signal = 3\ncredit = 4\ninterval = 5\n" + GSM_CHANNELS
         )
+    if alarms is not None:
+        parts.append(alarm_toml(alarms))
     return "\n\n".join(parts) + "\n"
 
 

@@ -59,6 +59,8 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 #: Seconds between looks for acknowledgements asked for by another process.
 ACK_POLL = 1.0
+#: Source kinds whose contacts are messages of loggers: a good poll is not a logger heard.
+MESSAGE_KINDS = ("mailbox", "network")
 #: Channel type of a supply voltage (§6.5.6).
 SUPPLY_TYPE = 1
 _GAP_ROWS = re.compile(r"about (\d+) rows")
@@ -114,6 +116,9 @@ class AlarmLoop:
         self._stale = False
         self._supply: dict[str, set[int]] = {}
         self._gap_mark: dict[str, int] = {}
+        #: Message sources (mailbox, network) and whether their contact brought rows.
+        self._messages = {s.name for s in config.sources if s.kind in MESSAGE_KINDS}
+        self._heard: dict[str, bool] = {}
         self._wake: asyncio.Event | None = None
         self.sent = 0
 
@@ -185,6 +190,8 @@ class AlarmLoop:
         The rules see the readings through :meth:`Alarms.ingest` (the fast path, proven the
         same as one :class:`Sample` a reading); only supply channels and the batch's last
         reading are made samples, for the health rules."""
+        if batch:  # a logger was heard from (a skipped message brings none)
+            self._heard[source] = True
         valued = [r for r in batch if r.value is not None]
         if not valued:
             return
@@ -220,6 +227,7 @@ class AlarmLoop:
 
     def contact_started(self, source: str) -> None:
         """Remember where the events table stands (the gaps this contact writes count)."""
+        self._heard[source] = False
         if self.sqlite is not None:
             row = self.sqlite.db.execute("SELECT coalesce(max(id), 0) FROM events").fetchone()
             self._gap_mark[source] = int(row[0])
@@ -234,7 +242,8 @@ class AlarmLoop:
         try:
             self._fresh()
             now = self.clock()
-            out = self.alarms.contact(Contact(source, ok, now, error))
+            heard = source not in self._messages or self._heard.get(source, False)
+            out = self.alarms.contact(Contact(source, ok, now, error, heard))
             if ok:
                 out += self._contact_health(source, now)
             self._commit(out, now)

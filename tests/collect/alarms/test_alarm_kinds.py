@@ -107,6 +107,19 @@ def test_no_contact_is_a_timer_of_the_source() -> None:
     assert isinstance(cleared, Cleared) and cleared.time == T0 + 2200
 
 
+def test_a_message_source_that_brought_nothing_is_no_contact_with_its_loggers() -> None:
+    alarms = Alarms(plan_of('[[alarm]]\nkind = "no_contact"\nafter = 100\n'))
+    alarms.watch_source("gsm-mail", interval=10, now=T0)
+    # the mailbox answers, but the logger is out of coverage: nothing came
+    assert alarms.contact(Contact("gsm-mail", True, T0 + 50, heard=False)) == []
+    assert alarms.next_deadline() == T0 + 100  # not restarted
+    [raised] = alarms.advance(T0 + 100)
+    assert isinstance(raised, Raised)
+    assert alarms.contact(Contact("gsm-mail", True, T0 + 150, heard=False)) == []
+    [cleared] = alarms.contact(Contact("gsm-mail", True, T0 + 160))  # its held rows arrive
+    assert isinstance(cleared, Cleared) and cleared.time == T0 + 160
+
+
 def test_no_contact_after_and_last_contact_from_the_store() -> None:
     alarms = Alarms(plan_of('[[alarm]]\nkind = "no_contact"\nafter = "10m"\nsource = "st*"\n'))
     alarms.watch_source("station-1", interval=60, now=T0, last_contact=T0 - 500)

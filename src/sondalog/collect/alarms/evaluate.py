@@ -285,7 +285,7 @@ class Alarms:
         out: list[Transition] = []
         for rule in self.plan.of_kind("no_contact"):
             track = self._tracks.get((rule.name, contact.source))
-            if track is None or not contact.ok:
+            if track is None or not contact.ok or not contact.heard:
                 continue
             if track.ref is not None and contact.time < track.ref:
                 continue  # an old contact reported late

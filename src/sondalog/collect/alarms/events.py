@@ -73,12 +73,18 @@ def reading_time(reading: Reading) -> float:
 
 @dataclass(frozen=True, slots=True)
 class Contact:
-    """A contact of ``source`` that worked (``ok``) or failed (with the ``error``)."""
+    """A contact of ``source`` that worked (``ok``) or failed (with the ``error``).
+
+    ``heard`` is for message sources (a mailbox, the GSM network): whether the contact
+    brought anything from a logger. A mailbox that answers while its loggers are silent (out
+    of coverage) is not a contact with them: it neither clears nor restarts a
+    ``no_contact`` alarm, though it is a good contact for ``watch = "source"``."""
 
     source: str
     ok: bool
     time: float
     error: str | None = None
+    heard: bool = True
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,7 +18,7 @@ from sondalog.backends.linux.rs485 import BusTiming, Rs485Settings
 from sondalog.backends.linux.sources import IioSource, W1Source
 from sondalog.backends.sensor_bank import HeldSensor, NoReading, SensorBank
 from sondalog.backends.sensor_sources import SourcePlan, open_source, read_source
-from sondalog.backends.sim.site_bus import parse_bus_site
+from sondalog.backends.sim.site_bus import load_bus_site
 from sondalog.client.bus_links import (
     BusUrlError,
     Rs485Link,
@@ -26,7 +26,7 @@ from sondalog.client.bus_links import (
     open_link,
     parse_bus_url,
 )
-from sondalog.config import ConfigError, of, read_site_file
+from sondalog.config import ConfigError, of
 from sondalog.hctmps1 import Kind, encode_frame
 
 SLAVE = "28-000008d5e4fd"
@@ -105,8 +105,7 @@ def test_modules_measure_their_sources_from_power_up(tmp_path: Path) -> None:
     FakeW1(tmp_path, bulk=False).sensor(SLAVE, -3.5)
     site = tmp_path / "site.toml"
     site.write_text(SITE)
-    data, text = read_site_file(site)
-    bus_site = parse_bus_site(data, 0.0, site, text)
+    bus_site = load_bus_site(site)
     bank = SensorBank(tmp_path)
     for entry in bus_site.modules:
         assert entry.source is not None
@@ -130,18 +129,16 @@ def test_modules_measure_their_sources_from_power_up(tmp_path: Path) -> None:
 def test_bad_sources_name_the_field(tmp_path: Path, old: str, new: str, message: str) -> None:
     site = tmp_path / "site.toml"
     site.write_text(SITE.replace(old, new))
-    data, raw = read_site_file(site)
     with pytest.raises(ConfigError, match=r"bus\.modules\[0\]") as caught:
-        parse_bus_site(data, 0.0, site, raw)
+        load_bus_site(site)
     assert message in str(caught.value)
 
 
 def test_a_signal_and_a_source_together_are_refused(tmp_path: Path) -> None:
     site = tmp_path / "site.toml"
     site.write_text(SITE + 'signal = { model = "constant", value = 1.0 }\n')
-    data, raw = read_site_file(site)
     with pytest.raises(ConfigError, match=r"signal or a source, not both"):
-        parse_bus_site(data, 0.0, site, raw)
+        load_bus_site(site)
 
 
 def _plan_error(tmp_path: Path, serve: str) -> str:

@@ -174,13 +174,6 @@ def load_board(site: Path) -> BoardConfig | None:
     return read_board_of_site(load(site))
 
 
-def board_of_site(
-    data: Mapping[str, object], site: Path, text: str | None = None
-) -> BoardConfig | None:
-    """Like :func:`load_board`, for a site file already parsed."""
-    return read_board_of_site(of(data, site, text))
-
-
 def read_board_of_site(site: Table) -> BoardConfig | None:
     """The board of the site file whose root table is ``site`` (None without one)."""
     if "board" not in site:

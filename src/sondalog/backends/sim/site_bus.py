@@ -30,7 +30,6 @@ kinds registered in :mod:`sondalog.backends.sensor_sources`. Loading makes a typ
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -82,17 +81,6 @@ def default_bus_site() -> BusSite:
 def load_bus_site(path: Path) -> BusSite:
     """Read and check the bus part of the site file at ``path``."""
     return read_bus_site(load(path))
-
-
-def parse_bus_site(
-    data: Mapping[str, object],
-    start: float = 0.0,
-    path: Path | None = None,
-    text: str | None = None,
-) -> BusSite:
-    """:func:`read_bus_site` of an already parsed site file (``start`` is not needed any
-    more: signals are bound to the start time when the bus is built)."""
-    return read_bus_site(of(data, path, text))
 
 
 def read_bus_site(site: Table) -> BusSite:

@@ -46,7 +46,7 @@ from sondalog.collect.alarms import (
 )
 from sondalog.collect.alarms.events import reading_time
 from sondalog.collect.alarms.senders import DeliveryError, Sender, sender_for
-from sondalog.collect.config import CollectorConfig, SourceConfig
+from sondalog.collect.config import MESSAGE_KINDS, CollectorConfig, SourceConfig
 from sondalog.collect.model import Reading
 from sondalog.collect.store_sqlite import SqliteStore
 
@@ -59,8 +59,6 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 #: Seconds between looks for acknowledgements asked for by another process.
 ACK_POLL = 1.0
-#: Source kinds whose contacts are messages of loggers: a good poll is not a logger heard.
-MESSAGE_KINDS = ("mailbox", "network")
 #: Channel type of a supply voltage (§6.5.6).
 SUPPLY_TYPE = 1
 _GAP_ROWS = re.compile(r"about (\d+) rows")
@@ -116,7 +114,8 @@ class AlarmLoop:
         self._stale = False
         self._supply: dict[str, set[int]] = {}
         self._gap_mark: dict[str, int] = {}
-        #: Message sources (mailbox, network) and whether their contact brought rows.
+        #: Message sources and whether their contact brought rows: a good poll of a mailbox
+        #: is not its logger heard from.
         self._messages = {s.name for s in config.sources if s.kind in MESSAGE_KINDS}
         self._heard: dict[str, bool] = {}
         self._wake: asyncio.Event | None = None

@@ -93,6 +93,8 @@ _SOURCE = (
     "channels",
 )
 KINDS = ("logger", "bus", "mailbox", "network")
+#: Sources whose rows come in loggers' data messages (docs/collector.md).
+MESSAGE_KINDS = ("mailbox", "network")
 #: Keys only the message sources (``mailbox``, ``network``) take.
 _MESSAGE_KEYS = ("logger", "loggers", "number", "keep", "signal", "credit", "channels")
 #: A string with something other than blanks in it.
@@ -254,7 +256,7 @@ def _source(t: Table) -> SourceConfig:
 
 def _message_keys(t: Table, kind: str) -> dict[str, Any]:
     """``logger``, ``loggers``, ``number``, ``keep``, ... of a message source, checked."""
-    if kind not in ("mailbox", "network"):
+    if kind not in MESSAGE_KINDS:
         for key in _MESSAGE_KEYS:
             if key in t:
                 raise t.fail(key, "only a mailbox or network source has it")

@@ -20,7 +20,7 @@ from typing import Any
 from sondalog.client import Ala1Client, BusMaster
 from sondalog.client.download import ClockReading, Download
 from sondalog.client.records import UTC
-from sondalog.collect.config import SourceConfig
+from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
 from sondalog.collect.delivery import GSM_TYPES, Deliver
 from sondalog.collect.delivery import Source as Source
 from sondalog.collect.message_sources import MailboxSource, NetworkSource
@@ -193,7 +193,7 @@ class BusSource:
 def make_source(config: SourceConfig, store: SqliteStore) -> Source:
     if config.kind == "bus":
         return BusSource(config, store)
-    if config.kind in ("mailbox", "network"):
+    if config.kind in MESSAGE_KINDS:
         return (
             MailboxSource(config, store)
             if config.kind == "mailbox"

@@ -69,6 +69,12 @@ SUBCOMMANDS: dict[str, LazyCommand] = {
         "Conversion tables of a logger (manual §10): push, pull, check.",
         "logger",
     ),
+    "replay": LazyCommand(
+        "sondalog.cli.replay_cmd",
+        "replay",
+        "Serve a recorded line (a trace written by term) back as a device.",
+        "logger",
+    ),
     "download": LazyCommand(
         "sondalog.cli.download_cmd",
         "download",

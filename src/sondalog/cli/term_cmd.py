@@ -43,6 +43,7 @@ from sondalog.client import (
     parse_url,
 )
 from sondalog.client.ala1_codec import ConnectionLost, ends_final
+from sondalog.client.trace import TracedEndpoint, TraceWriter
 
 
 def _text(data: bytes) -> str:
@@ -136,13 +137,22 @@ class _Local:
     is_flag=True,
     help="Reading from stdin, exit 0 even when the logger answered ERROR to a line.",
 )
-def term(url: str, timeout: float, ignore_errors: bool) -> None:
+@click.option(
+    "--trace",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Record the session's bytes both ways in this file, for 'logger replay' "
+    "(docs/testing.md).",
+)
+def term(url: str, timeout: float, ignore_errors: bool, trace: Path | None) -> None:
     """Talk to an ALA1 logger at URL (tcp://HOST:PORT, serial:///DEVICE?baud=9600).
 
     A serial URL also opens the pty of "logger serve --pty PATH": serial://PATH?baud=9600.
     gsm://API-HOST:PORT/NUMBER?from=PHONE places a data call to a modem of a served GSM
     network and talks through it once the modem answered (docs/gsm.md).
     Lines starting with ":" are local commands (:help, :log FILE, :explain, :quit).
+    --trace FILE records the line (docs/testing.md), which "sondalog logger replay FILE"
+    serves back.
 
     Reading commands from stdin, exit status 1 means the logger answered ERROR to a
     line, or a line got no answer or an incomplete one (reported on stderr), 2 that a
@@ -152,10 +162,22 @@ def term(url: str, timeout: float, ignore_errors: bool) -> None:
         endpoint = parse_url(url)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="URL") from exc
+    writer: TraceWriter | None = None
+    if trace is not None:
+        try:
+            writer = TraceWriter(trace, str(endpoint))
+        except OSError as exc:
+            raise click.BadParameter(
+                f"cannot write {trace}: {exc.strerror or exc}", param_hint="--trace"
+            ) from exc
+        endpoint = TracedEndpoint(endpoint, writer)
     try:
         status = asyncio.run(_session(url, endpoint, timeout, sys.stdin, not ignore_errors))
     except OSError as exc:
         raise click.ClickException(f"cannot connect to {endpoint}: {exc}") from exc
+    finally:
+        if writer is not None:
+            writer.close()
     sys.exit(status)
 
 

@@ -178,3 +178,30 @@ def test_a_line_without_end_is_bounded() -> None:
     answer = _say(device, line, b"x" * 5000)
     assert answer == b"x" * 60 + b"\r\nERROR\r\n"
     assert device.deviation_count == 1
+
+
+def test_an_upload_block_with_line_ends_is_one_raw_exchange() -> None:
+    """``write special file list xmodem`` then ``C`` in one burst, and a block carrying LF
+    (a table's text): each is one exchange, answered once it is whole, never line by line."""
+    block = b"\x01\x01\xfetabulka1 36\ntabulka2 59\n" + b"\x1a" * 104 + b"\x12\x0a"
+    device = _device(
+        (True, b"read special file list xmodem\r"),
+        (True, b"C"),
+        (False, b"\x04"),
+        (True, b"write special file list xmodem\r"),
+        (False, b"C"),
+        (True, block),
+        (False, b"\x06"),
+    )
+    assert [(e.raw, bytes(e.answer)) for e in device.exchanges] == [
+        (True, b"\x04"),
+        (False, b"C"),
+        (True, b"\x06"),
+    ]
+    line = device.open_line()
+    assert _say(device, line, b"read special file list xmodem\r") == b""
+    assert _say(device, line, b"C") == b"\x04"
+    assert _say(device, line, b"write special file list xmodem\r") == b"C"
+    assert _say(device, line, block[:20]) == b""  # a part of the block: nothing yet
+    assert _say(device, line, block[20:]) == b"\x06"
+    assert device.deviations == []

@@ -14,16 +14,21 @@ from pathlib import Path
 from sondalog.app.logger import start_logger
 from sondalog.app.replay import load_replay, start_replay
 from sondalog.client import Ala1Client, Request, Response, Status, parse_url
-from sondalog.client.tables import pull_files
+from sondalog.client.tables import pull_files, push
 from sondalog.client.trace import TracedEndpoint, TraceWriter
 from sondalog.io.clock import RealClock
 
 SONDALOG = [sys.executable, "-m", "sondalog"]
+#: Two conversion tables (§10.2): their upload carries LF bytes in XMODEM blocks.
+TABLES = {
+    "tabulka1": b"100.8 550.9\n351.65 1000\n893 1790.53\n",
+    "tabulka2": b"3\n100.8 550.9\n351.65 1000\n893 1790.53\n4\n100.7 560\n351 1008\n",
+}
 
 
 async def _session(client: Ala1Client) -> tuple[list[Response], tuple[bytes, bytes]]:
     """What a host program does: plain, checked and summed commands, a refused one, a
-    pipeline, a write, and an XMODEM transfer (the table areas, §6.16)."""
+    pipeline, a write, and XMODEM transfers both ways (the table areas, §6.16)."""
     answers = [
         await client.command("read i version"),
         await client.command("read i snumber", check=True),
@@ -34,6 +39,9 @@ async def _session(client: Ala1Client) -> tuple[list[Response], tuple[bytes, byt
     answers += await client.pipeline(
         ["read i description", Request("read com speed", crcsum=True), "read i version"]
     )
+    partition = "write file record size 983040 write file list size 256 write file data size 51200"
+    answers.append(await client.command(partition))
+    await push(client, TABLES)
     tables = await pull_files(client)
     answers.append(await client.command("read i version"))
     return answers, tables

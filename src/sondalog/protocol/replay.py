@@ -46,9 +46,6 @@ class Exchange:
     raw: bool = False
     answer: bytearray = field(default_factory=bytearray)
 
-    def show(self) -> str:
-        return self.sent.decode("latin-1")
-
 
 @dataclass(frozen=True)
 class Deviation:
@@ -82,6 +79,12 @@ def _final(line: bytes) -> bool:
     return end.endswith(b"OK") or end == b"ERROR"
 
 
+def _shown(data: bytes) -> str:
+    """Host bytes as a deviation names them: at most 120 characters."""
+    text = data[:120].decode("latin-1")
+    return text + "..." if len(data) > 120 else text
+
+
 def _error(got: bytes) -> bytes:
     """§3.3.1: the line as received (at most 120 characters), then ERROR."""
     return got[:120] + b"\r\nERROR\r\n"
@@ -97,47 +100,48 @@ def _answer_lines(data: bytes) -> list[bytes]:
 
 
 def exchanges(chunks: Iterable[Chunk]) -> tuple[bytes, list[Exchange]]:
-    """The device's bytes before any host bytes, and the exchanges of a trace."""
+    """The device's bytes before any host bytes, and the exchanges of a trace.
+
+    The host's bytes between two answers (a burst) are command lines when they are text
+    ending at a line end (a pipeline when there are several); otherwise (an XMODEM block, a
+    command and the ``C`` that starts its transfer, line editing) one raw exchange."""
     prologue = bytearray()
     found: list[Exchange] = []
-    waiting: list[Exchange] = []  # lines sent whose final answer line has not come yet
-    pending = bytearray()  # host bytes after the last line end
+    waiting: list[Exchange] = []  # the exchanges of the last burst still taking answer lines
+    burst = bytearray()
     for chunk in chunks:
         if chunk.to_device:
-            pending += chunk.data
-            while (end := _line_end(pending)) >= 0:
-                text = bytes(pending[:end])
-                del pending[: end + 1]
-                if text:
-                    _add(found, waiting, Exchange(text))
+            burst += chunk.data
             continue
-        if pending:
-            _add(found, waiting, Exchange(bytes(pending), raw=True))
-            pending.clear()
+        if burst:
+            waiting = _burst(bytes(burst))
+            found += waiting
+            burst.clear()
         for piece in _answer_lines(chunk.data):
             if waiting:
                 waiting[0].answer += piece
-                if _final(piece) and not waiting[0].raw:
+                if len(waiting) > 1 and _final(piece):
                     waiting.pop(0)
             elif found:
                 found[-1].answer += piece
             else:
                 prologue += piece
-    if pending:
-        found.append(Exchange(bytes(pending), raw=True))
+    if burst:
+        found += _burst(bytes(burst))
     return bytes(prologue), found
+
+
+def _burst(data: bytes) -> list[Exchange]:
+    """The exchanges of what the host sent between two answers."""
+    if data[-1:] in (b"\r", b"\n") and all((b >= 0x20 and b != 0x7F) or b in _ENDS for b in data):
+        lines = data.replace(b"\n", b"\r").split(b"\r")
+        return [Exchange(line) for line in lines if line]
+    return [Exchange(data, raw=True)]
 
 
 def _line_end(data: bytearray) -> int:
     ends = [i for i in (data.find(b"\r"), data.find(b"\n")) if i >= 0]
     return min(ends) if ends else -1
-
-
-def _add(found: list[Exchange], waiting: list[Exchange], new: Exchange) -> None:
-    """A new exchange: the ones already answered in part (or raw) stop waiting for more."""
-    waiting[:] = [e for e in waiting if not e.raw and not e.answer]
-    found.append(new)
-    waiting.append(new)
 
 
 def normalise(text: bytes) -> bytes:
@@ -188,9 +192,9 @@ class ReplayDevice:
     def close_line(self, line: int) -> None:
         state = self._lines.pop(line, None)
         if state is not None and not self.lenient and state.next < len(self.exchanges):
-            expected = self.exchanges[state.next]
+            expected = _shown(self.exchanges[state.next].sent)
             unsent = len(self.exchanges) - state.next
-            self._deviate(Deviation(line, state.next, expected.show(), None, "missing", unsent))
+            self._deviate(Deviation(line, state.next, expected, None, "missing", unsent))
         if state is not None and self.on_close is not None:
             self.on_close(line)
 
@@ -243,12 +247,12 @@ class ReplayDevice:
     def _strict(self, line: int, state: _Line, got: bytes) -> bytes:
         """Strict: the answer to ``got``, recorded or the deviation's."""
         if state.next >= len(self.exchanges):
-            deviation = Deviation(line, state.next, None, got.decode("latin-1"), "beyond")
+            deviation = Deviation(line, state.next, None, _shown(got), "beyond")
         else:
             expected = self.exchanges[state.next]
             if not expected.raw and got == expected.sent:
                 return self._play(state, expected)
-            deviation = Deviation(line, state.next, expected.show(), got.decode("latin-1"))
+            deviation = Deviation(line, state.next, _shown(expected.sent), _shown(got))
         self._deviate(deviation)
         return _error(got)
 
@@ -263,6 +267,8 @@ class ReplayDevice:
         if raw is not None:
             pending.clear()
             return self._answer_by_text(state, b"\x00raw:" + raw[0].sent, raw)
+        if pending and any(sent.startswith(pending) for sent in self._raw):
+            return None  # (bounded by MAX_PENDING)
         text = self._take_line(pending)
         if text is None:
             return None
@@ -276,7 +282,7 @@ class ReplayDevice:
 
     def _unknown(self, line: int, got: bytes) -> bytes:
         """Lenient: a command not in the recording gets the protocol's error (§3.3.1)."""
-        self._deviate(Deviation(line, -1, None, got.decode("latin-1"), "unknown"))
+        self._deviate(Deviation(line, -1, None, _shown(got), "unknown"))
         return _error(got)
 
     def _answer_by_text(self, state: _Line, key: bytes, recorded: list[Exchange]) -> bytes:

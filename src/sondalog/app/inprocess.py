@@ -52,11 +52,9 @@ class SteppableClock:
         return self.now()
 
     async def sleep_until(self, deadline: float) -> None:
-        delay = deadline - self.now()
-        if delay <= 0:
-            return
-        with contextlib.suppress(TimeoutError):
-            await asyncio.wait_for(self._jumped.wait(), delay)
+        while (delay := deadline - self.now()) > 0:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._jumped.wait(), delay)
 
 
 class UnknownInput(KeyError):

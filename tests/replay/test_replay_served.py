@@ -186,3 +186,25 @@ def test_a_bad_trace_is_refused_with_its_line(tmp_path: Path) -> None:
     )
     assert done.returncode == 2
     assert f"{trace}:2: expected 'TIME  DIRECTION  BYTES'" in done.stderr
+
+
+def test_lenient_replay_answers_in_any_order(tmp_path: Path) -> None:
+    trace = tmp_path / "session.trace"
+    recorded, _ = asyncio.run(_record(tmp_path, trace))
+
+    async def lenient() -> None:
+        device = load_replay(trace, lenient=True)
+        served = await start_replay(device, ("127.0.0.1", 0))
+        try:
+            async with await Ala1Client.connect(served.url, timeout=5) as client:
+                description = await client.command("read  i description")  # spaces normalised
+                version = await client.command("read i version")
+                unknown = await client.command("read i fw")
+        finally:
+            await served.close()
+        assert description.lines == ("Replay test",)
+        assert version == recorded[0]
+        assert (unknown.status, unknown.raw) == (Status.ERROR, b"read i fw\r\nERROR\r\n")
+        assert [(d.kind, d.got) for d in device.deviations] == [("unknown", "read i fw")]
+
+    asyncio.run(lenient())

@@ -58,6 +58,22 @@ def _collecting(config: Path) -> Iterator[subprocess.Popen[bytes]]:
             proc.communicate()
 
 
+def _wait_contact(store: Path, timeout: float = 60) -> None:
+    """Until the collector of ``store`` has contacted its logger: it is up, its alarm states
+    loaded from the server (a collector slow to start under load would otherwise load the
+    other one's raise, and not see it itself)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        with (
+            contextlib.suppress(sqlite3.Error),
+            contextlib.closing(sqlite3.connect(f"{store.as_uri()}?mode=ro", uri=True)) as db,
+        ):
+            if db.execute("SELECT 1 FROM sources WHERE last_contact IS NOT NULL").fetchone():
+                return
+        time.sleep(0.2)
+    raise AssertionError(f"no contact in {store}")
+
+
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=60)
 
@@ -79,6 +95,8 @@ def test_two_collectors_on_one_postgres_mail_once_per_event(tmp_path: Path, pg_d
     with serving(tmp_path, "--site", str(site)) as served, smtp_server() as mail:
         configs = [_config(tmp_path / n, served.url, mail.port, pg_dsn) for n in ("a", "b")]
         with _collecting(configs[0]) as one, _collecting(configs[1]) as two:
+            for config in configs:  # both running (their alarms loaded) before the level rises
+                _wait_contact(config.parent / "store.sqlite")
             served.ask(
                 "write date " + datetime.now(UTC).strftime("%Y%m%d%H%M%S"),
                 "write channel max number 2",

@@ -7,6 +7,7 @@ by a real uvicorn; the acknowledgement lands in ``alarm_acks`` for the collector
 from __future__ import annotations
 
 import json
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 from urllib.parse import urlsplit
@@ -200,5 +201,28 @@ def test_alarm_names_and_texts_are_escaped(store: Path) -> None:
     try:
         for path in ("/", "/loggers/1001", "/log"):
             assert_inert(html(running.url + path), [SCRIPT + ATTR, ATTR + SCRIPT])
+    finally:
+        running.stop()
+
+
+def test_an_alarm_server_that_cannot_be_reached(store: Path) -> None:
+    """``[postgres] alarms = true`` with the server down: ``/api/alarms`` and the POST answer
+    503 (naming no DSN: it may hold a password), the pages still show the readings."""
+    from sondalog.collect.alarms.store_pg import PostgresAlarmStore
+
+    with socket.socket() as sock:  # a port nobody listens on
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    down = PostgresAlarmStore(f"host=127.0.0.1 port={port} user=secret-user", connect_timeout=1)
+    running = Running(create_app(store, alarm_store=down))
+    try:
+        status, _, body = request(running.url + "/api/alarms")
+        assert status == 503, body
+        error = json.loads(body)["error"]
+        assert "the alarms on the [postgres] server cannot be read" in error
+        assert "secret-user" not in error
+        assert post_ack(running.url, HOT)[0] == 503
+        assert "1001" in html(running.url + "/")  # the readings are still there
+        assert html(running.url + "/loggers/1001") and html(running.url + "/log")
     finally:
         running.stop()

@@ -54,9 +54,8 @@ def list_alarms(config_file: Path, every: bool = False, limit: int = 100) -> Ala
     if found is None:
         return AlarmList(path, [], [])
     with found as store:
-        records = store.load_states()
+        shown = store.load_states() if every else store.active_states()
         history = store.history(limit) if every else []
-    shown = records if every else [r for r in records if r.active]
     shown.sort(key=lambda r: (not r.active, -(r.since or 0.0), r.alarm))
     return AlarmList(path, shown, history)
 

@@ -2,7 +2,8 @@
 
 The collector (:mod:`sondalog.collect`) does not know the dashboard (the web sits above it in
 the package map); this wiring runs both: :class:`~sondalog.collect.runner.Collector` and,
-unless ``[web] enabled = false``, :func:`sondalog.web.serve` over the same SQLite store, as
+unless ``[web] enabled = false``, :func:`sondalog.web.serve` over the same SQLite store (and
+the same alarm store: the file's, or the ``[postgres]`` server's with ``alarms = true``), as
 tasks of the caller's loop. Stopping the collector stops the dashboard.
 
 A busy *default* port (no ``[web] listen`` in the file) is a warning and the collector runs
@@ -18,6 +19,7 @@ import logging
 from collections.abc import Callable
 from pathlib import Path
 
+from sondalog.collect.alarm_loop import alarm_store
 from sondalog.collect.config import load_config
 from sondalog.collect.runner import Collector
 from sondalog.web import create_app, serve
@@ -61,7 +63,12 @@ async def run_collector(
                 exc.strerror or exc,
             )
         else:
-            app = create_app(collector.config.store, token=web.token, poll_interval=poll_interval)
+            app = create_app(
+                collector.config.store,
+                token=web.token,
+                poll_interval=poll_interval,
+                alarm_store=alarm_store(collector.config),  # its file, or [postgres]
+            )
             task = asyncio.create_task(
                 serve(
                     app,

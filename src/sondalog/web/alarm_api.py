@@ -2,14 +2,16 @@
 ``POST /api/alarms/{alarm}/ack``; the queries and the same-origin check are in
 :mod:`.alarms`.
 
-The acknowledgement is the dashboard's one write: it opens the collector's
-:class:`~sondalog.collect.alarms.store.AlarmStore` for ``request_ack`` alone, and the
-collector applies the request on its next turn (``take_ack_requests``).
+Both go to the collector's alarm store wherever it is (its SQLite file, or the
+``[postgres]`` server with ``alarms = true``: :class:`~.alarms.AlarmAccess`). The
+acknowledgement is the dashboard's one write (``request_ack``); the collector applies it on
+its next turn (``take_ack_requests``).
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import sqlite3
 import time
 from collections.abc import Callable
@@ -21,10 +23,12 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import Request
 from starlette.responses import JSONResponse, RedirectResponse, Response
 
-from sondalog.collect.alarms.store import AlarmStore
+from sondalog.collect.alarms.store import SqlAlarmStore
 from sondalog.config import ConfigError, of
 
 from . import alarms, store
+
+log = logging.getLogger(__name__)
 
 
 class Settings(Protocol):
@@ -32,6 +36,7 @@ class Settings(Protocol):
 
     store: Path
     token: str | None
+    alarms: alarms.AlarmAccess
 
 
 T = TypeVar("T")
@@ -64,25 +69,44 @@ class AlarmHandlers:
     async def _db(self, work: Callable[[sqlite3.Connection], T]) -> T:
         raise NotImplementedError
 
+    async def _alarms(
+        self, work: Callable[[SqlAlarmStore], T], default: T, *, write: bool = False
+    ) -> T:
+        """``work`` on the collector's alarm store in a worker thread (``default``: it has
+        no alarm tables yet); raises ``StoreUnavailable`` (503) when it cannot be read."""
+        return await run_in_threadpool(self.settings.alarms.run, work, default, write=write)
+
+    async def _alarms_shown(self, work: Callable[[SqlAlarmStore], T], default: T) -> T:
+        """As :meth:`_alarms` for a page: an alarm store that cannot be read (the
+        ``[postgres]`` server is down) leaves the page without its alarms, and says so in
+        the log, rather than failing the whole page with the readings."""
+        try:
+            return await self._alarms(work, default)
+        except store.StoreUnavailable as exc:
+            log.warning("dashboard: %s", exc)
+            return default
+
     async def alarm_list(self, request: Request) -> Response:
         """The active alarms and the latest transitions (``?logger=``: that logger's)."""
         logger = request.query_params.get("logger") or None
 
-        def work(c: sqlite3.Connection) -> dict[str, Any]:
-            on = alarms.active(c, store.sources(c))
-            past = alarms.history(c)
-            if logger is not None:
-                on = [a for a in on if a["logger"] == logger]
-                names = {a["id"] for a in on}
-                loggers = {str(s["name"]): str(s["logger"]) for s in store.sources(c)}
-                past = [
-                    h
-                    for h in past
-                    if h["id"] in names or alarms.logger_of(str(h["subject"]), loggers) == logger
-                ]
-            return {"active": on, "history": past}
+        sources = await self._db(store.sources)
 
-        return JSONResponse(await self._db(work))
+        def work(s: SqlAlarmStore) -> dict[str, Any]:
+            return {"active": alarms.active(s, sources), "history": alarms.history(s)}
+
+        found: dict[str, Any] = await self._alarms(work, {"active": [], "history": []})
+        if logger is not None:
+            on = [a for a in found["active"] if a["logger"] == logger]
+            names = {a["id"] for a in on}
+            loggers = {str(s["name"]): str(s["logger"]) for s in sources if s.get("logger")}
+            past = [
+                h
+                for h in found["history"]
+                if h["id"] in names or alarms.logger_of(str(h["subject"]), loggers) == logger
+            ]
+            found = {"active": on, "history": past}
+        return JSONResponse(found)
 
     async def ack(self, request: Request) -> Response:
         """Ask the collector to acknowledge a raised alarm (202; it applies it on its next
@@ -99,19 +123,15 @@ class AlarmHandlers:
             by = "dashboard" if form else _ack_by(await request.body())
         except ConfigError as exc:
             return JSONResponse({"error": str(exc)}, status_code=400)
-        state = await self._db(lambda c: alarms.state_of(c, alarm))
+        state = await self._alarms(lambda s: s.state_of(alarm), None)
         if state is None:
             return JSONResponse({"error": f"unknown alarm {alarm!r}"}, status_code=404)
         if state != "raised":
             return _not_raised(alarm, state)
         now = time.time()
-
-        def write() -> bool:
-            with AlarmStore(self.settings.store) as alarm_store:
-                return alarm_store.request_ack(alarm, by, now)
-
-        if not await run_in_threadpool(write):  # changed in the meantime
-            state = await self._db(lambda c: alarms.state_of(c, alarm))
+        asked = await self._alarms(lambda s: s.request_ack(alarm, by, now), False, write=True)
+        if not asked:  # changed in the meantime
+            state = await self._alarms(lambda s: s.state_of(alarm), None)
             return _not_raised(alarm, state or "gone")
         if form:  # back to the page it was on
             back = urlsplit(headers.get("referer", "/"))

@@ -1,11 +1,14 @@
-"""The alarms the dashboard shows, read from the collector's store (issue 21).
+"""The alarms the dashboard shows, read from wherever the collector keeps them (issue 21).
 
-The collector keeps its alarms in its own SQLite file (``alarm_states``, ``alarm_events``,
-``alarm_acks``: :mod:`sondalog.collect.alarms.schema`). The dashboard reads them over its
-read-only connection; a store made before the alarms (no such tables) simply has none.
-The one write is an acknowledgement asked for with the button: the app opens an
-:class:`~sondalog.collect.alarms.store.AlarmStore` for it alone (``request_ack``), and the
-collector applies it on its next turn.
+The collector keeps its alarm tables (``alarm_states``, ``alarm_events``, ``alarm_acks``:
+:mod:`sondalog.collect.alarms.schema`) in its own SQLite file, or with ``[postgres] alarms
+= true`` on the PostgreSQL server. :class:`AlarmAccess` reaches either through the
+collector's alarm store (:class:`~sondalog.collect.alarms.store.SqlAlarmStore`, the same
+statements on both): on the file a read-only connection for each look (nothing is
+created; a store made before the alarms, without their tables, simply has none) and a
+writable one for an acknowledgement; on the server one connection, kept and used by one
+request at a time. The one write is an acknowledgement asked for with the button
+(``request_ack``); the collector applies it on its next turn.
 
 A POST changes something, so it must come from the dashboard's own pages
 (:func:`cross_site`): its ``Origin`` (else ``Referer``) must name the host the request was
@@ -16,17 +19,57 @@ rebinding -- sends its own name as ``Host`` and ``Origin``).
 
 from __future__ import annotations
 
-import sqlite3
+import threading
+from collections.abc import Callable
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
+from sondalog.collect.alarms.store import AlarmStore, AlarmTablesMissing, SqlAlarmStore
 from sondalog.config import is_loopback
+
+from .store import StoreUnavailable
 
 #: The states of an alarm that is on (as :data:`sondalog.collect.alarms.events.ACTIVE`).
 ACTIVE = ("raised", "acknowledged")
 #: How many transitions the log page and ``/api/alarms`` show.
 HISTORY = 50
+
+T = TypeVar("T")
+
+
+class AlarmAccess:
+    """The dashboard's way to the collector's alarm store ``store`` (not opened here: an
+    :class:`AlarmStore` names the file, a PostgreSQL store is opened on first use)."""
+
+    def __init__(self, store: SqlAlarmStore) -> None:
+        self.store = store
+        self._lock = threading.Lock()
+
+    @property
+    def where(self) -> str:
+        """The store in answers (never a DSN: it may hold a password)."""
+        if isinstance(self.store, AlarmStore):
+            return str(self.store.path)
+        return "the [postgres] server"
+
+    def run(self, work: Callable[[SqlAlarmStore], T], default: T, *, write: bool = False) -> T:
+        """``work`` on the store (call it in a worker thread); ``default`` when the store has
+        no alarm tables. Raises :class:`~.store.StoreUnavailable` when it cannot be read."""
+        try:
+            if isinstance(self.store, AlarmStore):
+                with AlarmStore(self.store.path, read_only=not write) as store:
+                    return work(store)
+            with self._lock:
+                return work(self.store.open())
+        except AlarmTablesMissing:
+            return default
+        except self.store.errors as exc:
+            raise StoreUnavailable(f"the alarms on {self.where} cannot be read: {exc}") from exc
+
+    def close(self) -> None:
+        with self._lock:
+            self.store.close()
 
 
 def host_time(epoch: object) -> str | None:
@@ -38,13 +81,6 @@ def host_time(epoch: object) -> str | None:
     return when.isoformat(timespec="seconds")
 
 
-def _tables(conn: sqlite3.Connection) -> set[str]:
-    rows = conn.execute(
-        "SELECT name FROM sqlite_master WHERE type = 'table' AND name LIKE 'alarm_%'"
-    )
-    return {str(r[0]) for r in rows}
-
-
 def logger_of(subject: str, source_loggers: dict[str, str]) -> str | None:
     """The logger an alarm is about: ``LOGGER/CHANNEL`` (readings), a source's logger
     (contacts), else the subject itself (health, the collector's sinks: may be no logger)."""
@@ -54,68 +90,42 @@ def logger_of(subject: str, source_loggers: dict[str, str]) -> str | None:
     return source_loggers.get(subject, subject)
 
 
-def active(conn: sqlite3.Connection, sources: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def active(store: SqlAlarmStore, sources: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The alarms on now (raised or acknowledged), newest first, each with the logger it is
-    about and whether an acknowledgement was asked for and waits for the collector."""
-    tables = _tables(conn)
-    if "alarm_states" not in tables:
-        return []
-    waiting: set[str] = set()
-    if "alarm_acks" in tables:
-        waiting = {
-            str(r[0]) for r in conn.execute("SELECT alarm FROM alarm_acks WHERE done IS NULL")
-        }
+    about (``sources``: the collector's sources, which name their loggers) and whether an
+    acknowledgement was asked for and waits for the collector."""
+    waiting = store.waiting_acks()
     loggers = {str(s["name"]): str(s["logger"]) for s in sources if s.get("logger")}
-    rows = conn.execute(
-        "SELECT alarm, rule, kind, subject, state, value, text, since, raised_at, acked_at "
-        "FROM alarm_states WHERE state IN ('raised', 'acknowledged') "
-        "ORDER BY coalesce(raised_at, since) DESC, alarm"
-    )
     out = []
-    for alarm, rule, kind, subject, state, value, text, since, raised_at, acked_at in rows:
-        start = raised_at if raised_at is not None else since
+    for r in store.active_states():
+        start = r.raised_at if r.raised_at is not None else r.since
         out.append(
             {
-                "id": alarm,
-                "rule": rule,
-                "kind": kind,
-                "subject": subject,
-                "logger": logger_of(str(subject), loggers),
-                "state": state,
-                "value": value,
-                "text": text,
+                "id": r.alarm,
+                "rule": r.rule,
+                "kind": r.kind,
+                "subject": r.subject,
+                "logger": logger_of(r.subject, loggers),
+                "state": r.state,
+                "value": r.value,
+                "text": r.text,
                 "since": start,
                 "since_time": host_time(start),
-                "acked_at": acked_at,
-                "acked_time": host_time(acked_at),
-                "ack_requested": state == "raised" and alarm in waiting,
+                "acked_at": r.acked_at,
+                "acked_time": host_time(r.acked_at),
+                "ack_requested": r.state == "raised" and r.alarm in waiting,
             }
         )
     return out
 
 
-def history(conn: sqlite3.Connection, limit: int = HISTORY) -> list[dict[str, Any]]:
+def history(store: SqlAlarmStore, limit: int = HISTORY) -> list[dict[str, Any]]:
     """The latest transitions (raised, cleared, acknowledged), newest first."""
-    if "alarm_events" not in _tables(conn):
-        return []
-    rows = conn.execute(
-        "SELECT time, what, alarm, rule, subject, value, text FROM alarm_events "
-        "ORDER BY time DESC, id DESC LIMIT ?",
-        (limit,),
-    )
     keys = ("time", "what", "id", "rule", "subject", "value", "text")
-    out = [dict(zip(keys, row, strict=True)) for row in rows]
+    out = [dict(zip(keys, row, strict=True)) for row in store.history(limit)]
     for item in out:
         item["host_time"] = host_time(item["time"])
     return out
-
-
-def state_of(conn: sqlite3.Connection, alarm: str) -> str | None:
-    """The alarm's state, or None when there is no such alarm (or no alarm tables)."""
-    if "alarm_states" not in _tables(conn):
-        return None
-    row = conn.execute("SELECT state FROM alarm_states WHERE alarm = ?", (alarm,)).fetchone()
-    return None if row is None else str(row[0])
 
 
 def cross_site(headers: dict[str, str], *, token_set: bool) -> str | None:

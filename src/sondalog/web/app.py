@@ -4,7 +4,8 @@ Routes (see ``docs/dashboard.md``): ``/`` overview, ``/loggers/{logger}`` plot, 
 events; ``/api/loggers``, ``/api/loggers/{logger}``, ``/api/loggers/{logger}/series``,
 ``/api/loggers/{logger}/readings.csv``, ``/api/loggers/{logger}/stream`` (server-sent
 events), ``/api/events``, ``/api/alarms`` and ``POST /api/alarms/{alarm}/ack`` (issue 21,
-:mod:`.alarms`). Bad parameters get HTTP 400 with the reason, an unknown logger 404,
+:mod:`.alarms`: from the collector's alarm store, its SQLite file or the ``[postgres]``
+server). Bad parameters get HTTP 400 with the reason, an unknown logger 404,
 a store that is not there (yet) 503.
 """
 
@@ -17,7 +18,7 @@ import json
 import re
 import sqlite3
 from collections.abc import AsyncIterator, Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 from typing import Any, TypeVar
@@ -36,6 +37,7 @@ from starlette.responses import (
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from sondalog.collect.alarms.store import AlarmStore, SqlAlarmStore
 from sondalog.collect.schema import COLUMNS
 
 from . import alarms, overview, pages, series, store
@@ -71,6 +73,11 @@ class Settings:
     overview_refresh_s: float = 10.0
     #: Set by :func:`~sondalog.web.serve` when stopping: live streams end.
     stopping: bool = False
+    #: Where the alarms are (default: the alarm tables of the store file).
+    alarms: alarms.AlarmAccess = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.alarms = alarms.AlarmAccess(AlarmStore(self.store))
 
 
 def create_app(
@@ -80,13 +87,17 @@ def create_app(
     poll_interval: float = 1.0,
     max_points: int = 2000,
     overview_refresh: float = 10.0,
+    alarm_store: SqlAlarmStore | None = None,
 ) -> Starlette:
     """The dashboard for the store at ``store_path`` (read-only; it may not exist yet).
 
     ``token``: require it on every request (see :mod:`sondalog.web.auth`);
     ``poll_interval``: seconds between the live stream's looks at the store;
     ``max_points``: the most points per series one plot request sends;
-    ``overview_refresh``: seconds between the overview page's refreshes.
+    ``overview_refresh``: seconds between the overview page's refreshes;
+    ``alarm_store``: where the collector keeps its alarms (not opened yet: the collector's
+    ``alarm_store(config)``, a PostgreSQL store with ``[postgres] alarms = true``); default
+    the alarm tables of the store file.
     """
     if poll_interval <= 0 or overview_refresh <= 0:
         raise ValueError("poll_interval and overview_refresh must be more than 0 seconds")
@@ -94,6 +105,8 @@ def create_app(
         raise ValueError(f"max_points must be 10 or more, got {max_points}")
     settings = Settings(Path(store_path), check_token(token), poll_interval, max_points)
     settings.overview_refresh_s = overview_refresh
+    if alarm_store is not None:
+        settings.alarms = alarms.AlarmAccess(alarm_store)
     api = Api(settings)
     routes = [
         Route("/", api.page_overview),
@@ -192,9 +205,10 @@ class Api(AlarmHandlers):
 
     async def page_overview(self, request: Request) -> Response:
         def work(c: sqlite3.Connection) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-            return overview.overview(c), alarms.active(c, store.sources(c))
+            return overview.overview(c), store.sources(c)
 
-        data, on = await self._db(work)
+        data, sources = await self._db(work)
+        on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
         refresh = self.settings.overview_refresh_s
         return HTMLResponse(pages.overview(data, refresh_s=refresh, alarms=on))
 
@@ -203,9 +217,10 @@ class Api(AlarmHandlers):
         await self._known(logger)
 
         def work(c: sqlite3.Connection) -> tuple[list[store.Channel], list[dict[str, Any]]]:
-            return store.channels(c, logger), alarms.active(c, store.sources(c))
+            return store.channels(c, logger), store.sources(c)
 
-        chans, on = await self._db(work)
+        chans, sources = await self._db(work)
+        on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
         mine = [a for a in on if a["logger"] == logger]
         return HTMLResponse(
             pages.plot(
@@ -225,11 +240,13 @@ class Api(AlarmHandlers):
         source = request.query_params.get("source") or None
         limit = 50
 
-        def work(c: sqlite3.Connection) -> tuple[Any, ...]:
-            evs = store.events(c, before=before, limit=limit, source=source)
-            return evs, alarms.history(c), len(alarms.active(c, []))
+        evs = await self._db(partial(store.events, before=before, limit=limit, source=source))
 
-        evs, past, count = await self._db(work)
+        def work(s: SqlAlarmStore) -> tuple[list[dict[str, Any]], int]:
+            return alarms.history(s), len(s.active_states())
+
+        no_alarms: tuple[list[dict[str, Any]], int] = ([], 0)
+        past, count = await self._alarms_shown(work, no_alarms)
         return HTMLResponse(
             pages.log(
                 evs,

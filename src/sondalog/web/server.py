@@ -112,3 +112,5 @@ async def serve(
         raise
     finally:
         sock.close()
+        # the alarm store's connection (a PostgreSQL one is kept), once no request uses it
+        await asyncio.shield(asyncio.to_thread(settings.alarms.close))

@@ -19,11 +19,16 @@ def test_two_collectors_share_the_outbox(pg_dsn: str) -> None:
         one.execute(POSTGRES_ALARM_DDL)  # additive: runs again on every start
         assert one.execute(ADD, ("e1/raised/hook",)).rowcount == 1
         assert one.execute(ADD, ("e1/raised/hook",)).rowcount == 0  # the second collector
-        args = {"owner": "two", "until": 200.0, "now": 10.0, "limit": 10}
-        taken_by_two = two.execute(POSTGRES_CLAIM, args).fetchall()  # not committed yet
-        taken_by_one = one.execute(POSTGRES_CLAIM, args | {"owner": "one"}).fetchall()
-        assert taken_by_two == [("e1/raised/hook",)] and taken_by_one == []
+
+        def claim(conn: psycopg.Connection[tuple[object, ...]], *args: object) -> list[object]:
+            """POSTGRES_CLAIM (owner, lease end, now, now, limit): the keys it hands out."""
+            return [row[0] for row in conn.execute(POSTGRES_CLAIM, args).fetchall()]
+
+        taken_by_two = claim(two, "two", 200.0, 10.0, 10.0, 10)  # not committed yet
+        taken_by_one = claim(one, "one", 200.0, 10.0, 10.0, 10)
+        assert taken_by_two == ["e1/raised/hook"] and taken_by_one == []
         two.commit()
-        assert one.execute(POSTGRES_CLAIM, args | {"owner": "one"}).fetchall() == []  # leased
-        later = args | {"owner": "one", "now": 200.0, "until": 400.0}
-        assert one.execute(POSTGRES_CLAIM, later).fetchall() == [("e1/raised/hook",)]
+        assert claim(one, "one", 200.0, 10.0, 10.0, 10) == []  # leased
+        assert claim(one, "one", 400.0, 200.0, 200.0, 10) == ["e1/raised/hook"]
+        [row] = one.execute("SELECT claimed_by, claimed_until FROM alarm_outbox").fetchall()
+        assert row == ("one", 400.0)

@@ -4,6 +4,8 @@ twice; two collectors on one store send each notification once."""
 from __future__ import annotations
 
 import os
+import re
+import sqlite3
 import stat
 from pathlib import Path
 
@@ -11,8 +13,16 @@ import pytest
 from alarm_helpers import T0, plan_of, sample
 
 from sondalog.collect.alarms import Alarms, AlarmStore, MemoryOutbox, Outbox, Policy
+from sondalog.collect.alarms.dialect import POSTGRES, SQLITE
 from sondalog.collect.alarms.outbox import Message
-from sondalog.collect.alarms.schema import POSTGRES_ALARM_DDL
+from sondalog.collect.alarms.schema import (
+    ALARM_TABLES,
+    CLAIM,
+    POSTGRES_ALARM_DDL,
+    POSTGRES_CLAIM,
+    SQLITE_ALARM_DDL,
+)
+from sondalog.collect.alarms.store import AlarmTablesMissing
 
 PLAN = plan_of(
     """
@@ -138,3 +148,60 @@ def test_acknowledgements_asked_by_another_process_are_taken_once(tmp_path: Path
     with AlarmStore(path) as store:
         assert store.take_ack_requests(12.0) == [("A1", "ops", 11.0)]
         assert store.take_ack_requests(13.0) == []
+
+
+def test_the_documented_schema_is_the_one_the_stores_create() -> None:
+    """docs/alarms.md "The schema": its SQL blocks are the DDL of both servers and the
+    claim, word for word (spaces aside)."""
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "alarms.md").read_text()
+    blocks = re.findall(r"```sql\n(.*?)```", doc, re.S)
+
+    def words(text: str) -> list[str]:
+        return text.replace(";", " ").split()
+
+    assert [words(b) for b in blocks] == [
+        words(SQLITE_ALARM_DDL),
+        words(POSTGRES_ALARM_DDL),
+        words(POSTGRES_CLAIM),
+    ]
+    for table in ALARM_TABLES:
+        assert f"`{table}`" in doc
+
+
+def test_the_statements_are_written_once_for_both_dialects() -> None:
+    assert SQLITE.sql(CLAIM) == CLAIM.format(skip_locked="")
+    assert "%s" in POSTGRES_CLAIM and "?" not in POSTGRES_CLAIM
+    assert POSTGRES_CLAIM.count("%s") == CLAIM.count("?") == 5
+    assert "FOR UPDATE SKIP LOCKED" in POSTGRES_CLAIM
+    assert SQLITE.sql("SELECT 1 FROM t WHERE a = ?{lock}") == "SELECT 1 FROM t WHERE a = ?"
+    assert POSTGRES.sql("SELECT 1 FROM t WHERE a = ?{lock}").endswith("a = %s FOR UPDATE")
+    with pytest.raises(ValueError, match="literal %"):
+        POSTGRES.sql("SELECT 1 WHERE a LIKE 'x%'")
+
+
+def test_the_dashboard_reads_without_writing(tmp_path: Path) -> None:
+    """``read_only=True``: nothing is created; a file without the tables has no alarms."""
+    from sondalog.collect.alarms.events import AlarmRecord
+
+    path = tmp_path / "alarms.sqlite"
+    with pytest.raises(AlarmTablesMissing, match="does not exist"):
+        AlarmStore(path, read_only=True).open()
+    assert not path.exists()
+    sqlite3.connect(path).execute("CREATE TABLE readings (x)").connection.close()
+    with pytest.raises(AlarmTablesMissing, match="has no alarm_"):
+        AlarmStore(path, read_only=True).open()
+    with AlarmStore(path) as store:
+        store.save_states(
+            [
+                AlarmRecord("A1", "r", "threshold", "s", "raised", since=5.0, raised_at=5.0),
+                AlarmRecord("A2", "r", "threshold", "t", "cleared", since=9.0),
+                AlarmRecord("A3", "r", "threshold", "u", "acknowledged", since=7.0),
+            ]
+        )
+        assert store.request_ack("A1", "ops", 10.0)
+    with AlarmStore(path, read_only=True) as reader:
+        assert [r.alarm for r in reader.active_states()] == ["A3", "A1"]
+        assert (reader.state_of("A2"), reader.state_of("nope")) == ("cleared", None)
+        assert reader.waiting_acks() == {"A1"}
+        with pytest.raises(sqlite3.OperationalError, match="readonly"):
+            reader.request_ack("A1", "ops", 11.0)

@@ -186,3 +186,37 @@ def test_a_write_lost_with_the_connection_is_computed_again(pg_dsn: str, tmp_pat
     assert [r.state for r in store.load_states() if r.rule == "hot"] == ["raised"]
     store.close()
     sqlite.close_sync()
+
+
+def test_the_dashboards_reads_behave_as_on_sqlite(pg_dsn: str, tmp_path: Path) -> None:
+    """active_states, state_of, waiting_acks and history: one set of statements, the same
+    answers from both servers."""
+    from sondalog.collect.alarms.events import Raised
+
+    seen = []
+    for store in (PostgresAlarmStore(pg_dsn).open(), AlarmStore(tmp_path / "a.sqlite").open()):
+        store.save_states(
+            [
+                AlarmRecord("A1", "r", "threshold", "s", "raised", "e1", 41.0, "hot", 5.0, 5.0),
+                AlarmRecord("A2", "r", "threshold", "t", "cleared", since=9.0),
+                AlarmRecord("A3", "r", "no_contact", "u", "acknowledged", since=7.0),
+            ]
+        )
+        store.record([Raised("A1", "e1", "r", "threshold", "s", 5.0, 41.0, "hot")] * 2)
+        assert store.request_ack("A1", "ops", 10.0) and not store.request_ack("A2", "ops", 10.0)
+        seen.append(
+            (
+                store.active_states(),
+                [store.state_of(a) for a in ("A1", "A2", "nope")],
+                store.waiting_acks(),
+                store.history(),
+                store.take_ack_requests(11.0),
+                store.waiting_acks(),
+            )
+        )
+        store.close()
+    assert seen[0] == seen[1]
+    active, states, waiting, history, taken, after = seen[0]
+    assert [r.alarm for r in active] == ["A3", "A1"] and states == ["raised", "cleared", None]
+    assert waiting == {"A1"} and after == set() and taken == [("A1", "ops", 10.0)]
+    assert history == [(5.0, "raised", "A1", "r", "s", 41.0, "hot")]

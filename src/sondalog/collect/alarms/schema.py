@@ -16,7 +16,11 @@ they may live in the collector's SQLite store beside ``readings`` or in a file o
 
 from __future__ import annotations
 
+from .dialect import POSTGRES
+
 ALARM_SCHEMA_VERSION = 1
+#: The alarm tables (a store without them has no alarms yet).
+ALARM_TABLES = ("alarm_states", "alarm_events", "alarm_outbox", "alarm_acks")
 
 SQLITE_ALARM_DDL = """
 CREATE TABLE IF NOT EXISTS alarm_states (
@@ -76,6 +80,7 @@ CREATE TABLE IF NOT EXISTS alarm_outbox (
     claimed_until REAL
 );
 CREATE INDEX IF NOT EXISTS alarm_outbox_due ON alarm_outbox (state, next_try);
+CREATE INDEX IF NOT EXISTS alarm_outbox_rate ON alarm_outbox (destination, created);
 CREATE TABLE IF NOT EXISTS alarm_acks (
     id        INTEGER PRIMARY KEY AUTOINCREMENT,
     alarm     TEXT NOT NULL,
@@ -83,27 +88,14 @@ CREATE TABLE IF NOT EXISTS alarm_acks (
     requested REAL NOT NULL,
     done      REAL
 );
-CREATE INDEX IF NOT EXISTS alarm_outbox_rate ON alarm_outbox (destination, created);
 """
 
-#: The same tables on PostgreSQL (docs/alarms.md); claims use ``FOR UPDATE SKIP LOCKED``.
+#: The same tables on PostgreSQL (docs/alarms.md), only the types differ.
 POSTGRES_ALARM_DDL = (
     SQLITE_ALARM_DDL.replace("INTEGER PRIMARY KEY AUTOINCREMENT", "BIGSERIAL PRIMARY KEY")
     .replace(" REAL", " DOUBLE PRECISION")
     .replace(" INTEGER", " BIGINT")
 )
-
-#: Claiming due outbox rows on PostgreSQL (psycopg parameters: owner, lease end, now, limit):
-#: ``SKIP LOCKED`` keeps two collectors from taking the same row.
-POSTGRES_CLAIM = """
-UPDATE alarm_outbox SET claimed_by = %(owner)s, claimed_until = %(until)s
-WHERE key IN (SELECT key FROM alarm_outbox
-              WHERE state = 'pending' AND next_try <= %(now)s
-                AND (claimed_until IS NULL OR claimed_until <= %(now)s)
-              ORDER BY next_try, key LIMIT %(limit)s
-              FOR UPDATE SKIP LOCKED)
-RETURNING key
-"""
 
 #: Columns of ``alarm_states`` in the order of :class:`~.events.AlarmRecord`'s fields.
 STATE_COLUMNS = (
@@ -147,3 +139,22 @@ OUTBOX_COLUMNS = (
     "claimed_by",
     "claimed_until",
 )
+
+#: Claiming due outbox rows, written once for both servers (:mod:`.dialect`; parameters:
+#: owner, lease end, now, now, limit): the rows come back whole (:data:`OUTBOX_COLUMNS`),
+#: in no order. On PostgreSQL ``{skip_locked}`` is ``FOR UPDATE SKIP LOCKED``, which keeps
+#: two collectors from taking the same row; on SQLite the ``BEGIN IMMEDIATE`` transaction
+#: holds the file.
+CLAIM = (
+    """
+UPDATE alarm_outbox SET claimed_by = ?, claimed_until = ?
+WHERE key IN (SELECT key FROM alarm_outbox
+              WHERE state = 'pending' AND next_try <= ?
+                AND (claimed_until IS NULL OR claimed_until <= ?)
+              ORDER BY next_try, key LIMIT ?{skip_locked})
+RETURNING """
+    + ", ".join(OUTBOX_COLUMNS)
+    + "\n"
+)
+#: :data:`CLAIM` as PostgreSQL runs it (docs/alarms.md).
+POSTGRES_CLAIM = POSTGRES.sql(CLAIM)

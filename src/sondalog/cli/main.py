@@ -69,6 +69,12 @@ SUBCOMMANDS: dict[str, LazyCommand] = {
         "Conversion tables of a logger (manual §10): push, pull, check.",
         "logger",
     ),
+    "config": LazyCommand(
+        "sondalog.cli.config_cmd",
+        "config",
+        "A logger's whole configuration as a station file: pull, plan, apply.",
+        "logger",
+    ),
     "download": LazyCommand(
         "sondalog.cli.download_cmd",
         "download",

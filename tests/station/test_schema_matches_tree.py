@@ -38,12 +38,9 @@ def _configurable() -> list[str]:
 
 def _leaf(pattern: str):  # type: ignore[no-untyped-def]
     for leaf in LEAVES:
-        if leaf.stored and leaf.access == "RW":
-            if (
-                leaf.pattern == pattern
-                or leaf.pattern.replace("{tab}", pattern[-11:-10]) == pattern
-            ):
-                return leaf
+        same = leaf.pattern.replace("{tab}", pattern[-11:-10]) == pattern
+        if leaf.stored and leaf.access == "RW" and same:
+            return leaf
     raise KeyError(pattern)
 
 

@@ -103,7 +103,7 @@ CANDIDATES = st.one_of(
     st.integers(0, 2**64 + 5).map(str),
     st.from_regex(r"-?[0-9]{1,5}(\.[0-9]{1,4})?", fullmatch=True),
     st.from_regex(r"[0-9]{2}[0-9]{2}[0-9]{2}", fullmatch=True),
-    st.from_regex(r"(19|20|99)[0-9]{2}(0[0-9]|1[0-3])[0-3][0-9][0-2][0-9]([0-6][0-9]){2}", fullmatch=True),
+    st.from_regex(r"(19|20|99)[0-9]{2}(0[0-9]|1[0-3])[0-3][0-9]([0-6][0-9]){3}", fullmatch=True),
     st.from_regex(r"99[0-9]{2}[0-9]{2}|999901|[0-9]\.[0-9]", fullmatch=True),
     st.sampled_from(["ds18b20", "MSP430TA", "ringvoice 3", "RINGDATA,41", "RINGVOICE,2", "no",
                      "NO", "1", "0", "up", "1,2,3", "1,2,3,4,5,6,7,8,9,10,11", "0,1", "41",

@@ -81,7 +81,7 @@ def _value(setting, limits) -> st.SearchStrategy[str]:  # type: ignore[no-untype
             return st.datetimes().map(lambda d: d.strftime("%Y%m%d%H%M%S"))
         case g.Period():
             return st.tuples(st.integers(0, 95), st.integers(0, 59), st.integers(0, 59)).map(
-                lambda t: "%02d%02d%02d" % t
+                lambda t: f"{t[0]:02d}{t[1]:02d}{t[2]:02d}"
             )
         case g.IntList():
             return st.lists(
@@ -97,7 +97,7 @@ def _value(setting, limits) -> st.SearchStrategy[str]:  # type: ignore[no-untype
 async def _round_trip(tmp: Path, version: str, hand: list[str]) -> None:
     async with served(tmp / "a", version) as a, served(tmp / "b", version) as b:
         await ask(a.url, hand)
-        text, tables = await pull(a.url)
+        text, _ = await pull(a.url)
         station = read_station(loads(text))
         outcome = await apply(b.url, station, explain_text)
         assert outcome.error is None, outcome.error

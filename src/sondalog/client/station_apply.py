@@ -198,8 +198,8 @@ async def apply(
         outcome = Outcome(current)
         serial = isinstance(client.endpoint, SerialEndpoint)
         steps: list[Change | None] = list(current.changes)
-        if current.tables is not None:  # after the memory partition and the record type
-            first = [c for c in current.changes if c.setting.group in ("file", "record")]
+        if current.tables is not None:  # right after the memory partition (§6.15)
+            first = [c for c in current.changes if c.setting.group == "file"]
             steps.insert(len(first), None)
         for index, step in enumerate(steps):
             error = await _step(session, step, current, outcome, explain, serial)

@@ -256,16 +256,17 @@ GROUP_SECTIONS = {
     "global": ("6.17", "global"),
 }
 
-_FIRST = ("file record size", "file list size", "file data size", "record type")
+#: Ranks of groups written before the others (the rest keep the manual's order): the memory
+#: partition first (§6.15.1 erases the record and zeroes the other areas), then devices, then
+#: the record type while no channel has sampled into the record yet.
+_FIRST = {"file": 0, "device": 1, "record": 2}
 _LAST = ("com max speed", "com transmitter mode", "com device", "com speed", "i address")
 
 
 def _apply_rank(setting: Setting) -> int:
-    if setting.pattern in _FIRST:
-        return _FIRST.index(setting.pattern)
     if setting.pattern in _LAST:
         return 100 + _LAST.index(setting.pattern)
-    return 10  # stable sort keeps the manual's order: devices, max number, channels, ...
+    return _FIRST.get(setting.group, 10)
 
 
 #: The order writes are made in; conversion tables go right after the memory partition.

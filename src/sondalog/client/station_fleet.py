@@ -122,8 +122,8 @@ async def run_fleet(
 
 
 def summary(results: list[Result]) -> str:
-    counts: dict[str, int] = {}
-    for result in results:
-        counts[result.state] = counts.get(result.state, 0) + 1
-    parts = ", ".join(f"{n} {state}" for state, n in counts.items())
+    """``50 loggers: 49 changed, 1 failed`` (states in a fixed order)."""
+    order = ("changed", "would change", "unchanged", "failed")
+    counts = {state: sum(r.state == state for r in results) for state in order}
+    parts = ", ".join(f"{n} {state}" for state, n in counts.items() if n)
     return f"{len(results)} loggers: {parts}"

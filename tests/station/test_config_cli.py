@@ -137,4 +137,4 @@ def test_a_fleet_file_from_the_command_line(tmp_path: Path, logger: str) -> None
     assert any(line.startswith(f"{dead}: failed (cannot reach") for line in lines)
     assert done.stdout.splitlines()[2] == "2 loggers: 1 changed, 1 failed"
     plan = run("plan", logger, "fleet.toml", cwd=tmp_path)  # one logger of the file
-    assert (plan.returncode, plan.stdout) == (0, f"{logger}: unchanged\n1 loggers: 1 unchanged\n")
+    assert (plan.returncode, plan.stdout) == (0, "logger 000001: nothing to change\n")

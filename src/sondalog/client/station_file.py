@@ -191,7 +191,7 @@ def _lines(settings: list[Setting], n: int, values: Mapping[str, str], keep: set
             first, second = value.split(",")
             out.append(f"{setting.key} = {_toml(setting, first)}{comment}")
             if second != first:
-                out.append(f"{setting.key}_2 = {_toml(setting, second)}  # second input")
+                out.append(f"{setting.key}_2 = {_toml(setting, second)}  # second input, §6.5.12.2")
         else:
             out.append(f"{setting.key} = {_toml(setting, value)}{comment}")
     return out

@@ -65,7 +65,9 @@ def _targets(args: tuple[str, ...]) -> tuple[str | None, list[Target]]:
 
 @click.group()
 def config() -> None:
-    """A logger's whole configuration as a station file: pull, plan, apply (docs/config.md)."""
+    """A logger's whole configuration as a station file: pull, plan, apply.
+
+    See docs/config.md."""
 
 
 @config.command("pull")

@@ -57,7 +57,10 @@ async def identify(session: Session) -> Identity:
     try:
         answer = await session.command("read i version read i snumber")
     except ClientError as exc:
-        raise NotALogger(f"no ALA1 answer ({exc})") from None
+        raise NotALogger(
+            f"no ALA1 answer to read i version: not a logger, or one whose i address guards"
+            f" it (--iaddress, §8.6.1): {exc}"
+        ) from None
     if not answer.ok or len(answer.lines) != 2 or answer.lines[0] not in LIMITS:
         raise NotALogger(f"not an ALA1 logger: it answered {answer.raw[:60]!r} to read i version")
     return Identity(answer.lines[0], answer.lines[1])

@@ -4,6 +4,12 @@ their parameter tree (the round-trip tests compare them)."""
 from __future__ import annotations
 
 import contextlib
+import os
+import re
+import select
+import socket
+import subprocess
+import sys
 from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +20,9 @@ from sondalog.app.explain import explain
 from sondalog.app.logger import Logger, start_logger
 from sondalog.client import Ala1Client
 from sondalog.io.clock import RealClock
+
+ROOT = Path(__file__).resolve().parents[2]
+MODEM, PHONE = "+420600000001", "+420700000001"
 
 
 def explain_text(line: str, version: str) -> str:
@@ -65,3 +74,36 @@ async def every_read(url: str, version: str, iaddress: str = "") -> dict[str, tu
             for command, answer in zip(chunk, answers, strict=True):
                 out[command] = (answer.status.value, *answer.lines)
     return out
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def serve_gsm_world(tmp: Path, published: int) -> tuple[subprocess.Popen[bytes], list[str]]:
+    text = (ROOT / "examples" / "gsm-site.toml").read_text()
+    text = re.sub(r'(listen|smtp|pop3|api) = "127\.0\.0\.1:\d+"', r'\1 = "127.0.0.1:0"', text)
+    text = text.replace('publish = { "10001" = 20001 }', f'publish = {{ "10001" = {published} }}')
+    (tmp / "site.toml").write_text(text)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sondalog", "serve", str(tmp / "site.toml"), "--state",
+         str(tmp / "state")],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    lines: list[str] = []
+    pending = b""
+    while not any(x.startswith("logger com line joined") for x in lines):
+        ready, _, _ = select.select([proc.stdout], [], [], 30)
+        chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
+        assert chunk, lines
+        pending += chunk
+        *done, pending = pending.split(b"\n")
+        lines += [x.decode().strip() for x in done]
+    return proc, lines
+
+
+def port_of(lines: list[str], prefix: str) -> int:
+    return int(re.findall(r":(\d+)", next(x for x in lines if x.startswith(prefix)))[0])

@@ -19,9 +19,11 @@ import click
 from sondalog.app.explain import explain as explain_line
 from sondalog.cli.common import Refused
 from sondalog.client.ala1_codec import ClientError
+from sondalog.client.phone import PhoneApiError
 from sondalog.client.station_apply import Outcome, Plan, apply, make_plan, pull
 from sondalog.client.station_apply import Refused as StationRefused
 from sondalog.client.station_fleet import Result, Target, read_file, run_fleet, summary
+from sondalog.client.station_sms import apply_by_sms
 from sondalog.config import ConfigError
 from sondalog.io.private import open_private
 
@@ -138,10 +140,25 @@ def _changed(results: list[Result]) -> bool:
 @click.option("--parallel", type=click.IntRange(1, 256), default=8, show_default=True,
               help="Loggers of a fleet file written at once.")  # fmt: skip
 @click.option("--iaddress", default=None, help="The logger's i address, if it has one (§8.6.1).")
-def apply_cmd(args: tuple[str, ...], yes: bool, parallel: int, iaddress: str | None) -> None:
+@click.option(
+    "--via",
+    type=click.Choice(["line", "sms"]),
+    default="line",
+    show_default=True,
+    help="sms: the file's settings as SMS commands (URL gsm://API/NUMBER?from=PHONE).",
+)
+def apply_cmd(
+    args: tuple[str, ...], yes: bool, parallel: int, iaddress: str | None, via: str
+) -> None:
     """Write what differs to the logger at URL (or every logger of a fleet FILE), each write
-    verified by reading it back; stops at the first refusal and says why."""
+    verified by reading it back; stops at the first refusal and says why.
+
+    With --via sms, every setting the file gives is sent as SMS commands, each answer checked
+    (no diff: SMS cannot read the whole configuration back)."""
     url, targets = _targets(args)
+    if via == "sms":
+        _apply_by_sms(url, targets, yes)
+        return
     if targets[0].url is not None and url is None:
         if not yes:
             click.confirm(f"apply to {len(targets)} loggers?", abort=True)
@@ -178,5 +195,25 @@ def _report(outcome: Outcome) -> None:
         return
     click.echo(f"error: {outcome.error}", err=True)
     for line in outcome.not_applied:
+        click.echo(f"  not applied: {line}", err=True)
+    sys.exit(2)
+
+
+def _apply_by_sms(url: str | None, targets: list[Target], yes: bool) -> None:
+    if url is None or len(targets) != 1 or not url.lower().startswith("gsm://"):
+        raise click.UsageError("--via sms takes one logger: gsm://API/NUMBER?from=PHONE FILE")
+    if not yes:
+        click.confirm(f"send the file's settings to {url} by SMS?", abort=True)
+    try:
+        outcome = apply_by_sms(url, targets[0].station, _explain, report=click.echo)
+    except ConfigError as exc:
+        raise Refused(str(exc)) from exc
+    except (PhoneApiError, ValueError) as exc:
+        raise Refused(str(exc)) from exc
+    if outcome.error is None:
+        click.echo(f"{len(outcome.sent)} writes sent by SMS, every answer OK")
+        return
+    click.echo(f"error: {outcome.error}", err=True)
+    for line in outcome.not_sent:
         click.echo(f"  not applied: {line}", err=True)
     sys.exit(2)

@@ -87,7 +87,8 @@ async def _one(target: Target, url: str, explain: Explain | None) -> Result:
             plan: Plan = await make_plan(url, target.station)
             if plan.empty:
                 return Result(url, "unchanged")
-            return Result(url, "would change", f"{len(plan.lines())} settings")
+            count = len(plan.changes) + (plan.tables is not None)
+            return Result(url, "would change", f"{count} writes")
         outcome: Outcome = await apply(url, target.station, explain)
     except Refused as exc:
         return Result(url, "failed", "; ".join(exc.problems))

@@ -197,3 +197,21 @@ def test_another_serial_number_is_refused(tmp_path: Path) -> None:
                 await apply(a.url, station, explain_text)
 
     asyncio.run(run())
+
+
+def test_the_memory_partition_and_the_tables_are_checked_before_any_write(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"<config>:3: file.list_size: the areas take 1048832"):
+        read_station(loads("[file]\n\nlist_size = 256\n"))
+    (tmp_path / "T.txt").write_bytes(TABLE)
+    with pytest.raises(
+        ConfigError,
+        match=r"station.toml:1: tables: the tables need 5 bytes of file list size, which is 0",
+    ):
+        _station(tmp_path, '[tables]\nT = "T.txt"\n')
+    fleet = tmp_path / "fleet.toml"  # the template's partition, an entry's tables: fine
+    fleet.write_text(
+        "[file]\nrecord_size = 1047552\nlist_size = 512\ndata_size = 512\n"
+        '[[logger]]\nurl = "tcp://127.0.0.1:1"\n[logger.tables]\nT = "T.txt"\n'
+    )
+    (target,) = read_file(fleet)
+    assert target.station.tables == {"T": tmp_path / "T.txt"}

@@ -21,22 +21,30 @@ MODEM, PHONE = "+420600000001", "+420700000001"
 
 
 def test_over_a_serial_line(tmp_path: Path) -> None:
+    """com speed is written last on a serial line (the line changes speed with it), after
+    the i address; then the logger answers at the new speed, with the address."""
     station = read_station(
-        loads('[channel.2]\nname = "Voda"\nsampling_period = "000100"\n[com]\nspeed = 115200\n')
+        loads(
+            '[identity]\naddress = "A1"\n[channel.2]\nname = "Voda"\n'
+            'sampling_period = "000100"\n[com]\nspeed = 115200\n'
+        )
     )
 
     async def run() -> None:
         link = tmp_path / "ala1"
         async with served(tmp_path / "s", "1.16", ptys=[link]) as lg:
-            assert await ask(lg.url, ["write com speed 115200"]) == ["OK"]
-            url = f"serial://{link}?baud=115200"
-            assert [c.name for c in (await make_plan(url, station)).changes] == [
+            slow, fast = f"serial://{link}?baud=9600", f"serial://{link}?baud=115200"
+            outcome = await apply(slow, station, explain_text)
+            assert outcome.error is None, outcome.error
+            assert [line.split(":")[0] for line in outcome.applied] == [
                 "channel 2 name",
                 "channel 2 sampling period",
+                "i address",
+                "com speed",
             ]
-            outcome = await apply(url, station, explain_text)
-            assert outcome.error is None and len(outcome.applied) == 2
-            assert (await make_plan(url, station)).empty
+            assert outcome.warnings == ["com speed is now 115200: reconnect at that rate"]
+            assert (await make_plan(fast, station)).empty
+            assert await ask(lg.url, ["read com speed"], iaddress="A1") == ["OK"]
 
     asyncio.run(run())
 

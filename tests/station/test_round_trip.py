@@ -104,6 +104,7 @@ async def _round_trip(tmp: Path, version: str, hand: list[str]) -> None:
         again, _ = await pull(b.url)
         assert again == text
         assert await every_read(b.url, version) == await every_read(a.url, version)
+        assert (await pull(b.url, all_values=True))[0] == (await pull(a.url, all_values=True))[0]
         assert (await make_plan(b.url, station)).empty  # applying again changes nothing
         assert (await apply(b.url, station, explain_text)).applied == []
 

@@ -201,6 +201,8 @@ async def apply(
         if current.tables is not None:  # right after the memory partition (§6.15)
             first = [c for c in current.changes if c.setting.group == "file"]
             steps.insert(len(first), None)
+        if serial:  # the line changes speed with com speed: nothing can follow it there
+            steps.sort(key=lambda s: s is not None and s.setting.pattern == "com speed")
         for index, step in enumerate(steps):
             error = await _step(session, step, current, outcome, explain, serial)
             if error is not None:

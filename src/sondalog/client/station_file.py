@@ -20,10 +20,16 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sondalog.client.station_grammar import LIMITS, ChannelAddress, Limits, fits_line
+from sondalog.client.station_grammar import (
+    LIMITS,
+    TOTAL_MEMORY,
+    ChannelAddress,
+    Limits,
+    fits_line,
+)
 from sondalog.client.station_schema import GROUP_SECTIONS, INDEX, SETTINGS, Setting
 from sondalog.config import ConfigError, Table
-from sondalog.protocol.tables import TableError, parse_table
+from sondalog.protocol.tables import TableError, build_files, parse_table
 
 #: Keys of a station besides its setting groups.
 META_KEYS = ("protocol", "serial_number", "tables")
@@ -136,9 +142,11 @@ def _read_group(root: Table, group: str, limits: Limits, station: Station) -> No
     _read_settings(table, scalars, 1, limits, station)
 
 
-def read_station(root: Table, *, extra_keys: tuple[str, ...] = ()) -> Station:
+def read_station(root: Table, *, extra_keys: tuple[str, ...] = (), check: bool = True) -> Station:
     """The station of ``root`` (a file's root table or a fleet entry), every value checked
-    against the grammar of its protocol (``protocol``, default 2.10; spec notes §5)."""
+    against the grammar of its protocol (``protocol``, default 2.10; spec notes §5);
+    ``check``: also the memory partition (:func:`check_partition`; a fleet entry is checked
+    once merged with its template)."""
     groups = sorted({s.group.split(".")[0] for s in SETTINGS})
     root.keys([*META_KEYS, *groups, *extra_keys])
     station = Station()
@@ -149,7 +157,30 @@ def read_station(root: Table, *, extra_keys: tuple[str, ...] = ()) -> Station:
         _read_group(root, group, limits, station)
     if "tables" in root:
         station.tables = _read_tables(root.table("tables"))
+    if check:
+        check_partition(station, root)
     return station
+
+
+def check_partition(station: Station, where: Table) -> None:
+    """§6.15: the three areas fit the memory, and the tables fit theirs (``where``: the
+    table an error names when no size is given)."""
+    names = ("file record size", "file list size", "file data size")
+    defaults = (str(TOTAL_MEMORY), "0", "0")
+    sizes = [int(station.values.get(n, d)) for n, d in zip(names, defaults, strict=True)]
+    given = [n for n in names if n in station.values]
+    if given and sum(sizes) > TOTAL_MEMORY:
+        raise station.fail(
+            given[-1], f"the areas take {sum(sizes)} bytes; the memory has {TOTAL_MEMORY} (§6.15)"
+        )
+    bodies = station.table_bodies()
+    if not bodies:
+        return
+    for name, need, have in zip(names[1:], build_files(bodies), sizes[1:], strict=True):
+        if len(need) > have:
+            what = f"the tables need {len(need)} bytes of {name}, which is {have} (§6.15)"
+            key = "tables" if "tables" in where else None
+            raise station.fail(name, what) if name in station.values else where.fail(key, what)
 
 
 def _read_tables(table: Table) -> dict[str, Path]:

@@ -25,8 +25,8 @@ from pathlib import Path
 from sondalog.client.ala1_codec import ClientError
 from sondalog.client.endpoints import parse_url
 from sondalog.client.station_apply import Explain, Outcome, Plan, Refused, apply, make_plan
-from sondalog.client.station_file import Station, read_station
-from sondalog.config import Table, load
+from sondalog.client.station_file import Station, check_partition, read_station
+from sondalog.config import load
 
 #: The most loggers one file may name.
 MAX_LOGGERS = 10_000
@@ -43,9 +43,10 @@ class Target:
 def read_file(path: Path) -> list[Target]:
     """The loggers of station file ``path``; raises ConfigError (file:line:field)."""
     root = load(path)
-    template = read_station(root, extra_keys=("logger",))
+    template = read_station(root, extra_keys=("logger",), check=False)
     entries = root.tables("logger")
     if not entries:
+        check_partition(template, root)
         return [Target(None, template)]
     if len(entries) > MAX_LOGGERS:
         raise root.fail("logger", f"at most {MAX_LOGGERS} loggers in one file")
@@ -56,17 +57,15 @@ def read_file(path: Path) -> list[Target]:
         if url in seen:
             raise entry.fail("url", f"{url} is also {seen[url]}")
         seen[url] = entry.field("url")
-        targets.append(Target(url, template.merged(_entry(entry))))
+        station = template.merged(read_station(entry, extra_keys=("url",), check=False))
+        check_partition(station, entry)
+        targets.append(Target(url, station))
     return targets
 
 
 def _url(text: str) -> str:
     parse_url(text)  # ValueError names what is wrong
     return text
-
-
-def _entry(entry: Table) -> Station:
-    return read_station(entry, extra_keys=("url",))
 
 
 @dataclass(frozen=True)

@@ -7,13 +7,15 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
-from station_helpers import MODEM, PHONE, free_port, port_of, serve_gsm_world
+from station_helpers import MODEM, PHONE, explain_text, free_port, port_of, serve_gsm_world
 
+from sondalog.client.phone import PhoneApi
 from sondalog.client.station_file import read_station
-from sondalog.client.station_sms import pack
+from sondalog.client.station_sms import apply_by_sms, pack
 from sondalog.config import ConfigError, loads
 from sondalog.protocol.gsm7 import septet_length
 
@@ -71,6 +73,13 @@ def test_apply_by_sms_through_the_served_network(tmp_path: Path) -> None:
         assert done.returncode == 2
         assert "the logger answered 'write record type linear\\r\\nERROR'" in done.stderr
         assert "record type only while the record is empty" in done.stderr
+        api = PhoneApi(f"http://127.0.0.1:{port_of(lines, 'gsm API')}")
+        api.coverage(MODEM, False)  # the logger out of coverage: no answer comes
+        started = time.monotonic()
+        outcome = apply_by_sms(url, read_station(loads(FILE)), explain_text, reply_timeout=3)
+        assert outcome.error is not None and outcome.error.startswith("no answer within 3 s")
+        assert time.monotonic() - started < 10  # it gives up, and says what was not sent
+        assert outcome.sent == [] and len(outcome.not_sent) == 12
         cable.close()
     finally:
         proc.send_signal(signal.SIGTERM)

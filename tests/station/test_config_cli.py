@@ -63,7 +63,7 @@ def test_pull_plan_apply_plan(tmp_path: Path, logger: str) -> None:
     )
     applied = run("apply", logger, "s.toml", "--yes", cwd=tmp_path)
     assert applied.returncode == 0, applied.stderr
-    assert applied.stdout.endswith("logger 000001: 1 writes applied and verified\n")
+    assert applied.stdout.endswith("logger 000001: 1 write applied and verified\n")
     again = run("plan", logger, "s.toml", cwd=tmp_path)
     assert (again.returncode, again.stdout) == (0, "logger 000001: nothing to change\n")
     full = run("pull", logger, "-o", "all.toml", "--all", cwd=tmp_path)
@@ -133,7 +133,7 @@ def test_a_fleet_file_from_the_command_line(tmp_path: Path, logger: str) -> None
     done = run("apply", "fleet.toml", "--yes", "--parallel", "2", cwd=tmp_path)
     assert done.returncode == 2
     lines = done.stdout.splitlines()[:2]
-    assert f"{logger}: changed (1 writes verified)" in lines
+    assert f"{logger}: changed (1 write verified)" in lines
     assert any(line.startswith(f"{dead}: failed (cannot reach") for line in lines)
     assert done.stdout.splitlines()[2] == "2 loggers: 1 changed, 1 failed"
     plan = run("plan", logger, "fleet.toml", cwd=tmp_path)  # one logger of the file

@@ -22,7 +22,7 @@ from sondalog.client.ala1_codec import ClientError
 from sondalog.client.phone import PhoneApiError
 from sondalog.client.station_apply import Outcome, Plan, apply, make_plan, pull
 from sondalog.client.station_apply import Refused as StationRefused
-from sondalog.client.station_fleet import Result, Target, read_file, run_fleet, summary
+from sondalog.client.station_fleet import Result, Target, read_file, run_fleet, summary, writes
 from sondalog.client.station_sms import apply_by_sms
 from sondalog.config import ConfigError
 from sondalog.io.private import open_private
@@ -191,7 +191,7 @@ def _report(outcome: Outcome) -> None:
     for line in outcome.warnings:
         click.echo(f"warning: {line}", err=True)
     if outcome.error is None:
-        click.echo(f"logger {serial}: {len(outcome.applied)} writes applied and verified")
+        click.echo(f"logger {serial}: {writes(len(outcome.applied))} applied and verified")
         return
     click.echo(f"error: {outcome.error}", err=True)
     for line in outcome.not_applied:
@@ -211,7 +211,7 @@ def _apply_by_sms(url: str | None, targets: list[Target], yes: bool) -> None:
     except (PhoneApiError, ValueError) as exc:
         raise Refused(str(exc)) from exc
     if outcome.error is None:
-        click.echo(f"{len(outcome.sent)} writes sent by SMS, every answer OK")
+        click.echo(f"{writes(len(outcome.sent))} sent by SMS, every answer OK")
         return
     click.echo(f"error: {outcome.error}", err=True)
     for line in outcome.not_sent:

@@ -13,6 +13,7 @@ client knows (tcp://, serial://, gsm://; docs/config.md).
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -81,9 +82,18 @@ class Outcome:
     warnings: list[str] = field(default_factory=list)
 
 
+#: How long opening a line may take: a TCP or serial line, and a GSM data call (it rings).
+CONNECT_TIMEOUT = 15.0
+CALL_TIMEOUT = 90.0
+
+
 async def _connect(url: str, timeout: float) -> Ala1Client:
+    endpoint = parse_url(url)
+    limit = CALL_TIMEOUT if url.lower().startswith("gsm:") else CONNECT_TIMEOUT
     try:
-        return await Ala1Client.connect(url, timeout)
+        return await asyncio.wait_for(Ala1Client.connect(endpoint, timeout), limit)
+    except TimeoutError:
+        raise ClientError(f"cannot reach {url}: no connection within {limit:.0f} s") from None
     except OSError as exc:
         raise ClientError(f"cannot reach {url}: {exc.strerror or exc}") from None
 
@@ -250,4 +260,4 @@ async def _step(
     return None
 
 
-__all__ = ["Outcome", "Plan", "Refused", "apply", "fit", "make_plan", "parse_url", "pull"]
+__all__ = ["Outcome", "Plan", "Refused", "apply", "fit", "make_plan", "pull"]

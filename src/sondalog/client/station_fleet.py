@@ -87,7 +87,7 @@ async def _one(target: Target, url: str, explain: Explain | None) -> Result:
             if plan.empty:
                 return Result(url, "unchanged")
             count = len(plan.changes) + (plan.tables is not None)
-            return Result(url, "would change", f"{count} writes")
+            return Result(url, "would change", writes(count))
         outcome: Outcome = await apply(url, target.station, explain)
     except Refused as exc:
         return Result(url, "failed", "; ".join(exc.problems))
@@ -97,7 +97,7 @@ async def _one(target: Target, url: str, explain: Explain | None) -> Result:
         return Result(url, "failed", outcome.error.splitlines()[0])
     if not outcome.applied:
         return Result(url, "unchanged")
-    return Result(url, "changed", f"{len(outcome.applied)} writes verified")
+    return Result(url, "changed", writes(len(outcome.applied)) + " verified")
 
 
 async def run_fleet(
@@ -119,6 +119,11 @@ async def run_fleet(
 
     jobs: list[Awaitable[Result]] = [run(t) for t in targets]
     return list(await asyncio.gather(*jobs))
+
+
+def writes(count: int) -> str:
+    """``1 write``, ``3 writes``."""
+    return f"{count} write{'' if count == 1 else 's'}"
 
 
 def summary(results: list[Result]) -> str:

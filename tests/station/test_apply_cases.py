@@ -7,8 +7,9 @@ import asyncio
 from pathlib import Path
 
 import pytest
-from station_helpers import ask, explain_text, served
+from station_helpers import ask, every_read, explain_text, served
 
+from sondalog.client import Ala1Client
 from sondalog.client.ala1_codec import ClientError
 from sondalog.client.station_apply import Refused, apply, make_plan, pull
 from sondalog.client.station_file import read_station
@@ -215,3 +216,32 @@ def test_the_memory_partition_and_the_tables_are_checked_before_any_write(tmp_pa
     )
     (target,) = read_file(fleet)
     assert target.station.tables == {"T": tmp_path / "T.txt"}
+
+
+def test_plan_touches_nothing(tmp_path: Path) -> None:
+    station = _station(tmp_path, '[file]\nrecord_size = 524288\n[channel.2]\nname = "Voda"\n')
+
+    async def run() -> None:
+        async with served(tmp_path / "a") as a:
+            assert await ask(a.url, ["write channel value", "write channel 1 name/Supply/"]) == [
+                "OK",
+                "OK",
+            ]
+            before = await every_read(a.url, "2.10")
+            rows = await _rows(a.url)
+            assert len(rows) == 1
+            plan = await make_plan(a.url, station)
+            assert [c.name for c in plan.changes] == [
+                "file record size",
+                "channel 1 name",
+                "channel 2 name",
+            ]
+            assert await every_read(a.url, "2.10") == before
+            assert await _rows(a.url) == rows  # planning a record size erases nothing
+
+    asyncio.run(run())
+
+
+async def _rows(url: str) -> tuple[str, ...]:
+    async with await Ala1Client.connect(url) as client:
+        return (await client.command("read record 10 from start")).raise_for_error().lines

@@ -75,6 +75,12 @@ SUBCOMMANDS: dict[str, LazyCommand] = {
         "Serve a recorded line (a trace written by term) back as a device.",
         "logger",
     ),
+    "config": LazyCommand(
+        "sondalog.cli.config_cmd",
+        "config",
+        "A logger's whole configuration as a station file: pull, plan, apply.",
+        "logger",
+    ),
     "download": LazyCommand(
         "sondalog.cli.download_cmd",
         "download",

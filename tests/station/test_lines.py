@@ -79,7 +79,12 @@ def test_over_a_gsm_data_call_and_the_gprs_port(tmp_path: Path) -> None:
         assert "channel 3 name: Supply[V] -> Voda" in plan.stdout
         applied = _cli("apply", call, "s.toml", "--yes", cwd=tmp_path)
         assert applied.returncode == 0, applied.stderr
-        gprs = _cli("plan", f"tcp://127.0.0.1:{published}", "s.toml", cwd=tmp_path)
+        deadline = time.monotonic() + 90
+        while True:  # after the call the modem goes back on line for GPRS (gsm.md §7)
+            gprs = _cli("plan", f"tcp://127.0.0.1:{published}", "s.toml", cwd=tmp_path)
+            if gprs.returncode != 2 or time.monotonic() > deadline:
+                break
+            time.sleep(2)
         assert gprs.returncode == 0, gprs.stderr
     finally:
         proc.send_signal(signal.SIGTERM)

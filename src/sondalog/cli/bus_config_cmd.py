@@ -261,16 +261,17 @@ def _count(n: int, what: str) -> str:
 
 
 def _show_report(report: ModuleReport) -> None:
+    label = report.label
     if report.status == "unchanged":
-        click.echo(f"{report.label}: unchanged")
+        click.echo(f"{label}: unchanged")
+    if report.failure is not None:
+        click.echo(f"{label}: FAILED {report.failure}")
+        for change in report.not_applied:
+            click.echo(f"{label}: not applied {change}")
     eeprom = [c for c in report.applied if c.setting != "autonomous"]
     for change in eeprom:
-        click.echo(f"{report.label}: applied {change}")
+        click.echo(f"{label}: applied {change}")
     for note in report.notes:
-        click.echo(f"{report.label}: {note}")
+        click.echo(f"{label}: {note}")
     for change in report.applied[len(eeprom) :]:
-        click.echo(f"{report.label}: applied {change}")
-    if report.failure is not None:
-        click.echo(f"{report.label}: FAILED {report.failure}")
-        for change in report.not_applied:
-            click.echo(f"{report.label}: not applied {change}")
+        click.echo(f"{label}: applied {change}")

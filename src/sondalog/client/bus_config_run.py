@@ -148,6 +148,8 @@ class ModulePlan:
     failure: str | None = None
     #: A value the bus refutes (another variant): apply writes nothing at all.
     refused: str | None = None
+    #: Only ``--password`` opened ``<connect>``: the file's password is to be set.
+    password_differs: bool = False
 
     @property
     def label(self) -> str:
@@ -178,6 +180,7 @@ async def plan_module(master: BusMaster, entry: ModuleEntry, password: str) -> M
             result.refused = str(error)
             return result
         differs = await open_context(master, result.at, password, entry.password)
+        result.password_differs = differs
         try:
             supervisors, symbol = await _read_settings(master, result.at)
         finally:
@@ -294,17 +297,23 @@ async def apply_module(master: BusMaster, mp: ModulePlan, password: str) -> Modu
     report = ModuleReport(mp.label)
     if mp.failure is not None or mp.at is None or mp.have is None:
         report.failure = mp.failure or "not located"
-        report.not_applied = list(mp.changes)
+        report.notes.append("nothing written")
         return report
     writer = _Writer(master, mp.at)
     try:
-        differs = await open_context(master, mp.at, password, entry.password)
+        # The password that opened it for the plan, so that no wrong one is tried again
+        # (each counts towards the lockout, hctmps1.md section 4).
+        differs = mp.password_differs
+        known = password if differs or entry.password is None else entry.password
+        if not await _connect(master, mp.at, known):
+            raise ConnectRefused(f"{mp.at}: CONNECT got no reply (it did for the plan)")
+        # Read again inside the context: the file, not an older plan, decides what is written.
+        supervisors, symbol = await _read_settings(master, mp.at)
     except BusError as exc:
         report.failure = str(exc)
         report.not_applied = list(mp.changes)
+        report.notes.append("nothing written")
         return report
-    # Read again inside the context: the file, not an older plan, decides what is written.
-    supervisors, symbol = await _read_settings(master, mp.at)
     have = ModuleState(mp.at, mp.have.variant, supervisors, symbol, mp.have.autonomous)
     changes = differences(entry, have, password_differs=differs)
     eeprom = [c for c in changes if c.setting != "autonomous"]

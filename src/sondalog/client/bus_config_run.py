@@ -226,15 +226,32 @@ class _Writer:
         self.master = master
         self.address = address
 
-    async def send(self, setting: str, command: str, param: str | None = None) -> None:
+    async def send(
+        self,
+        setting: str,
+        command: str,
+        param: str | None = None,
+        took: Callable[[], Awaitable[bool]] | None = None,
+    ) -> None:
+        """Send a write; a ``<FA>`` or no reply is a refusal unless ``took`` (a read-back)
+        shows it took effect all the same: the master resends a request whose reply was
+        lost, and a second ``DELSUP`` answers ``<FA>``, a second ``SETMID`` nothing (the
+        module already answers at its new ID)."""
         what = command if param is None else f"{command} {param}"
         try:
-            reply = await self.master.command(self.address, command, param)
+            reply: str | None = await self.master.command(self.address, command, param)
         except NoReply:
-            raise Refusal(setting, f"no reply from {self.address} to {what}") from None
-        if reply != "<OK>":
-            why = REFUSALS.get(command, "Tabela 1 gives it no other answer than <OK>")
-            raise Refusal(setting, f"{what} answered {reply}: {why}")
+            reply = None
+        if reply == "<OK>":
+            return
+        if took is not None:
+            with contextlib.suppress(NoReply):
+                if await took():
+                    return
+        if reply is None:
+            raise Refusal(setting, f"no reply from {self.address} to {what}")
+        why = REFUSALS.get(command, "Tabela 1 gives it no other answer than <OK>")
+        raise Refusal(setting, f"{what} answered {reply}: {why}")
 
     async def check(
         self, setting: str, read: Callable[[], Awaitable[object]], want: object, shown: str
@@ -250,19 +267,29 @@ class _Writer:
 async def _write_eeprom(w: _Writer, entry: ModuleEntry, have: ModuleState, names: set[str]) -> None:
     """The EEPROM settings of ``names`` in the order the module accepts (the address last)."""
     m, want = w.master, entry.want
+
+    async def symbol_is_wanted() -> bool:
+        return await m.listp(w.address) == want.symbol
+
+    def listed(sup: str, wanted: bool) -> Callable[[], Awaitable[bool]]:
+        async def check() -> bool:
+            return (sup in await m.listsup(w.address)) == wanted
+
+        return check
+
     if "symbol" in names:
         if want.symbol is None:
-            await w.send("symbol", "DELP", have.symbol or "")
+            await w.send("symbol", "DELP", have.symbol or "", symbol_is_wanted)
         else:
-            await w.send("symbol", "ADDP", want.symbol)
+            await w.send("symbol", "ADDP", want.symbol, symbol_is_wanted)
         await w.check("symbol", lambda: m.listp(w.address), want.symbol, want.symbol or "(none)")
     if "supervisors" in names:
         for sup in have.supervisors:
             if sup not in want.supervisors:
-                await w.send("supervisors", "DELSUP", sup)
+                await w.send("supervisors", "DELSUP", sup, listed(sup, False))
         for sup in want.supervisors:
             if sup not in have.supervisors:
-                await w.send("supervisors", "ADDSUP", sup)
+                await w.send("supervisors", "ADDSUP", sup, listed(sup, True))
 
         async def supervisors() -> set[str]:
             return set(await m.listsup(w.address))
@@ -272,9 +299,13 @@ async def _write_eeprom(w: _Writer, entry: ModuleEntry, have: ModuleState, names
     if "password" in names and entry.password is not None:
         await w.send("password", "NEWPW", entry.password)
     if "address" in names:
-        await w.send("address", "SETMID", want.address)
-        w.address = want.address  # the module answers at its new ID from now on (§2)
         hello = HELLO_TEXTS.get(have.variant or "")
+
+        async def renamed() -> bool:
+            return await m.hello(want.address) == hello
+
+        await w.send("address", "SETMID", want.address, renamed)
+        w.address = want.address  # the module answers at its new ID from now on (§2)
         await w.check("address", lambda: m.hello(w.address), hello, f"{want.address} answering")
 
 
@@ -325,7 +356,9 @@ async def apply_module(master: BusMaster, mp: ModulePlan, password: str) -> Modu
     except Refusal as exc:
         report.failure = f"{exc.setting}: {exc.why}"
         report.not_applied = list(changes)
-        writer.address = await _roll_back(master, writer.address, mp.at, report)
+        writer.address = await _roll_back(
+            master, (writer.address, entry.want.address), mp.at, report
+        )
         return report
     finally:
         with contextlib.suppress(BusError):
@@ -359,16 +392,18 @@ async def _write_autonomous(master: BusMaster, address: str, on: bool) -> None:
         raise Refusal("autonomous", f"GETMODE says {'MDISON' if now else 'MDISOF'}")
 
 
-async def _roll_back(master: BusMaster, address: str, old: str, report: ModuleReport) -> str:
+async def _roll_back(
+    master: BusMaster, addresses: tuple[str, str], old: str, report: ModuleReport
+) -> str:
     """``REINIT`` at whichever ID the module answers: its saved settings come back, with
     the ID it had (``old``), which is returned."""
-    for target in dict.fromkeys((address, old)):
+    for target in dict.fromkeys((*addresses, old)):
         with contextlib.suppress(BusError):
             if await master.command(target, "REINIT", retries=1) == "<OK>":
                 report.notes.append("nothing saved: REINIT restored the saved settings")
                 return old
     report.notes.append("nothing saved (REINIT got no reply: the module's RAM may differ)")
-    return address
+    return addresses[0]
 
 
 async def apply(

@@ -157,7 +157,11 @@ def pull_cmd(
     host_id: str,
     timeout: float | None,
 ) -> None:
-    """Read every module's settings into a TOML file (factory values left out)."""
+    """Read every module's settings into a TOML file (factory values left out).
+
+    For each module: HELLO (its variant), CONNECT with --password, LISTSUP and LISTP,
+    DISCONNECT, GETMODE. The password itself cannot be read and is never written.
+    """
     states = _run(url, host_id, timeout, lambda m: pull(m, addresses, password))
     text = render(states, full=full)
     if output is None or str(output) == "-":
@@ -201,7 +205,12 @@ def _show_plan(plans: list[ModulePlan]) -> tuple[int, int, list[str]]:
 @click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
 @_options
 def plan_cmd(url: str, file: Path, password: str, host_id: str, timeout: float | None) -> None:
-    """Show what apply would change; exit 0 nothing, 1 something, 2 an error."""
+    """Show what apply would change; exit 0 nothing, 1 something, 2 an error.
+
+    Each module of FILE is looked for at its address, else at its `was`; nothing is
+    written. An error (a bad file, a module that does not answer, a wrong password, another
+    variant) is named with the file's line and field.
+    """
     settings = _load(file)
     try:
         plans = _run(url, host_id, timeout, lambda m: plan(m, settings, password))
@@ -228,7 +237,14 @@ def plan_cmd(url: str, file: Path, password: str, host_id: str, timeout: float |
 def apply_cmd(
     url: str, file: Path, yes: bool, password: str, host_id: str, timeout: float | None
 ) -> None:
-    """Write only the differences, each read back; a refusal stops that module."""
+    """Write only the differences, each read back; a refusal stops that module.
+
+    Per module, inside <connect>: the symbol, the supervisors (deletions first), the
+    password, the address last; then SAVEEE, REINIT and everything read back at the new
+    address; autonomous mode after that. A refusal stops the module and REINIT gives back
+    its saved settings; the other modules are still applied (exit 1 if one failed). Shows
+    the plan and asks first, unless --yes.
+    """
     settings = _load(file)
 
     async def work(master: BusMaster) -> list[ModuleReport] | None:

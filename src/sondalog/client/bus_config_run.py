@@ -68,11 +68,23 @@ async def identify(master: BusMaster, address: str) -> str:
     return variant
 
 
-async def _connect(master: BusMaster, address: str, password: str, retries: int = 1) -> bool:
+async def _connect(master: BusMaster, address: str, password: str) -> bool:
+    """``CONNECT`` sent once: each wrong password the module hears counts towards its
+    lockout (5 in 60 s, hctmps1.md section 4), so a silence is not answered by sending the
+    password again but by asking ``LISTP``, which only an open ``<connect>`` answers (the
+    reply may have been lost). A ``DISCONNECT`` first closes a context left open, so that
+    ``LISTP`` answers only if this password opened one."""
+    with contextlib.suppress(BusError):
+        await master.disconnect(address)
     try:
-        return await master.command(address, "CONNECT", password, retries=retries) == "<OK>"
+        return await master.command(address, "CONNECT", password, retries=0) == "<OK>"
+    except NoReply:
+        pass
+    try:
+        await master.listp(address)
     except NoReply:
         return False
+    return True
 
 
 async def open_context(
@@ -81,10 +93,9 @@ async def open_context(
     """``CONNECT`` to ``address``: with ``wanted`` (the file's password) first if given, then
     with ``password``; True if only ``password`` opened it (the password is to change).
 
-    ``wanted`` is tried once without retries: a wrong password counts towards the module's
-    lockout (5 in 60 s, hctmps1.md §4)."""
+    Each is sent once (:func:`_connect`)."""
     if wanted is not None:
-        if await _connect(master, address, wanted, retries=0):
+        if await _connect(master, address, wanted):
             return False
         if wanted == password:
             raise ConnectRefused(f"{address}: CONNECT got no reply: wrong password or locked out")
@@ -165,8 +176,12 @@ async def locate(master: BusMaster, entry: ModuleEntry) -> tuple[str, str]:
             continue
         with contextlib.suppress(NoReply):
             return address, await identify(master, address)
-    where = entry.want.address + (f" nor at {entry.was} (was)" if entry.was else "")
-    raise Unreachable(f"no module answers at {where}")
+    if entry.was is not None:
+        raise Unreachable(f"no module answers at {entry.want.address} nor at {entry.was} (was)")
+    raise Unreachable(
+        f"no module answers at {entry.want.address} (if the module is to get this address,"
+        ' say where it answers now: was = "ID", such as its factory ID)'
+    )
 
 
 async def plan_module(master: BusMaster, entry: ModuleEntry, password: str) -> ModulePlan:

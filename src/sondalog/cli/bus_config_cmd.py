@@ -255,8 +255,9 @@ def apply_cmd(
         if not any(mp.changes or mp.failure for mp in plans):
             click.echo("nothing to change")
             return None
-        if not yes:
-            _show_plan(plans)
+        if not yes and any(mp.changes for mp in plans):
+            for error in _show_plan(plans)[2]:
+                click.echo(f"Error: {error}", err=True)
             if not click.confirm("Apply these changes?"):
                 raise click.ClickException("not applied")
         return await apply(master, plans, password)

@@ -190,14 +190,20 @@ def test_a_file_of_another_variant_is_refused_before_anything_is_written(
     assert "symbol =" not in ok("bus", "config", "pull", bus.url, "--address", "T1")
 
 
-def test_a_renamed_module_needs_was_and_a_free_address(bus: ServedBus, tmp_path: Path) -> None:
+def test_a_renamed_module_needs_was(bus: ServedBus, tmp_path: Path) -> None:
     wanted = tmp_path / "modules.toml"
     wanted.write_text('[[module]]\naddress = "T7"\n')
     done = sondalog("bus", "config", "plan", bus.url, str(wanted))
     assert done.returncode == 2 and "no module answers at T7" in done.stderr
-    wanted.write_text('[[module]]\naddress = "H1"\nwas = "T1"\n')  # H1 is taken: no rename
-    done = sondalog("bus", "config", "plan", bus.url, str(wanted))
-    assert done.returncode == 0 and "H1: unchanged" in done.stdout  # H1 itself is meant
+    assert 'say where it answers now: was = "ID"' in done.stderr
+    # An address that another module holds is that module: with the variant, the clash shows.
+    wanted.write_text('[[module]]\naddress = "H1"\nwas = "T1"\nvariant = "temp"\n')
+    done = sondalog("bus", "config", "apply", bus.url, str(wanted), "--yes")
+    assert done.returncode == 2 and "H1 is a hum server, not temp" in done.stderr
+    wanted.write_text('[[module]]\naddress = "T1"\nsymbol = "S1"\n')
+    ok("bus", "config", "pull", bus.url, "--address", "T1", "--address", "T1", "-o", str(wanted))
+    assert wanted.read_text().count("[[module]]") == 1  # pulled once, and read back fine
+    assert sondalog("bus", "config", "plan", bus.url, str(wanted)).returncode == 0
 
 
 def test_apply_asks_first_without_yes(bus: ServedBus, tmp_path: Path) -> None:

@@ -130,7 +130,7 @@ async def pull(
     master: BusMaster, addresses: Sequence[str] | None, password: str = FACTORY_PASSWORD
 ) -> list[ModuleState]:
     """Every module's settings: those at ``addresses``, or every module a scan finds."""
-    targets = list(addresses) if addresses else list(await master.scan())
+    targets = list(dict.fromkeys(addresses)) if addresses else list(await master.scan())
     if not targets:
         raise Unreachable("no module answered HELLO")
     states = []

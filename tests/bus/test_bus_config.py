@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 from bus_helpers import ServedBus, sondalog
 
+LOGGER = [sys.executable, "-m", "sondalog", "logger", "serve"]
+
 
 @pytest.fixture
 def bus(tmp_path: Path) -> Iterator[ServedBus]:
@@ -233,3 +235,26 @@ def test_bad_input_is_a_usage_error(bus: ServedBus, tmp_path: Path) -> None:
     good.write_text('[[module]]\naddress = "T1"\n')
     gone = sondalog("bus", "config", "plan", "tcp://127.0.0.1:1", str(good))
     assert gone.returncode == 2 and "cannot reach the bus" in gone.stderr
+
+
+def test_a_logger_url_is_named_as_no_bus(tmp_path: Path) -> None:
+    proc = subprocess.Popen(
+        [*LOGGER, "--listen", "127.0.0.1:0", "--state", str(tmp_path / "logger")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+    )
+    assert proc.stdout is not None
+    try:
+        url = "tcp://" + proc.stdout.readline().decode().removeprefix("listening on ").strip()
+        wanted = tmp_path / "modules.toml"
+        wanted.write_text('[[module]]\naddress = "T1"\n')
+        done = sondalog("bus", "config", "plan", url, str(wanted))
+        assert done.returncode == 2
+        assert "the peer answers, but not with HCTMPS1 frames" in done.stderr
+        assert "not an HCTMPS1 bus" in done.stderr
+        pulled = sondalog("bus", "config", "pull", url, "--address", "T1")
+        assert pulled.returncode == 1 and "not an HCTMPS1 bus" in pulled.stderr
+    finally:
+        proc.kill()
+        proc.wait(timeout=10)
+        proc.stdout.close()

@@ -28,7 +28,7 @@ from sondalog.client.bus_config import (
     differences,
     show_ids,
 )
-from sondalog.client.bus_errors import BusError, NoReply
+from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
 from sondalog.protocol.hctmps1_settings import FACTORY_PASSWORD, HELLO_TEXTS, variant_of
 
 #: Why a command answers ``<FA>`` (Tabela 1, "w sytuacji błędnej").
@@ -138,10 +138,18 @@ async def pull(
         try:
             states.append(await read_module(master, address, password))
         except NoReply:
+            _refuse_foreign(master)
             raise Unreachable(
                 f"{address}: no reply (is it on this bus? bus scan lists them)"
             ) from None
     return states
+
+
+def _refuse_foreign(master: BusMaster) -> None:
+    """Raise :class:`ForeignPeer` if nothing but text lines came back (an ALA1 logger's
+    ``ERROR``): the URL is no bus, rather than "no module answers"."""
+    if master.frames_from_others == 0 and master.garbage:
+        master._refuse_foreign()
 
 
 # -- plan ----------------------------------------------------------------------------------
@@ -176,6 +184,7 @@ async def locate(master: BusMaster, entry: ModuleEntry) -> tuple[str, str]:
             continue
         with contextlib.suppress(NoReply):
             return address, await identify(master, address)
+    _refuse_foreign(master)
     if entry.was is not None:
         raise Unreachable(f"no module answers at {entry.want.address} nor at {entry.was} (was)")
     raise Unreachable(
@@ -204,6 +213,8 @@ async def plan_module(master: BusMaster, entry: ModuleEntry, password: str) -> M
         autonomous = await master.getmode(result.at)
         result.have = ModuleState(result.at, variant, supervisors, symbol, autonomous)
         result.changes = differences(entry, result.have, password_differs=differs)
+    except ForeignPeer:
+        raise  # not a bus at all: no module of the file can be planned
     except BusError as exc:
         result.failure = f"{entry.fail('address', str(exc))}"
     return result

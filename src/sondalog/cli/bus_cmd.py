@@ -20,6 +20,7 @@ import click
 
 from sondalog.app.bus import DEFAULT_PORT, BusServer, rs485_settings, start_bus_server
 from sondalog.app.bus_explain import upper_case_hint, why_no_reply
+from sondalog.cli.bus_config_cmd import config_group
 from sondalog.cli.common import (
     Refused,
     allow_remote_option,
@@ -305,7 +306,7 @@ def ask(
         raise click.ClickException("no reply")
 
 
-@bus.command()
+@click.command("set")
 @_master_options
 @click.argument("module_id", metavar="ID", callback=_module_id)
 @click.option("--password", default="0000", show_default=True, help="Password for CONNECT.")
@@ -342,6 +343,9 @@ def config(
 
     for line in _run_master(url, host_id, timeout, work):
         click.echo(line)
+
+
+bus.add_command(config_group(config))  # bus config pull|plan|apply, and this one as set
 
 
 @bus.command()

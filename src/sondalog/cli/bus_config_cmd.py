@@ -207,7 +207,7 @@ def _show_plan(plans: list[ModulePlan]) -> tuple[int, int, list[str]]:
 def plan_cmd(url: str, file: Path, password: str, host_id: str, timeout: float | None) -> None:
     """Show what apply would change; exit 0 nothing, 1 something, 2 an error.
 
-    Each module of FILE is looked for at its address, else at its `was`; nothing is
+    Each module of FILE is looked for at its address, else at its "was"; nothing is
     written. An error (a bad file, a module that does not answer, a wrong password, another
     variant) is named with the file's line and field.
     """

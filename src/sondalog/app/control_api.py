@@ -22,13 +22,14 @@ fault already active, a logger without power, a real board's inputs): 409; a bod
 than :data:`~sondalog.app.gsm_api.MAX_BODY` bytes: 413. A refused request changes nothing.
 Bodies are read through the configuration reader (:func:`sondalog.config.of`). Without a
 token the API listens on loopback only; with ``--allow-remote`` it needs one
-(:class:`sondalog.web.auth.TokenGate`: ``Authorization: Bearer <token>``).
+(:class:`BearerGate`: ``Authorization: Bearer <token>``, else a JSON 401).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import hmac
 import json
 import socket
 from collections.abc import Iterator
@@ -40,6 +41,7 @@ from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse
 from starlette.routing import Route
+from starlette.types import ASGIApp, Receive, Scope, Send
 
 from sondalog.app.control import Controller
 from sondalog.app.control_actions import parse_action, parse_time
@@ -49,10 +51,31 @@ from sondalog.app.gsm_api import MAX_DEPTH, BodyLimit, error_response
 from sondalog.app.serve import RunningSite
 from sondalog.config import ConfigError, Table, of
 from sondalog.io.clock import Clock
-from sondalog.web.auth import TokenGate
 
 DEVICE_ACTIONS = ("set", "fault", "clear", "restart", "snapshot", "restore")
 TIME_ACTIONS = ("pause", "resume", "speed", "step")
+
+
+class BearerGate:
+    """ASGI middleware: every request carries ``Authorization: Bearer <token>`` (the
+    dashboard's rule, :mod:`sondalog.web.auth`), else a JSON 401."""
+
+    def __init__(self, app: ASGIApp, token: str) -> None:
+        self.app = app
+        self.token = token.encode()
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http":
+            given = dict(scope["headers"]).get(b"authorization", b"")
+            bearer = given[7:].strip() if given[:7].lower() == b"bearer " else b""
+            if not hmac.compare_digest(bearer, self.token):
+                refused = error_response(
+                    401, "a token is required: 'Authorization: Bearer <token>'"
+                )
+                refused.headers["WWW-Authenticate"] = "Bearer"
+                await refused(scope, receive, send)
+                return
+        await self.app(scope, receive, send)
 
 
 def _no_constant(name: str) -> object:
@@ -161,7 +184,7 @@ def build_app(control: Controller, token: str | None = None) -> Starlette:
     }
     middleware = [Middleware(BodyLimit)]
     if token is not None:
-        middleware.insert(0, Middleware(TokenGate, token=lambda: token))
+        middleware.insert(0, Middleware(BearerGate, token=token))
     return Starlette(routes=routes, middleware=middleware, exception_handlers=handlers)
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 from control_site import SITE, http, served
 from test_inputs_time import read, setup
 
+from sondalog.ala1.record import RecordMemory
 from sondalog.app.control_api import DEVICE_ACTIONS, TIME_ACTIONS
 from sondalog.app.control_snapshot import read_state, write_state
 from sondalog.backends.store.ala1_nv import NvDatabase
@@ -57,20 +58,30 @@ def test_write_state_after_a_branch_writes_the_rows_that_differ(tmp_path: Path) 
     store = database.store("L1")
     conn = database.conn
 
-    def rows(*pairs: tuple[int, str]) -> None:
+    def record(*rows: str, first: int = 1) -> RecordMemory:
+        """The rows on disk and the engine's copy of them."""
         conn.execute("DELETE FROM record WHERE logger = 'L1'")
-        conn.executemany("INSERT INTO record (logger, seq, row) VALUES ('L1', ?, ?)", list(pairs))
+        conn.executemany(
+            "INSERT INTO record (logger, seq, row) VALUES ('L1', ?, ?)",
+            list(enumerate(rows, first)),
+        )
+        return RecordMemory(list(rows), first, 10**6, True)
 
-    rows((1, "a"), (2, "b"), (3, "c"), (4, "d"))
-    full = read_state(store)
-    rows((1, "a"), (2, "b"))
-    short = read_state(store)
-    write_state(store, short)
-    rows((1, "a"), (2, "b"), (3, "X"))  # a new branch after restoring the short one
-    write_state(store, full)
-    assert read_state(store).record == ((1, "a"), (2, "b"), (3, "c"), (4, "d"))
-    write_state(store, short)
-    assert read_state(store).record == ((1, "a"), (2, "b"))
+    def on_disk() -> list[tuple[int, str]]:
+        return conn.execute(
+            "SELECT seq, row FROM record WHERE logger = 'L1' ORDER BY seq"
+        ).fetchall()
+
+    full = read_state(store, record("a", "b", "c", "d"))
+    short = read_state(store, record("a", "b"))
+    write_state(store, short, record("a", "b", "c", "d"))
+    assert on_disk() == [(1, "a"), (2, "b")]
+    write_state(store, full, record("a", "b", "X"))  # a new branch after restoring the short
+    assert on_disk() == [(1, "a"), (2, "b"), (3, "c"), (4, "d")]
+    write_state(store, full, record("c", "d", "e", "f", first=3))  # a cyclic record moved on
+    assert on_disk() == [(1, "a"), (2, "b"), (3, "c"), (4, "d")]
+    write_state(store, short, record(first=9))  # cleared
+    assert on_disk() == [(1, "a"), (2, "b")]
     database.close()
 
 

@@ -25,7 +25,7 @@ from typing import Any
 from sondalog.ala1 import Engine
 from sondalog.ala1.hardware import pin_of
 from sondalog.app.control_actions import Fault, SetInput, input_kind
-from sondalog.app.control_snapshot import StoredState, read_state, write_state
+from sondalog.app.control_snapshot import Preloaded, StoredState, read_state, write_state
 from sondalog.app.faults_line import FaultyLines
 from sondalog.app.fleet import NamedDevice
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware, Thermometer
@@ -274,13 +274,16 @@ class ControlledLogger:
         if self.engine.modem is not None:
             raise Refusal(409, f"{self.name} drives a GSM modem: it cannot be restarted here")
 
-    def restart(self, now: float) -> None:
-        """A new engine from the memory, on the same lines (see the module docstring)."""
+    def restart(self, now: float, memory: Preloaded | None = None) -> None:
+        """A new engine from the memory, on the same lines (see the module docstring);
+        ``memory``: the memory just restored, which it starts from without reading it back."""
         self.check_restartable()
         self.store.database.flush()
         old = self.engine
         lines = dict(old._lines)  # the attached lines: the engine has no public list of them
-        new = Engine(old.identity, self.store, now, old.state.hardware, line_time_scale=old.scale)
+        hardware, scale = old.state.hardware, old.scale
+        new = Engine(old.identity, memory or self.store, now, hardware, line_time_scale=scale)
+        new.state.store = self.store
         top = max(lines, default=0)
         for line_id in range(1, top + 1):  # the same ids, as the host knows them
             opened = new.open_line(paced=lines[line_id].pacer.paced if line_id in lines else False)
@@ -308,8 +311,7 @@ class ControlledLogger:
 
     # -- snapshot and restore ----------------------------------------------------------------
     def snapshot(self, name: str) -> StoredState:
-        self.store.database.flush()
-        state = read_state(self.store)
+        state = read_state(self.store, self.engine.state.record)
         sim = self.sim
         self.snapshots[name] = (state, Inputs.of(sim) if sim is not None else None)
         return state
@@ -323,12 +325,11 @@ class ControlledLogger:
             )
         self.check_restartable()
         state, inputs = kept
-        self.store.database.flush()
-        write_state(self.store, state)
+        write_state(self.store, state, self.engine.state.record)
         sim = self.sim
         if inputs is not None and sim is not None:
             inputs.put(sim)
-        self.restart(now)
+        self.restart(now, Preloaded(self.store, state))
         return state
 
 

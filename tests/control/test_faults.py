@@ -6,7 +6,7 @@ import asyncio
 import time
 from pathlib import Path
 
-from control_site import Site, served
+from control_site import Site, http, served
 from test_inputs_time import read, setup
 
 
@@ -166,5 +166,52 @@ def test_a_cut_line_and_a_slow_line(tmp_path: Path) -> None:
             assert await asyncio.wait_for(reader.readuntil(b"OK\r\n"), 5) == clean
             assert time.monotonic() - started < 0.2
             writer.close()
+
+    asyncio.run(main())
+
+
+GSM = """
+[gsm]
+smsc = "+420603052000"
+
+[gsm.serve]
+api = "127.0.0.1:0"
+
+[[gsm.modem]]
+number = "+420600000001"
+
+[gsm.modem.serve]
+listen = "127.0.0.1:0"
+
+[[gsm.phone]]
+number = "+420700000001"
+"""
+
+
+def test_a_modem_without_coverage_as_the_network_sees_it(tmp_path: Path) -> None:
+    async def main() -> None:
+        async with served(tmp_path, GSM) as site:
+            assert site.running.gsm_api is not None
+            api = site.running.gsm_api.address[1]
+
+            async def covered() -> dict[str, bool]:
+                status, subscribers = await http(api, "GET", "/subscribers")
+                assert status == 200
+                return {s["number"]: s["covered"] for s in subscribers}
+
+            assert [d["name"] for d in await site.get("/devices")] == ["gsm"]
+            body = {"kind": "no_coverage", "number": "+420600000001"}
+            answer = await site.post("/devices/gsm/fault", body)
+            assert answer["fault"]["number"] == "+420600000001"
+            assert await covered() == {"+420600000001": False, "+420700000001": True}
+            await site.post("/devices/gsm/fault", body, 409)
+            await site.post("/devices/gsm/fault", {"kind": "no_coverage", "number": "+1555"}, 404)
+            await site.post("/devices/gsm/fault", {"kind": "cut"}, 400)
+            await site.post("/devices/gsm/clear", {})
+            assert await covered() == {"+420600000001": True, "+420700000001": True}
+            await site.post("/devices/gsm/fault", {"kind": "no_coverage"})  # everyone
+            assert set((await covered()).values()) == {False}
+            await site.post("/devices/gsm/clear", {"kind": "no_coverage"})
+            assert set((await covered()).values()) == {True}
 
     asyncio.run(main())

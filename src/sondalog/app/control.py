@@ -107,8 +107,8 @@ class Controller:
         return out
 
     def describe(self, name: str) -> dict[str, Any]:
-        if name == "gsm" and self.site.gsm is not None:
-            return next(d for d in self.devices() if d["name"] == "gsm")
+        if name not in self.loggers and name in self.names():  # the network, the mail hub
+            return next(d for d in self.devices() if d["name"] == name)
         logger = self.logger(name)
         now = self.clock.now()
         state = logger.engine.state

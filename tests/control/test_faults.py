@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import asyncio
+import smtplib
 import time
+from email.message import EmailMessage
 from pathlib import Path
 
+import pytest
 from control_site import Site, http, served
 from test_inputs_time import read, setup
 
@@ -213,5 +216,51 @@ def test_a_modem_without_coverage_as_the_network_sees_it(tmp_path: Path) -> None
             assert set((await covered()).values()) == {False}
             await site.post("/devices/gsm/clear", {"kind": "no_coverage"})
             assert set((await covered()).values()) == {True}
+
+    asyncio.run(main())
+
+
+MAIL = """
+[mail]
+smtp = "127.0.0.1:0"
+pop3 = "127.0.0.1:0"
+
+[mail.accounts]
+"logger@example.net" = "secret"
+"""
+
+
+def _send_mail(port: int) -> None:
+    message = EmailMessage()
+    message["From"], message["To"], message["Subject"] = "a@b.c", "logger@example.net", "x"
+    message.set_content("data")
+    with smtplib.SMTP("127.0.0.1", port, timeout=10) as smtp:
+        smtp.send_message(message)
+
+
+def test_an_smtp_server_refusing(tmp_path: Path) -> None:
+    async def main() -> None:
+        async with served(tmp_path, MAIL) as site:
+            assert site.running.mail is not None
+            port = site.running.mail.smtp_port
+            await asyncio.to_thread(_send_mail, port)  # taken
+            await site.post("/devices/mail/fault", {"kind": "smtp_refusing"})
+            with pytest.raises(smtplib.SMTPRecipientsRefused) as refused:
+                await asyncio.to_thread(_send_mail, port)
+            assert refused.value.recipients["logger@example.net"][0] == 451
+            await site.post("/devices/mail/clear", {})
+            body = {"kind": "smtp_refusing", "code": 554, "duration": 60}
+            await site.post("/devices/mail/fault", body)
+            with pytest.raises(smtplib.SMTPRecipientsRefused) as refused:
+                await asyncio.to_thread(_send_mail, port)
+            assert refused.value.recipients["logger@example.net"][0] == 554
+            await site.post("/time/step", {"seconds": 60})
+            for _ in range(100):
+                if not (await site.get("/devices"))[0]["faults"]:
+                    break
+                await asyncio.sleep(0.01)
+            await asyncio.to_thread(_send_mail, port)  # the fault ended by itself
+            maildir = site.running.mail.maildir("logger@example.net") / "new"
+            assert len(list(maildir.iterdir())) == 2
 
     asyncio.run(main())

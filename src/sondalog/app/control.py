@@ -64,6 +64,7 @@ class Controller:
                 name = f"loggers.{member.serial_number}"
                 self.loggers[name] = ControlledLogger(name, member.host, store, named)
         self.gsm_faults: dict[str | None, ActiveFault] = {}
+        self.mail_fault: ActiveFault | None = None
         self._timer: asyncio.Task[None] | None = None
         self._rearm = asyncio.Event()
 
@@ -103,7 +104,8 @@ class Controller:
             faults = [_fault_json(a) for a in self.gsm_faults.values()]
             out.append({"name": "gsm", "kind": "gsm", "faults": faults})
         if self.site.mail is not None:
-            out.append({"name": "mail", "kind": "mail", "faults": []})
+            faults = [_fault_json(self.mail_fault)] if self.mail_fault is not None else []
+            out.append({"name": "mail", "kind": "mail", "faults": faults})
         return out
 
     def describe(self, name: str) -> dict[str, Any]:
@@ -206,8 +208,11 @@ class Controller:
     def _fault(self, fault: Fault, now: float) -> dict[str, Any]:
         if fault.device == "gsm":
             return self._gsm_fault(fault, now)
-        if fault.kind == "no_coverage":
-            raise Refusal(400, "a no_coverage fault is the gsm device's", "kind")
+        if fault.device == "mail":
+            return self._mail_fault(fault, now)
+        if fault.kind in ("no_coverage", "smtp_refusing"):
+            owner = "gsm" if fault.kind == "no_coverage" else "mail"
+            raise Refusal(400, f"a {fault.kind} fault is the {owner} device's", "kind")
         logger = self.logger(fault.device)
         key = (fault.kind, fault.input)
         if key in logger.faults:
@@ -258,7 +263,37 @@ class Controller:
         self._timers()
         return {"device": "gsm", "fault": _fault_json(active)}
 
+    def _mail_fault(self, fault: Fault, now: float) -> dict[str, Any]:
+        mail = self.site.mail
+        if mail is None:
+            raise Refusal(404, "no device 'mail': the site has no [mail]", "device")
+        if fault.kind != "smtp_refusing":
+            raise Refusal(
+                400, f"the mail device has no {fault.kind} fault (it has smtp_refusing)", "kind"
+            )
+        if self.mail_fault is not None:
+            raise Refusal(409, "the SMTP server refuses already: clear it first", "kind")
+        code = fault.code or 451
+        text = "4.3.2 try again later" if code < 500 else "5.7.1 refused"
+        mail.accounts.refusal = f"{code} {text} (sondalog control API)"
+        self.mail_fault = ActiveFault(
+            fault, None if fault.duration is None else now + fault.duration
+        )
+        self._timers()
+        return {"device": "mail", "fault": _fault_json(self.mail_fault)}
+
+    def _end_mail(self) -> None:
+        self.mail_fault = None
+        if self.site.mail is not None:
+            self.site.mail.accounts.refusal = None
+
     def _clear(self, clear: Clear, now: float) -> list[dict[str, Any]]:
+        if clear.device == "mail" and self.site.mail is not None:
+            active = self.mail_fault
+            if active is None or clear.kind not in (None, "smtp_refusing"):
+                return []
+            self._end_mail()
+            return [_fault_json(active)]
         if clear.device == "gsm" and self.site.gsm is not None:
             cleared = [
                 _fault_json(a)
@@ -327,6 +362,8 @@ class Controller:
             if a.until is not None
         ]
         ends += [a.until for a in self.gsm_faults.values() if a.until is not None]
+        if self.mail_fault is not None and self.mail_fault.until is not None:
+            ends.append(self.mail_fault.until)
         return min(ends, default=None)
 
     async def _expire(self) -> None:
@@ -350,6 +387,9 @@ class Controller:
             for number, active in list(self.gsm_faults.items()):
                 if active.until is not None and active.until <= now:
                     self._end_gsm(number)
+            mail = self.mail_fault
+            if mail is not None and mail.until is not None and mail.until <= now:
+                self._end_mail()
 
     async def close(self) -> None:
         if self._timer is not None:
@@ -361,7 +401,7 @@ class Controller:
 def _fault_json(active: ActiveFault) -> dict[str, Any]:
     fault = active.fault
     out: dict[str, Any] = {"kind": fault.kind}
-    for key in ("input", "volts", "seconds", "number"):
+    for key in ("input", "volts", "seconds", "number", "code"):
         value = getattr(fault, key)
         if value is not None:
             out[key] = value

@@ -36,7 +36,7 @@ MAX_SECONDS = 100 * 366 * 86400.0
 MAX_SPEED = 1e7
 
 #: Fault kinds -> what they act on: an input's kind (analog, ds18b20, pulses, supply, gsm),
-#: ``logger`` (the module and its lines), ``gsm`` (the network).
+#: ``logger`` (the module and its lines), ``gsm`` (the network), ``mail`` (the mail hub).
 FAULTS: dict[str, tuple[str, ...]] = {
     "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm"),
     "stuck": ("analog", "ds18b20", "supply", "gsm"),
@@ -49,6 +49,7 @@ FAULTS: dict[str, tuple[str, ...]] = {
     "cut": ("logger",),
     "slow": ("logger",),
     "no_coverage": ("gsm",),
+    "smtp_refusing": ("mail",),
 }
 #: Faults of one input (they need ``input``).
 INPUT_FAULTS = ("disconnected", "stuck", "power_on_reset", "bad_crc")
@@ -100,6 +101,7 @@ class Fault:
     noise: Noise | None = None
     slow: Slow | None = None
     number: str | None = None  # no_coverage: one subscriber (None: the whole network)
+    code: int | None = None  # smtp_refusing: the reply code (4xx: try later, 5xx: never)
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,7 +250,18 @@ def parse_set(device: str, table: Table, extra: tuple[str, ...] = ()) -> SetInpu
 
 def parse_fault(device: str, table: Table, extra: tuple[str, ...] = ()) -> Fault:
     """``kind``, its ``input`` if it is an input's, ``duration`` and the kind's own keys."""
-    own = ("volts", "seconds", "rate", "seed", "direction", "mode", "baud", "latency", "number")
+    own = (
+        "volts",
+        "seconds",
+        "rate",
+        "seed",
+        "direction",
+        "mode",
+        "baud",
+        "latency",
+        "number",
+        "code",
+    )
     table.keys(("kind", "input", "duration", *own, *extra))
     kind = table.text("kind", choices=FAULTS)
     wanted = _FAULT_KEYS.get(kind, ())
@@ -292,6 +305,9 @@ def parse_fault(device: str, table: Table, extra: tuple[str, ...] = ()) -> Fault
             "number", pattern=r"\+?\d{3,20}", what="a phone number like +420700000001"
         )
         return replace(fault, number=number)
+    if kind == "smtp_refusing":
+        code = table.integer("code", 451, lo=400, hi=599, what="an SMTP reply code 400 to 599")
+        return replace(fault, code=code)
     return fault
 
 
@@ -301,6 +317,7 @@ _FAULT_KEYS: dict[str, tuple[str, ...]] = {
     "noise": ("rate", "seed", "direction", "mode"),
     "slow": ("baud", "latency"),
     "no_coverage": ("number",),
+    "smtp_refusing": ("code",),
 }
 
 

@@ -74,6 +74,13 @@ _SCHEMAS: dict[str, Any] = {
             "baud": {"type": "integer", "minimum": 10, "maximum": 230400, "description": "slow"},
             "latency": {"type": "number", "minimum": 0, "maximum": 3600, "description": "slow"},
             "number": {"type": "string", "description": "no_coverage (gsm): one subscriber"},
+            "code": {
+                "type": "integer",
+                "minimum": 400,
+                "maximum": 599,
+                "default": 451,
+                "description": "smtp_refusing (mail)",
+            },
         },
         ["kind"],
     ),
@@ -139,7 +146,7 @@ def _post(action: str, summary: str, device: bool) -> dict[str, Any]:
     if device:
         operation["parameters"] = [
             {"name": "name", "in": "path", "required": True, "schema": {"type": "string"},
-             "description": "logger, loggers.SERIAL, gsm"},
+             "description": "logger, loggers.SERIAL, gsm, mail"},
         ]  # fmt: skip
     return {"post": operation}
 

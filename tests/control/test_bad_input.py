@@ -96,6 +96,10 @@ def test_a_state_that_refuses_is_409(tmp_path: Path) -> None:
             answer = await site.post("/devices/logger/fault", {"kind": "power_loss"}, 409)
             assert answer["field"] == "kind"
             answer = await site.post("/devices/logger/restart", {}, 409)
+            # an unknown snapshot: refused before the faults a restore would end
+            answer = await site.post("/devices/logger/restore", {"name": "never"}, 404)
+            assert answer["field"] == "name"
+            assert not (await site.get("/devices/logger"))["powered"]
             await site.post("/devices/logger/clear", {})
             assert (await site.get("/devices/logger"))["powered"]
 

@@ -173,9 +173,9 @@ class Controller:
                 return {"device": action.device, "snapshot": action.name, "record_rows": state.rows}
             case Restore():
                 logger = self.logger(action.device)
-                if logger.faults:
-                    for key in list(logger.faults):
-                        self._end(logger, key, now)
+                logger.check_restorable(action.name)  # (before any fault ends)
+                for key in list(logger.faults):
+                    self._end(logger, key, now)
                 state = logger.restore(action.name, now)
                 return {"device": action.device, "restored": action.name, "record_rows": state.rows}
         raise AssertionError(action)

@@ -316,15 +316,17 @@ class ControlledLogger:
         self.snapshots[name] = (state, Inputs.of(sim) if sim is not None else None)
         return state
 
-    def restore(self, name: str, now: float) -> StoredState:
-        kept = self.snapshots.get(name)
-        if kept is None:
+    def check_restorable(self, name: str) -> None:
+        if name not in self.snapshots:
             known = ", ".join(self.snapshots) or "none"
             raise Refusal(
                 404, f"{self.name} has no snapshot {name!r} (its snapshots: {known})", "name"
             )
         self.check_restartable()
-        state, inputs = kept
+
+    def restore(self, name: str, now: float) -> StoredState:
+        self.check_restorable(name)
+        state, inputs = self.snapshots[name]
         write_state(self.store, state, self.engine.state.record)
         sim = self.sim
         if inputs is not None and sim is not None:

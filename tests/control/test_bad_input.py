@@ -36,6 +36,21 @@ CASES = [
         "signal.mean",
     ),
     ("/devices/logger/set", {"input": "pulses:timer", "value": 3}, 400, "value"),
+    (
+        "/devices/logger/set",
+        {"input": "supply", "signal": {"model": "csv", "path": "/etc/passwd"}},
+        400,
+        "signal.model",
+    ),
+    (
+        "/devices/logger/set",
+        {
+            "input": "supply",
+            "signal": {"model": "random_walk", "start": 1, "step": 1, "interval": 1e-9},
+        },
+        400,
+        "signal.interval",
+    ),
     ("/devices/logger/set", {"input": "analog:16", "rate": 3}, 400, "rate"),
     ("/devices/logger/set", {"input": "supply", "value": 1e12}, 400, "value"),
     ("/devices/logger/restore", {"name": "never"}, 404, "name"),

@@ -80,42 +80,41 @@ class Controller:
     def logger(self, name: str) -> ControlledLogger:
         found = self.loggers.get(name)
         if found is None:
-            if name in self.names():
+            if self.is_device(name):
                 raise Refusal(409, f"{name} is not a logger", "device")
-            raise Refusal(404, f"no device {name!r} (devices: {', '.join(self.names())})", "device")
+            names = self.names()
+            shown = ", ".join(names[:8]) + (f" and {len(names) - 8} more" if len(names) > 8 else "")
+            raise Refusal(404, f"no device {name[:40]!r} (devices: {shown})", "device")
         return found
 
+    def is_device(self, name: str) -> bool:
+        return (
+            name in self.loggers
+            or (name == "gsm" and self.site.gsm is not None)
+            or (name == "mail" and self.site.mail is not None)
+        )
+
     def devices(self) -> list[dict[str, Any]]:
-        out: list[dict[str, Any]] = []
-        for name, logger in self.loggers.items():
-            identity = logger.engine.identity
-            out.append(
-                {
-                    "name": name,
-                    "kind": "logger",
-                    "serial_number": identity.serial_number,
-                    "protocol": identity.version.value,
-                    "simulated": logger.sim is not None,
-                    "powered": not logger.off,
-                    "faults": [_fault_json(a) for a in logger.faults.values()],
-                }
-            )
-        if self.site.gsm is not None:
-            faults = [_fault_json(a) for a in self.gsm_faults.values()]
-            out.append({"name": "gsm", "kind": "gsm", "faults": faults})
-        if self.site.mail is not None:
-            faults = [_fault_json(self.mail_fault)] if self.mail_fault is not None else []
-            out.append({"name": "mail", "kind": "mail", "faults": faults})
+        out = [_logger_json(name, logger) for name, logger in self.loggers.items()]
+        out += [self._other_json(name) for name in ("gsm", "mail") if self.is_device(name)]
         return out
 
+    def _other_json(self, name: str) -> dict[str, Any]:
+        """The network or the mail hub."""
+        if name == "gsm":
+            faults = [_fault_json(a) for a in self.gsm_faults.values()]
+        else:
+            faults = [_fault_json(self.mail_fault)] if self.mail_fault is not None else []
+        return {"name": name, "kind": name, "faults": faults}
+
     def describe(self, name: str) -> dict[str, Any]:
-        if name not in self.loggers and name in self.names():  # the network, the mail hub
-            return next(d for d in self.devices() if d["name"] == name)
+        if name not in self.loggers and self.is_device(name):
+            return self._other_json(name)
         logger = self.logger(name)
         now = self.clock.now()
         state = logger.engine.state
         return {
-            **next(d for d in self.devices() if d["name"] == name),
+            **_logger_json(name, logger),
             "module_time": state.module_time(now).isoformat(),
             "record_rows": len(state.record),
             "restarts": logger.restarts,
@@ -396,6 +395,19 @@ class Controller:
             self._timer.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await self._timer
+
+
+def _logger_json(name: str, logger: ControlledLogger) -> dict[str, Any]:
+    identity = logger.engine.identity
+    return {
+        "name": name,
+        "kind": "logger",
+        "serial_number": identity.serial_number,
+        "protocol": identity.version.value,
+        "simulated": logger.sim is not None,
+        "powered": not logger.off,
+        "faults": [_fault_json(a) for a in logger.faults.values()],
+    }
 
 
 def _fault_json(active: ActiveFault) -> dict[str, Any]:

@@ -181,11 +181,14 @@ def input_kind(name: str) -> str:
     return name.partition(":")[0]
 
 
-def parse_action(action: str, device: str, table: Table, extra: tuple[str, ...] = ()) -> Action:
+def parse_action(
+    action: str, device: str, table: Table, extra: tuple[str, ...] = (), *, remote: bool = False
+) -> Action:
     """Read ``table`` as action ``action`` on ``device``; ``extra``: keys the caller reads
-    itself (a scenario's ``at``). Raises :class:`~sondalog.config.ConfigError`."""
+    itself (a scenario's ``at``); ``remote``: a request over the API (:func:`parse_set`).
+    Raises :class:`~sondalog.config.ConfigError`."""
     if action == "set":
-        return parse_set(device, table, extra)
+        return parse_set(device, table, extra, remote=remote)
     if action == "fault":
         return parse_fault(device, table, extra)
     if action == "clear":
@@ -224,9 +227,13 @@ def parse_time(action: str, table: Table, extra: tuple[str, ...] = ()) -> Action
     raise table.fail("action", f"must be one of {', '.join(ACTIONS)}, not {action!r}")
 
 
-def parse_set(device: str, table: Table, extra: tuple[str, ...] = ()) -> SetInput:
+def parse_set(
+    device: str, table: Table, extra: tuple[str, ...] = (), *, remote: bool = False
+) -> SetInput:
     """``input`` and one of ``value`` (a constant), ``signal`` (a signal model's table,
-    docs/simulation.md) or, for a counter, ``rate`` (pulses per second)."""
+    docs/simulation.md) or, for a counter, ``rate`` (pulses per second). ``remote`` (a
+    request over the API): no ``csv`` model (it reads a file of the server) and no random
+    walk stepping faster than once a second (it keeps every step)."""
     table.keys(("input", "value", "signal", "rate", *extra))
     name = _input(table)
     given = [k for k in ("value", "signal", "rate") if k in table]
@@ -245,7 +252,12 @@ def parse_set(device: str, table: Table, extra: tuple[str, ...] = ()) -> SetInpu
     if given == ["value"]:
         value = table.number("value", lo=-1e9, hi=1e9)
         return SetInput(device, name, SignalPlan("constant", None, lambda origin: constant(value)))
-    return SetInput(device, name, plan_signal(table.table("signal", required=True)))
+    signal = table.table("signal", required=True)
+    if remote and signal.raw("model") == "csv":
+        raise signal.fail("model", "a csv signal reads a file of the server: not over the API")
+    if remote and signal.raw("model") == "random_walk":  # it keeps a value per interval
+        signal.number("interval", 60.0, lo=1, what="seconds >= 1 (over the API)")
+    return SetInput(device, name, plan_signal(signal))
 
 
 def parse_fault(device: str, table: Table, extra: tuple[str, ...] = ()) -> Fault:

@@ -134,10 +134,10 @@ def build_app(control: Controller, token: str | None = None) -> Starlette:
         name, action = str(request.path_params["name"]), str(request.path_params["action"])
         if action not in DEVICE_ACTIONS:
             raise Refusal(404, f"no action {action[:40]!r} (actions: {', '.join(DEVICE_ACTIONS)})")
-        if name not in control.names():
+        if not control.is_device(name):
             control.logger(name)  # the 404 naming the devices
         body = await _body(request)
-        return JSONResponse(await control.apply(parse_action(action, name, body)))
+        return JSONResponse(await control.apply(parse_action(action, name, body, remote=True)))
 
     async def time(request: Request) -> JSONResponse:
         return JSONResponse(control.time())

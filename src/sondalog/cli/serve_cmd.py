@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import re
 import sys
 from pathlib import Path
 
@@ -10,10 +12,16 @@ import click
 from sondalog.cli.common import (
     Refused,
     allow_remote_site_option,
+    is_loopback,
+    parse_listen,
     refuses_remote,
     speed_option,
 )
 from sondalog.io import loop as serve_loop
+
+#: The environment variable the control API's token comes from (kept off the command line).
+CONTROL_TOKEN_ENV = "SONDALOG_CONTROL_TOKEN"
+_TOKEN = r"[A-Za-z0-9._~+/=-]{16,256}"
 
 
 @click.command()
@@ -32,6 +40,13 @@ from sondalog.io import loop as serve_loop
     default=None,
     help="Record the line of the logger's GSM modem in this file (docs/gsm.md).",
 )
+@click.option(
+    "--control",
+    metavar="HOST:PORT",
+    default=None,
+    help="Serve the control API there: inputs, faults, time, snapshots (docs/control.md). "
+    f"Beyond loopback it needs --allow-remote and a token in ${CONTROL_TOKEN_ENV}.",
+)
 @allow_remote_site_option
 @click.option(
     "--check",
@@ -45,6 +60,7 @@ def serve(
     state_dir: Path | None,
     speed: float,
     trace: Path | None,
+    control: str | None,
     check: bool,
 ) -> None:
     """Serve the loggers, buses and mail hub that the site file SITE describes.
@@ -66,22 +82,61 @@ def serve(
                 f"{site}: {field}: {host} is reachable from other machines and the protocol "
                 "has no authentication (docs/security.md); add --allow-remote to serve there"
             )
+    control_at = _control_address(ctx, control, plan.listens) if control is not None else None
+    token = os.environ.get(CONTROL_TOKEN_ENV) or None
     if check:
         click.echo(f"{site}: {len(plan.listens)} listening addresses, no clash")
         return
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
-        serve_loop.run(_serve(plan, state, speed, trace))
+        serve_loop.run(_serve(plan, state, speed, trace, control_at, token))
     except ConfigError as exc:
         raise Refused(str(exc)) from exc
     except OSError as exc:
         raise click.ClickException(f"cannot serve {site}: {exc}") from exc
 
 
-async def _serve(plan: object, state: Path, speed: float, trace: Path | None = None) -> None:
+def _control_address(
+    ctx: click.Context, value: str, listens: list[tuple[str, tuple[str, int]]]
+) -> tuple[str, int]:
+    """``--control HOST:PORT``: loopback, or beyond it with --allow-remote and a token."""
+    try:
+        host, port = parse_listen(value)
+    except ValueError as exc:
+        raise Refused(f"--control: {exc}") from exc
+    token = os.environ.get(CONTROL_TOKEN_ENV)
+    if token is not None and not re.fullmatch(_TOKEN, token):
+        raise Refused(f"${CONTROL_TOKEN_ENV}: must be 16 to 256 letters, digits or ._~+/=-")
+    if refuses_remote(ctx, host):
+        raise Refused(
+            f"--control: {host} is reachable from other machines; add --allow-remote and set "
+            f"a token in ${CONTROL_TOKEN_ENV} to serve the control API there"
+        )
+    if not is_loopback(host) and token is None:
+        raise Refused(
+            f"--control: refusing to serve the control API on {host} without a token: set "
+            f"${CONTROL_TOKEN_ENV} (requests then need 'Authorization: Bearer <token>')"
+        )
+    for field, (other_host, other_port) in listens:
+        if port and port == other_port and host in (other_host, "0.0.0.0", "::"):
+            raise Refused(f"--control: port {port} is already used by {field}")
+    return host, port
+
+
+async def _serve(
+    plan: object,
+    state: Path,
+    speed: float,
+    trace: Path | None = None,
+    control: tuple[str, int] | None = None,
+    token: str | None = None,
+) -> None:
+    from sondalog.app.control_api import start_control
     from sondalog.app.serve import start_site
     from sondalog.app.site import SitePlan
-    from sondalog.io.clock import make_clock
+    from sondalog.config.address import format_address
+    from sondalog.io.clock import Clock, make_clock
+    from sondalog.io.clock_control import ControlledClock
 
     assert isinstance(plan, SitePlan)
     stop = serve_loop.stop_on_signals()
@@ -90,8 +145,15 @@ async def _serve(plan: object, state: Path, speed: float, trace: Path | None = N
         sys.stdout.write(line + "\n")
         sys.stdout.flush()
 
-    running = await start_site(plan, state, make_clock(speed), announce, trace)
+    clock: Clock = ControlledClock(speed) if control is not None else make_clock(speed)
+    running = await start_site(plan, state, clock, announce, trace)
+    server = None
     try:
+        if control is not None:
+            server = await start_control(running, clock, *control, token=token)
+            announce(f"control API on http://{format_address(*server.address)}")
         await stop.wait()
     finally:
+        if server is not None:
+            await server.stop()
         await running.close()

@@ -106,6 +106,17 @@ class DeviceHost:
         for line_id in [*self._byte_sinks, *self._output_sinks]:
             self.detach(line_id)
 
+    def replace_device(self, device: Device) -> None:
+        """Serve ``device`` from now on, on the same lines (the control API's hook: a logger
+        behind its line faults, or restarted after a power loss, issue 23)."""
+        self.device = device
+        self._room = getattr(device, "input_room", None)
+        self._rearm.set()
+
+    def wake(self) -> None:
+        """The device changed from outside (its clock jumped): look at its deadline again."""
+        self._rearm.set()
+
     # -- lines -------------------------------------------------------------------------------
     def attach(self, sink: Sink, *, paced: bool = False, flow: FlowControl | None = None) -> int:
         """A new connection: opens an engine line whose output goes to ``sink``.

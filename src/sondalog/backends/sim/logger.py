@@ -77,6 +77,7 @@ class Thermometer:
     rom: int
     signal: Signal
     power: int | None = None
+    crc_error: bool = False  # its scratchpad fails the CRC: no valid reading (control API)
 
 
 class SimHardware:
@@ -166,6 +167,8 @@ class SimHardware:
             if not found:
                 return None
             sensor = found[0]
+        if sensor.crc_error:
+            return None
         celsius = min(125.0, max(-55.0, sensor.signal(t)))
         return sensor.rom, round(celsius * 16) / 16 / DS18B20_SCALE
 

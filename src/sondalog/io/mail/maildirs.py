@@ -31,6 +31,9 @@ class MaildirAccounts:
         self._by_lower = {a.lower(): a for a in self._accounts}
         self._open: set[str] = set()
         self._sizes: dict[tuple[str, str], int] = {}  # messages never change once delivered
+        #: An SMTP reply the hub answers every recipient with instead (the control API's
+        #: "SMTP server refusing" fault, issue 23); None: mail is taken.
+        self.refusal: str | None = None
 
     def account(self, address: str) -> str | None:
         """The account of ``address`` (compared without regard to case), if any."""

@@ -41,6 +41,8 @@ class MaildirDelivery:
         address: str,
         rcpt_options: list[str],
     ) -> str:
+        if self._accounts.refusal is not None:
+            return self._accounts.refusal
         account = self._accounts.account(address)
         if account is None:
             return f"550 5.1.1 <{address}>: no such mailbox here"

@@ -4,6 +4,7 @@ server against stdlib ``smtplib``, delivery into Maildir read back through POP3.
 from __future__ import annotations
 
 import asyncio
+import errno
 import poplib
 import smtplib
 import time
@@ -171,12 +172,23 @@ def test_smtp_refusals(tmp_path: Path) -> None:
 
 
 def test_hub_binds_requested_ports_and_stops(tmp_path: Path) -> None:
-    smtp_port, pop3_port = free_port(), free_port()
+    async def started() -> tuple[MailHub, int, int]:
+        for _ in range(5):  # a free port can be taken by a parallel test before we bind it
+            smtp_port, pop3_port = free_port(), free_port()
+            cfg = MailHubConfig(tmp_path, ACCOUNTS, smtp_port=smtp_port, pop3_port=pop3_port)
+            h = MailHub(cfg)
+            try:
+                await h.start()
+            except OSError as exc:
+                if exc.errno != errno.EADDRINUSE:
+                    raise
+                await h.stop()
+                continue
+            return h, smtp_port, pop3_port
+        raise AssertionError("no free pair of ports in 5 tries")
 
     async def main() -> None:
-        cfg = MailHubConfig(tmp_path, ACCOUNTS, smtp_port=smtp_port, pop3_port=pop3_port)
-        h = MailHub(cfg)
-        await h.start()
+        h, smtp_port, pop3_port = await started()
         assert (h.smtp_port, h.pop3_port) == (smtp_port, pop3_port)
         assert (tmp_path / LOGGER / "new").is_dir() and (tmp_path / USER / "cur").is_dir()
         # sessions still open when the hub stops are ended, not left behind

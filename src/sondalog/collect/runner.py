@@ -41,6 +41,10 @@ def describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 
 
+#: How long a clean stop spends delivering the disk buffer to sinks that are up (s).
+FINAL_REPLAY = 5.0
+
+
 class Collector:
     """Runs the sources of ``config`` until :meth:`run`'s ``stop`` event is set."""
 
@@ -108,6 +112,9 @@ class Collector:
             for task in [*tasks, *background]:
                 with contextlib.suppress(asyncio.CancelledError, Exception):
                     await task
+            if not once:  # a clean stop hands a sink that is up what waits for it, briefly
+                with contextlib.suppress(Exception):
+                    await asyncio.wait_for(self._replay_once(), FINAL_REPLAY)
             await self.close()
 
     async def close(self) -> None:

@@ -17,6 +17,8 @@
     timeout = 5                 # optional: seconds to wait for an answer
     retry = 5                   # optional: first retry after a failure, doubling ...
     retry_max = 600             # ... up to this many seconds
+    config_every = 1            # optional: read its configuration every N contacts (0: never)
+    expect = "station.toml"     # optional: the station file it should match (config_expect.py)
 
     [[source]]                  # HCTMPS1 modules on a bus, polled
     kind = "bus"

@@ -111,9 +111,10 @@ class ConfigWatch:
         self._contacts = 0
 
     async def check(self, client: Ala1Client) -> str | None:
-        """Read and record the configuration over ``client``'s open line (at the end of a
-        contact); a few words for the contact's summary, or None when not checked. A logger
-        that does not answer the reads leaves an event and does not fail the contact."""
+        """Read and record the configuration over ``client``'s open line (in a contact,
+        before the download); a few words for the contact's summary, or None when not
+        checked. A logger that does not answer the reads leaves an event and does not fail
+        the contact."""
         every = self.config.config_every
         self._contacts += 1
         if every == 0 or (self._contacts - 1) % every:
@@ -150,25 +151,28 @@ class ConfigWatch:
                     diff=diff,
                     values=values,
                 )
-                self._event(now, known, digest, diff, len(values))
+                self._event(now, known, digest, diff)
             said = "configuration unchanged" if known is not None and known.hash == digest else ""
-            said = said or ("configuration changed" if known is not None else "configuration read")
+            said = said or (
+                "configuration changed"
+                if known is not None
+                else f"configuration read: {digest[:SHORT]}"
+            )
             history.set_state(db, name, logger=serial, hash=digest, checked=now)
             if self.config.expect is not None:
                 said += self._drift(now, drift_lines(self.config.expect, values, protocol, serial))
         return said
 
-    def _event(
-        self, now: str, known: history.Known | None, digest: str, diff: list[str], size: int
-    ) -> None:
+    def _event(self, now: str, known: history.Known | None, digest: str, diff: list[str]) -> None:
+        """A change is an event (the dashboard's log); the first read is a history row only
+        (and the contact's summary): it changes nothing."""
         if known is None:
-            text = f"configuration first read: {digest[:SHORT]} ({_count(size)})"
-        else:
-            text = (
-                f"configuration changed: {known.hash[:SHORT]} -> {digest[:SHORT]}, "
-                f"{_count(len(diff))}\n{_bounded(diff)}"
-            )
-            log.warning("source %s: %s", self.config.name, text.replace("\n", "; "))
+            return
+        text = (
+            f"configuration changed: {known.hash[:SHORT]} -> {digest[:SHORT]}, "
+            f"{_count(len(diff))}\n{_bounded(diff)}"
+        )
+        log.warning("source %s: %s", self.config.name, text.replace("\n", "; "))
         self._write_event(now, text)
 
     def _write_event(self, now: str, text: str) -> None:

@@ -74,6 +74,7 @@ class LoggerSource:
                 download.after = None
                 state["cursor"] = None
             store.set_state(cfg.name, **state)
+            configured = await self.watch.check(client)
             rows = readings = 0
             first = last = None
             async for chunk in download.chunks():
@@ -87,7 +88,6 @@ class LoggerSource:
                 readings += len(batch)
                 first = first or (chunk.rows[0].key if chunk.rows else None)
                 last = chunk.cursor or last
-            configured = await self.watch.check(client)
         finally:
             await client.close()
         span = f" ({first} .. {last})" if rows else ""

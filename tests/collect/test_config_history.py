@@ -4,6 +4,7 @@ line; the history rows, their diffs and the dashboard's log and logger page."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import html
 import re
@@ -13,13 +14,18 @@ from pathlib import Path
 from typing import Any
 
 from collector_run import collect_log, collecting, wait_for
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from served_logger import serving
 
 from sondalog.app.virtual import VirtualLogger
+from sondalog.client.ala1 import Ala1Client
 from sondalog.client.station_grammar import LIMITS
 from sondalog.client.station_logger import read_command
 from sondalog.client.station_schema import instances
-from sondalog.collect.config_watch import config_hash, diff_lines
+from sondalog.collect.config import SourceConfig
+from sondalog.collect.config_watch import ConfigWatch, config_hash, diff_lines
+from sondalog.collect.store_sqlite import SqliteStore
 
 
 def history(store: Path) -> list[tuple[Any, ...]]:
@@ -142,3 +148,47 @@ def test_the_hash_is_of_a_canonical_form_and_the_diff_follows_the_file_order() -
         "channel 2 name: Supply[V] -> Air[C]",
         "global timing: 8 -> 64",
     ]
+
+
+_NAMES = [setting.name(n) for setting, n in instances(LIMITS["1.16"])]
+
+
+@given(
+    st.dictionaries(
+        st.sampled_from(_NAMES), st.text(st.characters(max_codepoint=255), max_size=8), max_size=20
+    )
+)
+@settings(max_examples=200, deadline=None)
+def test_a_change_shows_in_the_hash_and_the_diff_names_exactly_it(changes: dict[str, str]) -> None:
+    base = dict.fromkeys(_NAMES, "0")
+    after = {**base, **changes}
+    differ = [name for name in _NAMES if after[name] != base[name]]
+    lines = diff_lines(base, after, "1.16")
+    assert [line.split(": ", 1)[0] for line in lines] == differ
+    assert (config_hash(after, "1.16") == config_hash(base, "1.16")) == (not differ)
+
+
+def test_config_every_reads_every_nth_contact(tmp_path: Path) -> None:
+    """``config_every = 3``: contacts 1, 4, 7 read the configuration; 0 never does."""
+
+    async def checks(url: str, every: int) -> list[bool]:
+        store = SqliteStore(tmp_path / f"s{every}.sqlite").open_sync()
+        watch = ConfigWatch(SourceConfig(name="s", url=url, config_every=every), store)
+        done = []
+        try:
+            for _ in range(7):
+                client = await Ala1Client.connect(url, timeout=5)
+                try:
+                    done.append(await watch.check(client) is not None)
+                finally:
+                    await client.close()
+        finally:
+            store.close_sync()
+        return done
+
+    with serving(tmp_path) as logger:
+        every_third = asyncio.run(checks(logger.url, 3))
+        never = asyncio.run(checks(logger.url, 0))
+        every = asyncio.run(checks(logger.url, 1))
+    assert every_third == [True, False, False, True, False, False, True]
+    assert never == [False] * 7 and every == [True] * 7

@@ -172,7 +172,7 @@ class ConfigWatch:
             f"configuration changed: {known.hash[:SHORT]} -> {digest[:SHORT]}, "
             f"{_count(len(diff))}\n{_bounded(diff)}"
         )
-        log.warning("source %s: %s", self.config.name, text.replace("\n", "; "))
+        log.info("source %s: %s", self.config.name, text.replace("\n", "; "))
         self._write_event(now, text)
 
     def _write_event(self, now: str, text: str) -> None:

@@ -5,7 +5,7 @@ channels sampled) and makes ``--contacts`` contacts with the collector's own
 :class:`~sondalog.collect.sources.LoggerSource` (download, channel types, record status), with
 the configuration check off (``config_every = 0``) and on (every contact: read whole, hashed,
 compared with the stored one), interleaved. Prints the wall time per contact, best and median,
-the difference, and the bytes of the configuration's reads and answers (what they cost on a
+the difference, the collector's CPU time per contact, and the bytes of the configuration's reads and answers (what they cost on a
 slow line: at 9600 baud at least the bytes sent x 10 bits / 9600).
 
 Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--contacts 30]``.
@@ -36,6 +36,8 @@ from sondalog.collect.model import Reading
 from sondalog.collect.sources import LoggerSource
 from sondalog.collect.store_sqlite import SqliteStore
 
+#: config_every -> the collector's CPU seconds per contact.
+CPU: dict[int, list[float]] = {}
 SERVE = [sys.executable, "-m", "sondalog", "logger", "serve"]
 
 
@@ -76,8 +78,10 @@ async def contacts(url: str, store: Path, every: int, count: int) -> list[float]
     try:
         for _ in range(count):
             start = time.perf_counter()
+            cpu = time.process_time()
             await source.poll(_ignore)
             times.append(time.perf_counter() - start)
+            CPU.setdefault(every, []).append(time.process_time() - cpu)
     finally:
         sqlite.close_sync()
     return times
@@ -123,6 +127,8 @@ def main() -> None:
                     f"  contact {name:18}: best {min(times) * 1000:7.1f} ms, "
                     f"median {statistics.median(times) * 1000:7.1f} ms"
                 )
+            cpu_off, cpu_on = (statistics.median(CPU.pop(k)) * 1000 for k in (0, 1))
+            print(f"  collector CPU per contact (median): {cpu_off:.1f} ms -> {cpu_on:.1f} ms")
             added = statistics.median(on) - statistics.median(off)
             best = min(on) - min(off)
             print(f"  added per contact: best {best * 1000:.1f} ms, median {added * 1000:.1f} ms")

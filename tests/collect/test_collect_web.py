@@ -159,6 +159,7 @@ def test_the_collector_serves_what_it_collects(tmp_path: Path) -> None:
             while (
                 not (entries := get_json(web + "api/loggers")["loggers"])
                 or not entries[0]["signal"]
+                or entries[0]["sources"][0]["state"] != "ok"  # not in the middle of a contact
             ):
                 assert time.monotonic() < deadline, entries
                 time.sleep(0.2)

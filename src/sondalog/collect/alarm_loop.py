@@ -47,6 +47,7 @@ from sondalog.collect.alarms import (
 from sondalog.collect.alarms.events import reading_time
 from sondalog.collect.alarms.senders import DeliveryError, Sender, sender_for
 from sondalog.collect.config import MESSAGE_KINDS, CollectorConfig, SourceConfig
+from sondalog.collect.config_history import drift as config_drift
 from sondalog.collect.model import Reading
 from sondalog.collect.store_sqlite import SqliteStore
 
@@ -275,6 +276,7 @@ class AlarmLoop:
             memory=fill_ratio(row.get("record_fill")),
             clock=None if offset is None else float(offset),
             gaps=gaps if row.get("kind") == "logger" else None,
+            drift=config_drift(self.sqlite.db, source),
         )
         return self.alarms.health(health)
 

@@ -17,6 +17,8 @@
     timeout = 5                 # optional: seconds to wait for an answer
     retry = 5                   # optional: first retry after a failure, doubling ...
     retry_max = 600             # ... up to this many seconds
+    config_every = 1            # optional: read its configuration every N contacts (0: never)
+    expect = "station.toml"     # optional: the station file it should match (config_expect.py)
 
     [[source]]                  # HCTMPS1 modules on a bus, polled
     kind = "bus"
@@ -63,8 +65,10 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.client.station_file import Station
 from sondalog.collect.alarms import AlarmPlan, parse_alarms
 from sondalog.collect.alarms.senders import find_sender
+from sondalog.collect.config_expect import read_expect
 from sondalog.collect.message_url import check_message_url
 from sondalog.collect.sinks import SinkError, find_sink, known_names
 from sondalog.collect.store_sqlite import parse_store
@@ -91,6 +95,8 @@ _SOURCE = (
     "signal",
     "credit",
     "channels",
+    "expect",
+    "config_every",
 )
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Sources whose rows come in loggers' data messages (docs/collector.md).
@@ -125,6 +131,11 @@ class SourceConfig:
     #: Channel number -> ``"Name [unit]"`` of the loggers of a message source, when no
     #: download told the store their names and units.
     channels: dict[int, str] = field(default_factory=dict)
+    #: A logger's configuration: read every this many contacts (0: never; config_watch.py),
+    #: and the station file it should match (``expect``, with its path).
+    config_every: int = 1
+    expect: Station | None = None
+    expect_path: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,6 +250,7 @@ def _source(t: Table) -> SourceConfig:
     if not all(modules):
         raise t.fail("modules", "must be a list of module IDs")
     retry = _seconds(t, "retry", 5.0)
+    watch = _watch_keys(t, kind, url)
     return SourceConfig(
         name=name,
         url=url,
@@ -251,7 +263,24 @@ def _source(t: Table) -> SourceConfig:
         modules=tuple(modules),
         units=t.text_map("units"),
         **message,
+        **watch,
     )
+
+
+def _watch_keys(t: Table, kind: str, url: str) -> dict[str, Any]:
+    """``config_every`` and ``expect`` of a logger source (docs/collector.md)."""
+    if kind != "logger":
+        for key in ("expect", "config_every"):
+            if key in t:
+                raise t.fail(key, "only a logger source has its configuration read")
+        return {}
+    every = t.integer("config_every", 1, lo=0, what="a count of contacts (0: never)")
+    if every == 0 and "expect" in t:
+        raise t.fail("config_every", "0 never reads the configuration: expect needs it read")
+    expect = read_expect(t, url)
+    if expect is None:
+        return {"config_every": every}
+    return {"config_every": every, "expect": expect[0], "expect_path": str(expect[1])}
 
 
 def _message_keys(t: Table, kind: str) -> dict[str, Any]:

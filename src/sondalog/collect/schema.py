@@ -16,7 +16,9 @@ Additive tables (:data:`SQLITE_ADDITIVE_DDL`) are created on every open of a sto
 version, old or new, without changing ``schema_version``: a sondalog that does not know them
 ignores them. ``channels(logger, channel, name, unit, type, format)`` is each logger channel's name,
 unit and ``channel type`` (§6.5.6) as last read by the collector; the dashboard draws type-6
-channels (sporadic pulses, §6.5.6.4) as bars.
+channels (sporadic pulses, §6.5.6.4) as bars. ``config_history`` and ``config_state`` are each
+logger source's configuration as the collector read it, and its drift from an ``expect`` file
+(:mod:`sondalog.collect.config_history`, issue 22).
 """
 
 from __future__ import annotations
@@ -78,6 +80,28 @@ CREATE TABLE IF NOT EXISTS channels (
     type    INTEGER,
     format  TEXT,
     PRIMARY KEY (logger, channel)
+);
+CREATE TABLE IF NOT EXISTS config_history (
+    id       INTEGER PRIMARY KEY AUTOINCREMENT,
+    source   TEXT NOT NULL,
+    logger   TEXT NOT NULL,
+    time     TEXT NOT NULL,
+    protocol TEXT NOT NULL,
+    old_hash TEXT,
+    new_hash TEXT NOT NULL,
+    diff     TEXT NOT NULL,
+    config   TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS config_history_source ON config_history (source, logger, id);
+CREATE INDEX IF NOT EXISTS config_history_logger ON config_history (logger, id);
+CREATE TABLE IF NOT EXISTS config_state (
+    source  TEXT PRIMARY KEY,
+    logger  TEXT,
+    hash    TEXT,
+    checked TEXT,
+    expect  TEXT,
+    drift   INTEGER,
+    drift_text TEXT
 );
 """
 #: Columns added to additive tables after they first shipped: (table, column, type).

@@ -21,6 +21,7 @@ from sondalog.client import Ala1Client, BusMaster
 from sondalog.client.download import ClockReading, Download
 from sondalog.client.records import UTC
 from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
+from sondalog.collect.config_watch import ConfigWatch
 from sondalog.collect.delivery import GSM_TYPES, Deliver
 from sondalog.collect.delivery import Source as Source
 from sondalog.collect.message_sources import MailboxSource, NetworkSource
@@ -40,6 +41,7 @@ class LoggerSource:
         self.config = config
         self.store = store
         self._hint: str | None = None  # the last idle_hint logged
+        self.watch = ConfigWatch(config, store)  # its configuration (issue 22)
 
     async def poll(self, deliver: Deliver) -> str:
         cfg, store = self.config, self.store
@@ -72,6 +74,7 @@ class LoggerSource:
                 download.after = None
                 state["cursor"] = None
             store.set_state(cfg.name, **state)
+            configured = await self.watch.check(client)
             rows = readings = 0
             first = last = None
             async for chunk in download.chunks():
@@ -90,7 +93,7 @@ class LoggerSource:
         span = f" ({first} .. {last})" if rows else ""
         summary = (
             f"logger {info.snumber}: {rows} new rows, {readings} readings{span}; "
-            f"{info.clock.describe()}"
+            f"{info.clock.describe()}" + (f"; {configured}" if configured else "")
         )
         hint = idle_hint(rows, state["record_fill"], info.clock)
         if hint is not None and hint != self._hint:  # said once, not at every contact

@@ -40,7 +40,7 @@ from starlette.staticfiles import StaticFiles
 from sondalog.collect.alarms.store import AlarmStore, SqlAlarmStore
 from sondalog.collect.schema import COLUMNS
 
-from . import alarms, overview, pages, series, store
+from . import alarms, config_log, overview, pages, series, store
 from .alarm_api import AlarmHandlers
 from .auth import TokenGate
 from .times import BadParameter, parse_time, shift, to_epoch
@@ -220,6 +220,7 @@ class Api(AlarmHandlers):
             return store.channels(c, logger), store.sources(c)
 
         chans, sources = await self._db(work)
+        changed = await self._db(partial(config_log.changes, logger=logger))
         on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
         mine = [a for a in on if a["logger"] == logger]
         return HTMLResponse(
@@ -229,6 +230,7 @@ class Api(AlarmHandlers):
                 alarms=mine,
                 alarm_count=len(on),
                 refresh_s=self.settings.overview_refresh_s,
+                config_changes=changed,
             )
         )
 

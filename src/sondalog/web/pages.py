@@ -126,8 +126,10 @@ def plot(
     alarms: list[dict[str, Any]] | None = None,
     alarm_count: int | None = None,
     refresh_s: float = 10.0,
+    config_changes: list[dict[str, Any]] | None = None,
 ) -> str:
-    """A logger's page: its plot and its active ``alarms``."""
+    """A logger's page: its plot, its active ``alarms`` and its ``config_changes`` (rows of
+    :func:`sondalog.web.config_log.changes`)."""
     return render(
         "plot.html",
         title=logger,
@@ -136,6 +138,7 @@ def plot(
         alarms=alarms or [],
         alarm_count=alarm_count,
         refresh_s=refresh_s,
+        config_changes=config_changes or [],
     )
 
 

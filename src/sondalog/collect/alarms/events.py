@@ -100,6 +100,7 @@ class Health:
     signal: float | None = None  # GSM signal
     credit: float | None = None  # SIM credit
     gaps: float | None = None  # rows this download found lost from the record
+    drift: float | None = None  # settings that differ from the source's expect file
 
     def measure(self, name: str) -> float | None:
         value: float | None = getattr(self, name)

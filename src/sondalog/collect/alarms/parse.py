@@ -129,7 +129,7 @@ def _limit(t: Table, only: Literal["above", "below"] | None = None) -> dict[str,
 def _health(t: Table) -> dict[str, Any]:
     measure = t.text("measure", choices=HEALTH_MEASURES)
     bad = HEALTH_MEASURES[measure]
-    if measure == "gaps" and not ("above" in t or "below" in t):
+    if measure in ("gaps", "drift") and not ("above" in t or "below" in t):
         limits: dict[str, Any] = {"direction": "above", "limit": 0.0, "clear": 0.0, "count": 1}
     else:
         limits = _limit(t, bad)

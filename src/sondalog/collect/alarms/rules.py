@@ -23,6 +23,7 @@ HEALTH_MEASURES: dict[str, Literal["above", "below"]] = {
     "signal": "below",  # GSM signal
     "credit": "below",  # SIM credit
     "gaps": "above",  # rows a download found lost from the cyclic record
+    "drift": "above",  # settings that differ from the source's expect file (config_watch.py)
 }
 #: What a ``collector`` rule watches.
 COLLECTOR_WATCHES = ("sink", "buffer", "source")

@@ -32,6 +32,8 @@ _INPUT_WHAT = "an input such as supply, analog:16, ds18b20:<ROM hex>, pulses:tim
 NAME_PATTERN = r"[A-Za-z0-9_.-]{1,64}"
 #: The longest a fault may last, and the largest step or clock jump, in seconds (100 years).
 MAX_SECONDS = 100 * 366 * 86400.0
+_DURATION = re.compile(r"(?:(\d+(?:\.\d+)?)d)?(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m)?"
+                       r"(?:(\d+(?:\.\d+)?)s)?")  # fmt: skip
 #: The fastest a clock may be told to run.
 MAX_SPEED = 1e7
 
@@ -289,9 +291,15 @@ def parse_fault(device: str, table: Table, extra: tuple[str, ...] = ()) -> Fault
         raise table.fail("input", f"a {kind} fault is not an input's")
     if kind in MOMENTARY and "duration" in table:
         raise table.fail("duration", f"a {kind} happens once: it has no duration")
-    duration = table.opt_number(
-        "duration", above=0, hi=MAX_SECONDS, what=f"seconds > 0 and <= {MAX_SECONDS:g}"
+    duration = (
+        table.convert("duration", parse_duration)
+        if table.is_text("duration")
+        else table.opt_number(
+            "duration", above=0, hi=MAX_SECONDS, what=f"seconds > 0 and <= {MAX_SECONDS:g}"
+        )
     )
+    if duration == 0:
+        raise table.fail("duration", "must be longer than 0 seconds")
     fault = Fault(device, kind, name, duration)
     if kind == "brownout":
         return replace(fault, volts=table.number("volts", lo=0, hi=40, what="volts, 0 to 40"))
@@ -346,3 +354,19 @@ def _opt_input(table: Table) -> str | None:
 def is_input(name: str) -> bool:
     """Whether ``name`` is an input's name (:data:`INPUT_PATTERN`)."""
     return re.fullmatch(INPUT_PATTERN, name) is not None
+
+
+def parse_duration(text: str) -> float:
+    """``90``, ``90s``, ``15m``, ``2h30m``, ``1d``: seconds (0 to 100 years)."""
+    value = text.strip()
+    match = _DURATION.fullmatch(value)
+    if re.fullmatch(r"\d+(\.\d+)?", value):
+        seconds = float(value)
+    elif value and match is not None:
+        d, h, m, s = (float(g) if g else 0.0 for g in match.groups())
+        seconds = 86400 * d + 3600 * h + 60 * m + s
+    else:
+        raise ValueError(f"must be a duration like 90s, 15m, 2h30m or 1d, not {text!r}")
+    if seconds > MAX_SECONDS:
+        raise ValueError(f"must be at most {MAX_SECONDS:g} seconds")
+    return seconds

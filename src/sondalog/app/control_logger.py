@@ -375,3 +375,33 @@ def _signal_of(sim: SimHardware, name: str) -> Signal | None:
     if what == "ds18b20":
         return _sensor(sim, key).signal
     return sim.gsm_signals.get(key)
+
+
+def logger_json(name: str, logger: ControlledLogger) -> dict[str, Any]:
+    identity = logger.engine.identity
+    return {
+        "name": name,
+        "kind": "logger",
+        "serial_number": identity.serial_number,
+        "protocol": identity.version.value,
+        "simulated": logger.sim is not None,
+        "powered": not logger.off,
+        "faults": [fault_json(a) for a in logger.faults.values()],
+    }
+
+
+def fault_json(active: ActiveFault) -> dict[str, Any]:
+    fault = active.fault
+    out: dict[str, Any] = {"kind": fault.kind}
+    for key in ("input", "volts", "seconds", "number", "code"):
+        value = getattr(fault, key)
+        if value is not None:
+            out[key] = value
+    if fault.noise is not None:
+        noise = fault.noise
+        out.update(rate=noise.rate, seed=noise.seed, direction=noise.direction, mode=noise.mode)
+    if fault.slow is not None:
+        out.update(baud=fault.slow.baud, latency=fault.slow.latency)
+    if active.until is not None:
+        out["until"] = active.until
+    return out

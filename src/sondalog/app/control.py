@@ -266,11 +266,8 @@ class Controller:
             }
         elif fault.kind in ("noise", "cut", "slow"):
             logger.fault_line(fault)
-        elif fault.kind == "power_loss":
-            logger.check_restartable()
         elif fault.kind == "brownout":
             sim = logger.hardware("a brown-out")
-            logger.check_restartable()
             active.undo = sim.supply_signal
             sim.supply_signal = constant(fault.volts or 0.0)
         logger.faults[key] = active

@@ -251,7 +251,6 @@ class ControlledLogger:
 
     def power_off(self) -> None:
         """The supply is gone: everything in RAM with it; the memory keeps what it holds."""
-        self.check_restartable()
         self.store.database.flush()  # (rows the group commit holds are written at once)
         lines = self.wrapped()
         lines.off = True
@@ -270,14 +269,11 @@ class ControlledLogger:
         self.unwrap_if_quiet()
         self.host.wake()
 
-    def check_restartable(self) -> None:
-        if self.engine.modem is not None:
-            raise Refusal(409, f"{self.name} drives a GSM modem: it cannot be restarted here")
-
     def restart(self, now: float, memory: Preloaded | None = None) -> None:
         """A new engine from the memory, on the same lines (see the module docstring);
-        ``memory``: the memory just restored, which it starts from without reading it back."""
-        self.check_restartable()
+        ``memory``: the memory just restored, which it starts from without reading it back.
+        A com line that drives a GSM modem drives it again: the new engine's modem driver
+        starts afresh (the modem itself keeps its state, as a real one across a reset)."""
         self.store.database.flush()
         old = self.engine
         lines = dict(old._lines)  # the attached lines: the engine has no public list of them
@@ -285,8 +281,13 @@ class ControlledLogger:
         new = Engine(old.identity, memory or self.store, now, hardware, line_time_scale=scale)
         new.state.store = self.store
         top = max(lines, default=0)
+        modem = old.modem.line if old.modem is not None else None
         for line_id in range(1, top + 1):  # the same ids, as the host knows them
-            opened = new.open_line(paced=lines[line_id].pacer.paced if line_id in lines else False)
+            if line_id == modem:
+                opened = new.attach_modem(now)
+            else:
+                paced = lines[line_id].pacer.paced if line_id in lines else False
+                opened = new.open_line(paced=paced)
             assert opened == line_id
             if line_id not in lines:
                 new.close_line(line_id)
@@ -322,7 +323,6 @@ class ControlledLogger:
             raise Refusal(
                 404, f"{self.name} has no snapshot {name!r} (its snapshots: {known})", "name"
             )
-        self.check_restartable()
 
     def restore(self, name: str, now: float) -> StoredState:
         self.check_restorable(name)

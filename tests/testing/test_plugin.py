@@ -104,8 +104,13 @@ def test_handles_control_through_the_control_api_and_say_what_they_refuse(
     assert caught.value.status == 400 and caught.value.field == "kind"
     with pytest.raises(ValueError, match="backwards"):
         sondalog_logger.step(minutes=-1)
+    bus = sondalog_site(BUS_SITE).bus
+    with pytest.raises(ControlError, match="the bus has no cut fault"):
+        bus.fault("cut")
+    bus.fault("module:T1", "disconnected")
+    assert bus.describe()["inputs"] == {"module:T1": None, "module:H1": 45.0}
     with pytest.raises(ControlUnavailable, match="no controls"):
-        sondalog_site(BUS_SITE).bus.fault("cut")
+        DeviceHandle("modem:+420600000001", "tcp://127.0.0.1:1", bus.control).fault("cut")
     # a subprocess: sondalog serve --control on a free port, the same handle
     process = sondalog_site(LOGGER_SITE, process=True)
     assert process.api.url.startswith("http://127.0.0.1:")

@@ -36,6 +36,7 @@ from sondalog.app.control_actions import (
     Speed,
     Step,
 )
+from sondalog.app.control_bus import ControlledBus
 from sondalog.app.control_logger import (
     RESET_VOLTS,
     ActiveFault,
@@ -83,6 +84,7 @@ class Controller:
                 assert isinstance(store, LoggerNvStore) and isinstance(named, NamedDevice)
                 name = f"loggers.{member.serial_number}"
                 self.loggers[name] = ControlledLogger(name, member.host, store, named)
+        self.bus = ControlledBus(site.bus.core) if site.bus is not None else None
         self.gsm_faults: dict[str | None, ActiveFault] = {}
         self.mail_fault: ActiveFault | None = None
         self._timer: asyncio.Task[None] | None = None
@@ -91,7 +93,7 @@ class Controller:
 
     # -- what there is -----------------------------------------------------------------------
     def names(self) -> list[str]:
-        names = list(self.loggers)
+        names = list(self.loggers) + (["bus"] if self.bus is not None else [])
         if self.site.gsm is not None:
             names.append("gsm")
         if self.site.mail is not None:
@@ -111,12 +113,14 @@ class Controller:
     def is_device(self, name: str) -> bool:
         return (
             name in self.loggers
+            or (name == "bus" and self.bus is not None)
             or (name == "gsm" and self.site.gsm is not None)
             or (name == "mail" and self.site.mail is not None)
         )
 
     def devices(self) -> list[dict[str, Any]]:
         out = [logger_json(name, logger) for name, logger in self.loggers.items()]
+        out += [self.bus.json()] if self.bus is not None else []
         out += [self._other_json(name) for name in ("gsm", "mail") if self.is_device(name)]
         return out
 
@@ -129,6 +133,8 @@ class Controller:
         return {"name": name, "kind": name, "faults": faults}
 
     def describe(self, name: str) -> dict[str, Any]:
+        if name == "bus" and self.bus is not None:
+            return self.bus.describe(self.clock.now())
         if name not in self.loggers and self.is_device(name):
             return self._other_json(name)
         logger = self.logger(name)
@@ -161,6 +167,8 @@ class Controller:
         match action:
             case Pause() | Resume() | Speed() | Step():
                 return await self._time(action)
+            case SetInput() if action.device == "bus" and self.bus is not None:
+                return self.bus.set(action, now)
             case SetInput():
                 logger = self.logger(action.device)
                 logger.set_input(action, now)
@@ -240,6 +248,10 @@ class Controller:
             await asyncio.sleep(0)
 
     def _fault(self, fault: Fault, now: float) -> dict[str, Any]:
+        if fault.device == "bus" and self.bus is not None:
+            answer = self.bus.fault(fault, now)
+            self._timers()
+            return answer
         if fault.device == "gsm":
             return self._gsm_fault(fault, now)
         if fault.device == "mail":
@@ -319,6 +331,8 @@ class Controller:
             self.site.mail.accounts.refusal = None
 
     def _clear(self, clear: Clear, now: float) -> list[dict[str, Any]]:
+        if clear.device == "bus" and self.bus is not None:
+            return self.bus.clear(clear)
         if clear.device == "mail" and self.site.mail is not None:
             active = self.mail_fault
             if active is None or clear.kind not in (None, "smtp_refusing"):
@@ -393,6 +407,7 @@ class Controller:
             if a.until is not None
         ]
         ends += [a.until for a in self.gsm_faults.values() if a.until is not None]
+        ends += [a.until for a in self.bus.faults.values() if a.until] if self.bus else []
         if self.mail_fault is not None and self.mail_fault.until is not None:
             ends.append(self.mail_fault.until)
         return min(ends, default=None)
@@ -421,6 +436,10 @@ class Controller:
         for number, active in list(self.gsm_faults.items()):
             if active.until is not None and active.until <= now:
                 self._end_gsm(number)
+        bus = self.bus
+        for key, active in list(bus.faults.items()) if bus is not None else []:
+            if bus is not None and active.until is not None and active.until <= now:
+                bus.end(key)
         mail = self.mail_fault
         if mail is not None and mail.until is not None and mail.until <= now:
             self._end_mail()

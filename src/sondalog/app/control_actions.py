@@ -12,7 +12,7 @@ a running site is :mod:`sondalog.app.control`'s business; this module only descr
 Inputs are named as the simulated hardware names them (docs/control.md): ``supply``,
 ``analog:16`` (an A/D input address, §6.5.5), ``ds18b20:28FF...`` (a sensor's ROM code,
 §6.4.3.1.1), ``pulses:timer`` or ``pulses:17`` (a counter input), ``gsm:signal`` and
-``gsm:credit`` (channel types 12 and 11).
+``gsm:credit`` (channel types 12 and 11); on the bus, ``module:T1`` (an HCTMPS1 module by ID).
 """
 
 from __future__ import annotations
@@ -26,8 +26,11 @@ from sondalog.config import Table
 #: An input of a simulated logger (see the module docstring).
 INPUT_PATTERN = (
     r"supply|analog:\d{1,2}|ds18b20:[0-9A-Fa-f]{16}|pulses:(timer|\d{1,2})|gsm:(signal|credit)"
+    r"|module:[A-Za-z0-9_-]{1,8}"
 )
-_INPUT_WHAT = "an input such as supply, analog:16, ds18b20:<ROM hex>, pulses:timer, gsm:signal"
+_INPUT_WHAT = (
+    "an input such as supply, analog:16, ds18b20:<ROM hex>, pulses:timer, gsm:signal, module:T1"
+)
 #: A snapshot's name.
 NAME_PATTERN = r"[A-Za-z0-9_.-]{1,64}"
 #: The longest a fault may last, and the largest step or clock jump, in seconds (100 years).
@@ -40,8 +43,8 @@ MAX_SPEED = 1e7
 #: Fault kinds -> what they act on: an input's kind (analog, ds18b20, pulses, supply, gsm),
 #: ``logger`` (the module and its lines), ``gsm`` (the network), ``mail`` (the mail hub).
 FAULTS: dict[str, tuple[str, ...]] = {
-    "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm"),
-    "stuck": ("analog", "ds18b20", "supply", "gsm"),
+    "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm", "module"),
+    "stuck": ("analog", "ds18b20", "supply", "gsm", "module"),
     "power_on_reset": ("ds18b20",),  # it answers 85 °C, its power-on value
     "bad_crc": ("ds18b20",),
     "power_loss": ("logger",),

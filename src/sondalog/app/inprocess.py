@@ -151,7 +151,7 @@ async def start_inprocess(site: Path | SitePlan, state: Path) -> InProcessSite:
         await running.close()
         raise
     urls, names = started.urls, started.names
-    names.update({name: name for name in ("logger", "gsm") if name in control.names()})
+    names.update({name: name for name in ("logger", "bus", "gsm") if name in control.names()})
     if running.logger is not None:
         urls["logger"] = _tcp(running.logger.servers[0].address)
     if running.bus is not None:

@@ -104,10 +104,13 @@ def _check(control: Controller, step: ScenarioStep) -> None:
     simulated inputs' names, a fleet's sensors)."""
     action = step.action
     name = action.input if isinstance(action, SetInput | Fault | Clear) else None
-    if name is None or step.device not in control.loggers:
+    if name is None or step.device not in [*control.loggers, "bus"]:
         return
     try:
-        control.logger(step.device).check_input(name)
+        if step.device == "bus" and control.bus is not None:
+            control.bus.module(name)
+        else:
+            control.logger(step.device).check_input(name)
     except Refusal as exc:
         raise step.entry.fail("input", exc.message) from None
 

@@ -108,6 +108,7 @@ class SitePlan:
         """The names the control API and a scenario give the site's devices."""
         names = ["logger"] if self.logger is not None else []
         names += [f"loggers.{member.serial_number}" for member in self.fleet]
+        names += ["bus"] if self.bus is not None else []
         names += ["gsm"] if self.gsm is not None else []
         return names + (["mail"] if self.mail is not None else [])
 

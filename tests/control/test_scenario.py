@@ -4,6 +4,7 @@ scenario run on a served site across pause, speed and step of the control clock.
 from __future__ import annotations
 
 import asyncio
+import re
 from datetime import datetime, time
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sondalog.app.control_actions import Fault, Pause, Resume, SetInput, Speed, Step, parse_duration
+from sondalog.app.control_openapi import openapi
 from sondalog.app.scenario import Schedule, parse_at, resolve_at
 from sondalog.app.scenario_run import site_control
 from sondalog.app.serve import start_site
@@ -103,6 +105,11 @@ def test_times_and_durations() -> None:
         with pytest.raises(ValueError):
             parse_at(bad)
     assert parse_duration("1d2h3m4s") == 93784 and parse_duration("90") == 90
+    # /openapi.json describes the same spellings of a fault's duration
+    string = openapi()["components"]["schemas"]["Fault"]["properties"]["duration"]["oneOf"][1]
+    for text in ("90", "15m", "2h30m", "1d", "1.5h"):
+        assert re.fullmatch(string["pattern"].strip("^$"), text) and parse_duration(text) > 0
+    assert not re.fullmatch(string["pattern"].strip("^$"), "soon")
     # a time of day is the first one at or after the module time now
     now = datetime(2000, 1, 1, 4, 0, 0)
     assert resolve_at(time(3), now, 100.0) == 100.0 + 23 * 3600

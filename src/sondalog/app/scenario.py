@@ -56,7 +56,7 @@ class ScenarioStep:
 
     @property
     def where(self) -> str:
-        """``site.toml:12`` (the entry's first line)."""
+        """``site.toml:12`` (the line of the entry's action)."""
         name = self.entry.file.name if self.entry.file is not None else "<scenario>"
         line = self.entry.line("action") or self.entry.line()
         return f"{name}:{line}" if line else name
@@ -71,7 +71,8 @@ class ScenarioStep:
 
 def parse_scenario(root: Table, devices: Sequence[str]) -> list[ScenarioStep]:
     """The ``[[scenario]]`` entries of ``root`` for a site with ``devices`` (``logger``,
-    ``loggers.SERIAL``, ``gsm``, ``mail``); raises :class:`~sondalog.config.ConfigError`."""
+    ``loggers.SERIAL``, ``bus``, ``gsm``, ``mail``); raises
+    :class:`~sondalog.config.ConfigError`."""
     entries = root.tables("scenario")
     if len(entries) > MAX_STEPS:
         raise root.fail("scenario", f"at most {MAX_STEPS} entries")
@@ -81,7 +82,7 @@ def parse_scenario(root: Table, devices: Sequence[str]) -> list[ScenarioStep]:
 
 def _step(index: int, entry: Table, devices: Sequence[str], loggers: list[str]) -> ScenarioStep:
     action = entry.text("action", choices=SCENARIO_ACTIONS)
-    device = entry.text("device", "logger", what="a device: logger, loggers.SERIAL, gsm, mail")
+    device = entry.text("device", "logger", what="a device: logger, loggers.SERIAL, bus, gsm, mail")
     if device not in devices:
         shown = ", ".join(devices[:8]) + (" ..." if len(devices) > 8 else "")
         raise entry.fail("device", f"the site has no device {device!r} (it has {shown})")

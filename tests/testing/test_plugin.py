@@ -184,3 +184,17 @@ def test_the_fixtures_stop_what_they_started(tmp_path: Path) -> None:
     while not all(_refused(url) for url in served):
         assert time.monotonic() < deadline, served
         time.sleep(0.1)
+
+
+def test_a_site_files_scenario_runs_in_the_fixtures(sondalog_site: SiteFactory) -> None:
+    """The [[scenario]] of a site started by the plugin runs on its clock: a step stops at it."""
+    site = sondalog_site(
+        LOGGER_SITE
+        + '\n[[scenario]]\nafter = "1h"\naction = "set"\ninput = "analog:16"\nvalue = 0.8\n'
+    )
+    site.pause()
+    assert site.logger.describe()["inputs"]["analog:16"] == 0.5
+    site.step(minutes=59)
+    assert site.logger.describe()["inputs"]["analog:16"] == 0.5
+    site.step(minutes=1)
+    assert site.logger.describe()["inputs"]["analog:16"] == 0.8

@@ -60,10 +60,10 @@ def test_a_failing_sensor_and_a_power_cut(sondalog_logger: DeviceHandle) -> None
     with Client(sondalog_logger.url) as logger:
         configure(logger)
         logger.command("write channel 1 sampling period 0010").raise_for_error()
-        sondalog_logger.fault("analog:16", "disconnected")
+        sondalog_logger.fault("ch1", "disconnected")  # the input channel 1 reads (analog:16)
         assert logger.command("read channel 1 value").lines == ("",)  # no valid value
         sondalog_logger.step(hours=1)  # six samples without a value
-        sondalog_logger.clear("analog:16")
+        sondalog_logger.clear("ch1")
         sondalog_logger.fault("power_loss", duration=1800)  # back by itself after 30 minutes
         sondalog_logger.step(hours=1)
         rows = logger.command("read record 100 from start").lines

@@ -44,6 +44,7 @@ from sondalog.app.control_logger import (
     Refusal,
     fault_json,
     logger_json,
+    resolve_channel,
 )
 from sondalog.app.fleet import NamedDevice
 from sondalog.app.serve import RunningSite
@@ -164,6 +165,8 @@ class Controller:
     async def apply(self, action: Action) -> dict[str, Any]:
         """Apply ``action``; its answer (JSON). Raises :class:`Refusal` (nothing applied)."""
         now = self.clock.now()
+        if (logger := self.loggers.get(getattr(action, "device", ""))) is not None:
+            action = resolve_channel(logger, action)  # (ch2: the input channel 2 reads)
         match action:
             case Pause() | Resume() | Speed() | Step():
                 return await self._time(action)

@@ -13,6 +13,7 @@ Inputs are named as the simulated hardware names them (docs/control.md): ``suppl
 ``analog:16`` (an A/D input address, §6.5.5), ``ds18b20:28FF...`` (a sensor's ROM code,
 §6.4.3.1.1), ``pulses:timer`` or ``pulses:17`` (a counter input), ``gsm:signal`` and
 ``gsm:credit`` (channel types 12 and 11); on the bus, ``module:T1`` (an HCTMPS1 module by ID).
+``ch2`` names the input a logger's channel 2 reads now (its configuration, §6.5).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from sondalog.config import Table
 #: An input of a simulated logger (see the module docstring).
 INPUT_PATTERN = (
     r"supply|analog:\d{1,2}|ds18b20:[0-9A-Fa-f]{16}|pulses:(timer|\d{1,2})|gsm:(signal|credit)"
-    r"|module:[A-Za-z0-9_-]{1,8}"
+    r"|module:[A-Za-z0-9_-]{1,8}|ch\d{1,2}"
 )
 _INPUT_WHAT = (
     "an input such as supply, analog:16, ds18b20:<ROM hex>, pulses:timer, gsm:signal, module:T1"
@@ -43,10 +44,10 @@ MAX_SPEED = 1e7
 #: Fault kinds -> what they act on: an input's kind (analog, ds18b20, pulses, supply, gsm),
 #: ``logger`` (the module and its lines), ``gsm`` (the network), ``mail`` (the mail hub).
 FAULTS: dict[str, tuple[str, ...]] = {
-    "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm", "module"),
-    "stuck": ("analog", "ds18b20", "supply", "gsm", "module"),
-    "power_on_reset": ("ds18b20",),  # it answers 85 °C, its power-on value
-    "bad_crc": ("ds18b20",),
+    "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm", "module", "ch"),
+    "stuck": ("analog", "ds18b20", "supply", "gsm", "module", "ch"),
+    "power_on_reset": ("ds18b20", "ch"),  # it answers 85 °C, its power-on value
+    "bad_crc": ("ds18b20", "ch"),
     "power_loss": ("logger",),
     "brownout": ("logger",),
     "clock_jump": ("logger",),
@@ -182,8 +183,9 @@ ACTIONS = (
 
 
 def input_kind(name: str) -> str:
-    """``analog`` of ``analog:16``, ``supply`` of ``supply``."""
-    return name.partition(":")[0]
+    """``analog`` of ``analog:16``, ``supply`` of ``supply``, ``ch`` of ``ch2``."""
+    kind = name.partition(":")[0]
+    return "ch" if re.fullmatch(r"ch\d{1,2}", kind) else kind
 
 
 def parse_action(
@@ -252,8 +254,10 @@ def parse_set(
             name,
             rate=table.number("rate", lo=0, hi=1e6, what="pulses per second, 0 to 1e6"),
         )
-    if given == ["rate"]:
+    if given == ["rate"] and input_kind(name) != "ch":  # (a channel's: once it is resolved)
         raise table.fail("rate", "only a counter input (pulses:...) takes a rate")
+    if given == ["rate"]:
+        return SetInput(device, name, rate=table.number("rate", lo=0, hi=1e6))
     if given == ["value"]:
         value = table.number("value", lo=-1e9, hi=1e9)
         return SetInput(device, name, SignalPlan("constant", None, lambda origin: constant(value)))

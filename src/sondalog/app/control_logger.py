@@ -24,7 +24,7 @@ from typing import Any
 
 from sondalog.ala1 import Engine
 from sondalog.ala1.hardware import pin_of
-from sondalog.app.control_actions import Fault, SetInput, input_kind
+from sondalog.app.control_actions import FAULTS, Action, Clear, Fault, SetInput, input_kind
 from sondalog.app.control_snapshot import Preloaded, StoredState, read_state, write_state
 from sondalog.app.faults_line import FaultyLines
 from sondalog.app.fleet import NamedDevice
@@ -142,6 +142,40 @@ class ControlledLogger:
         if not _has(sim, name) and self.fault_on(name) is None:
             known = ", ".join(self.inputs(0.0)) or "none"
             raise Refusal(404, f"{self.name} has no input {name} (its inputs: {known})", field)
+
+    def channel_input(self, name: str) -> str:
+        """The input channel ``chN`` reads first, as configured now (§6.5.5: its type, its
+        device's type and address)."""
+        n, state = int(name[2:]), self.engine.state
+        count = int(state.get("channel max number"))
+        if not 1 <= n <= count:
+            raise Refusal(404, f"{self.name} has no channel {n} (it has {count})", "input")
+        cfg = state.channel_config(n)
+        first, kind = cfg.inputs[0], cfg.type
+        device = first.device_type if first.device else ""
+        found = {
+            (11, ""): "gsm:credit",
+            (12, ""): "gsm:signal",
+            (1, "MSP430ADC"): "supply",
+            (3, "MSP430ADC"): f"analog:{first.address}",
+            (9, "MSP430ADC"): f"analog:{first.address}",
+            (2, "MSP430TA"): "pulses:timer",
+            (6, "MSP430TA"): "pulses:timer",
+            (2, "MSP430ADC"): f"pulses:{first.address}",
+            (6, "MSP430ADC"): f"pulses:{first.address}",
+        }.get((kind, "" if kind in (11, 12) else device))
+        if kind in (3, 9) and device == "DS18B20":
+            found = self._thermometer(first.device_address, first.address)
+        if found is None:
+            raise Refusal(409, f"channel {n} reads no simulated input: name the input", "input")
+        return found
+
+    def _thermometer(self, pin: int, rom: int) -> str | None:
+        sim = self.hardware("an input")
+        if rom and rom & 0xFF:
+            return f"ds18b20:{rom:016X}"
+        on_pin = [t for t in sim.thermometers if t.pin == pin]
+        return f"ds18b20:{on_pin[0].rom:016X}" if len(on_pin) == 1 else None
 
     def fault_on(self, name: str) -> str | None:
         return next((kind for (kind, on) in self.faults if on == name), None)
@@ -333,6 +367,21 @@ class ControlledLogger:
             inputs.put(sim)
         self.restart(now, Preloaded(self.store, state))
         return state
+
+
+def resolve_channel(logger: ControlledLogger, action: Action) -> Action:
+    """``action`` with a channel's input (``ch2``) replaced by the input it reads, checked
+    as the input's name would have been when the request was read."""
+    name = getattr(action, "input", None)
+    if not isinstance(action, SetInput | Fault | Clear) or not (name or "").startswith("ch"):
+        return action
+    real = logger.channel_input(str(name))
+    kind = input_kind(real)
+    if isinstance(action, Fault) and kind not in FAULTS[action.kind]:
+        raise Refusal(400, f"{name} reads {real}: a {action.kind} fault needs another", "input")
+    if isinstance(action, SetInput) and (action.rate is not None) != (kind == "pulses"):
+        raise Refusal(400, f"{name} reads {real}: a counter takes a rate, others a value", "input")
+    return replace(action, input=real)
 
 
 def _value(signal: Signal | None, t: float) -> float | None:

@@ -18,7 +18,7 @@ import contextlib
 from dataclasses import dataclass, field
 
 from sondalog.app.control import Controller
-from sondalog.app.control_actions import Clear, Fault, SetInput
+from sondalog.app.control_actions import Clear, Fault, SetInput, input_kind
 from sondalog.app.control_logger import Refusal
 from sondalog.app.scenario import ScenarioStep, Schedule, resolve_at
 from sondalog.app.serve import Announce, RunningSite
@@ -104,8 +104,8 @@ def _check(control: Controller, step: ScenarioStep) -> None:
     simulated inputs' names, a fleet's sensors)."""
     action = step.action
     name = action.input if isinstance(action, SetInput | Fault | Clear) else None
-    if name is None or step.device not in [*control.loggers, "bus"]:
-        return
+    if name is None or step.device not in [*control.loggers, "bus"] or input_kind(name) == "ch":
+        return  # (a channel's input is the one it reads when the step runs)
     try:
         if step.device == "bus" and control.bus is not None:
             control.bus.module(name)

@@ -211,6 +211,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--speed", type=float, default=1.0, help="the fleet's --speed")
     parser.add_argument("--fleet-only", action="store_true", help="skip snapshot/restore")
+    parser.add_argument("--restore-only", action="store_true", help="skip the fleet")
     parser.add_argument("--quick", action="store_true", help="100 loggers, fewer repeats")
     args = parser.parse_args()
     if args.quick:
@@ -220,8 +221,9 @@ def main() -> None:
     if not args.fleet_only:
         with tempfile.TemporaryDirectory() as tmp:
             asyncio.run(snapshot_restore(Path(tmp), args.repeats))
-    with tempfile.TemporaryDirectory() as tmp:
-        fleet(Path(tmp), args.loggers, args.requests, args.speed)
+    if not args.restore_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            fleet(Path(tmp), args.loggers, args.requests, args.speed)
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ import pytest
 from sondalog.client import Client
 from sondalog.client.bus import BlockingBusMaster
 from sondalog.client.phone import PhoneApi
-from sondalog.testing import ControlUnavailable, DeviceHandle, SiteFactory, SiteHandle
+from sondalog.testing import DeviceHandle, SiteFactory, SiteHandle
 
 #: Channel 1 measures the analog input at address 16 (the fixture's site: 0.5, i.e. 500.00).
 SETUP = [
@@ -55,11 +55,34 @@ def test_six_hours_of_samples_in_no_time(sondalog_logger: DeviceHandle) -> None:
     assert rows[-1] == "20000101060000.0,1,500.00"
 
 
+def test_a_failing_sensor_and_a_power_cut(sondalog_logger: DeviceHandle) -> None:
+    """What your software sees when the level sensor fails and the logger loses power."""
+    with Client(sondalog_logger.url) as logger:
+        configure(logger)
+        logger.command("write channel 1 sampling period 0010").raise_for_error()
+        sondalog_logger.fault("ch1", "disconnected")  # the input channel 1 reads (analog:16)
+        assert logger.command("read channel 1 value").lines == ("",)  # no valid value
+        sondalog_logger.step(hours=1)  # six samples without a value
+        sondalog_logger.clear("ch1")
+        sondalog_logger.fault("power_loss", duration=1800)  # back by itself after 30 minutes
+        sondalog_logger.step(hours=1)
+        rows = logger.command("read record 100 from start").lines
+    times = [row[8:12] for row in rows]  # HHMM of YYYYMMDDHHMMSS.s
+    values = [row.split(",")[2] for row in rows]
+    assert values[1:7] == [""] * 6  # 00:10 ... 01:00
+    assert times[7:] == ["0130", "0140", "0150", "0200"]  # nothing while there was no power
+    assert values[-1] == "500.00"
+
+
 def test_a_logger_served_as_a_process(sondalog_logger_process: DeviceHandle) -> None:
+    sondalog_logger_process.snapshot("factory")  # (a session fixture would keep it)
     with Client(sondalog_logger_process.url) as logger:
-        assert logger.command("read i version").lines == ("2.10",)
-    with pytest.raises(ControlUnavailable):  # until sondalog serve --control
-        sondalog_logger_process.step(hours=1)
+        configure(logger)
+        logger.command("write channel 1 sampling period 0010").raise_for_error()
+        sondalog_logger_process.step(hours=1)  # through the control API of sondalog serve
+        assert len(logger.command("read record 100 from start").lines) == 7
+        sondalog_logger_process.restore("factory")  # a reset between tests, in milliseconds
+        assert logger.command("read channel 1 sampling period").lines != ("0010",)
 
 
 def test_the_bus_modules_answer(sondalog_bus: DeviceHandle) -> None:

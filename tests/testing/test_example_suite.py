@@ -24,7 +24,7 @@ def test_the_example_suite_passes(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stdout + done.stderr
     tests = [n for n in ast.walk(_tree()) if isinstance(n, ast.FunctionDef)]
     passed = [line for line in done.stdout.splitlines() if line.startswith("PASSED")]
-    assert len(passed) == len([t for t in tests if t.name.startswith("test_")]) == 7
+    assert len(passed) == len([t for t in tests if t.name.startswith("test_")]) == 8
 
 
 def _tree() -> ast.Module:

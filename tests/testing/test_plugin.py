@@ -15,10 +15,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sondalog.app.inprocess import SteppableClock
 from sondalog.client import Ala1Client
+from sondalog.io.clock_control import ControlledClock
 from sondalog.testing import (
+    BUS_SITE,
     LOGGER_SITE,
+    ControlError,
     ControlUnavailable,
     DeviceHandle,
     SiteFactory,
@@ -39,7 +41,7 @@ SETUP = (
 @given(st.floats(1, 1e6), st.floats(0, 2))
 def test_a_step_past_a_deadline_wakes_the_sleeper_at_once(wait: float, past: float) -> None:
     async def go() -> None:
-        clock = SteppableClock()
+        clock = ControlledClock()
         sleeper = asyncio.ensure_future(clock.sleep_until(clock.now() + wait))
         await asyncio.sleep(0)
         assert not sleeper.done()
@@ -51,7 +53,7 @@ def test_a_step_past_a_deadline_wakes_the_sleeper_at_once(wait: float, past: flo
 
 def test_a_step_short_of_a_deadline_leaves_the_sleeper_asleep() -> None:
     async def go() -> None:
-        clock = SteppableClock()
+        clock = ControlledClock()
         sleeper = asyncio.ensure_future(clock.sleep_until(clock.now() + 3600))
         await asyncio.sleep(0)
         clock.step(1800)
@@ -90,23 +92,37 @@ def test_every_sample_of_the_steps_is_taken(
     assert rows[-1].startswith(f"2000010{1 + sum(minutes) // 1440}")
 
 
-def test_handles_say_what_they_cannot_do_yet(
+def test_handles_control_through_the_control_api_and_say_what_they_refuse(
     sondalog_logger: DeviceHandle, sondalog_site: SiteFactory
 ) -> None:
-    with pytest.raises(UnknownInput, match=r"no input 'analog:99' \(inputs: supply, analog:16"):
+    with pytest.raises(
+        UnknownInput, match=r"has no input analog:99 \(its inputs: supply, analog:16"
+    ):
         sondalog_logger.set("analog:99", 1.0)
-    with pytest.raises(ControlUnavailable, match="control API"):
-        sondalog_logger.fault("ch2", "disconnected")
+    with pytest.raises(ControlError) as caught:
+        sondalog_logger.fault("analog:16", "melted")
+    assert caught.value.status == 400 and caught.value.field == "kind"
     with pytest.raises(ValueError, match="backwards"):
         sondalog_logger.step(minutes=-1)
+    bus = sondalog_site(BUS_SITE).bus
+    with pytest.raises(ControlError, match="the bus has no cut fault"):
+        bus.fault("cut")
+    bus.fault("module:T1", "disconnected")
+    assert bus.describe()["inputs"] == {"module:T1": None, "module:H1": 45.0}
+    with pytest.raises(ControlUnavailable, match="no controls"):
+        DeviceHandle("modem:+420600000001", "tcp://127.0.0.1:1", bus.control).fault("cut")
+    # a subprocess: sondalog serve --control on a free port, the same handle
     process = sondalog_site(LOGGER_SITE, process=True)
-    for control in (
-        lambda: process.step(hours=6),
-        lambda: process.logger.set("supply", 11.0),
-        lambda: process.logger.fault("ch2", "disconnected"),
-    ):
-        with pytest.raises(ControlUnavailable, match="control API"):
-            control()
+    assert process.api.url.startswith("http://127.0.0.1:")
+    process.pause()
+    before = process.api.time()["now"]
+    process.step(hours=6)
+    assert process.api.time()["now"] == before + 6 * 3600
+    process.logger.fault("power_loss")
+    assert process.logger.describe()["powered"] is False
+    assert process.logger.clear(kind="power_loss") == [{"kind": "power_loss"}]
+    process.logger.set("supply", 11.0)
+    assert process.logger.describe()["inputs"]["supply"] == 11.0
     with pytest.raises(KeyError, match="the site has no 'bus'; it has logger"):
         _ = process.bus
 
@@ -126,6 +142,9 @@ def test_announcements_of_sondalog_serve() -> None:
     }
     assert parse_announcement("gsm modem +420600000001 listening on 127.0.0.1:7") == {
         "modem:+420600000001": "tcp://127.0.0.1:7"
+    }
+    assert parse_announcement("control API on http://127.0.0.1:9") == {
+        "control": "http://127.0.0.1:9"
     }
     assert parse_announcement("logger pty /tmp/a -> /dev/pts/3") == {}
 
@@ -165,3 +184,17 @@ def test_the_fixtures_stop_what_they_started(tmp_path: Path) -> None:
     while not all(_refused(url) for url in served):
         assert time.monotonic() < deadline, served
         time.sleep(0.1)
+
+
+def test_a_site_files_scenario_runs_in_the_fixtures(sondalog_site: SiteFactory) -> None:
+    """The [[scenario]] of a site started by the plugin runs on its clock: a step stops at it."""
+    site = sondalog_site(
+        LOGGER_SITE
+        + '\n[[scenario]]\nafter = "1h"\naction = "set"\ninput = "analog:16"\nvalue = 0.8\n'
+    )
+    site.pause()
+    assert site.logger.describe()["inputs"]["analog:16"] == 0.5
+    site.step(minutes=59)
+    assert site.logger.describe()["inputs"]["analog:16"] == 0.5
+    site.step(minutes=1)
+    assert site.logger.describe()["inputs"]["analog:16"] == 0.8

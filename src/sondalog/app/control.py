@@ -2,7 +2,10 @@
 
 A :class:`Controller` is made over what :func:`sondalog.app.serve.start_site` started and
 applies the actions of :mod:`sondalog.app.control_actions` to it (:meth:`Controller.apply`);
-the HTTP API (:mod:`sondalog.app.control_api`) and, later, a site file's scenarios drive it.
+the HTTP API (:mod:`sondalog.app.control_api`) and a site file's scenario
+(:mod:`sondalog.app.scenario_run`, a :class:`Scheduled` of :attr:`Controller.scheduled`) drive it.
+A step of the clock stops at every moment something is due on the way (a scenario's step, a
+fault's end) and lets the devices catch up there first, so what they sample in between sees it.
 
 Devices are named: ``logger`` (the site's ``[logger]``), ``loggers.SERIAL`` (a member of its
 ``[[loggers]]`` fleet), ``gsm`` (the GSM network), ``mail`` (the mail hub). A fault given a
@@ -17,7 +20,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, Protocol
 
 from sondalog.app.control_actions import (
     INPUT_FAULTS,
@@ -33,7 +36,16 @@ from sondalog.app.control_actions import (
     Speed,
     Step,
 )
-from sondalog.app.control_logger import RESET_VOLTS, ActiveFault, ControlledLogger, Refusal
+from sondalog.app.control_bus import ControlledBus
+from sondalog.app.control_logger import (
+    RESET_VOLTS,
+    ActiveFault,
+    ControlledLogger,
+    Refusal,
+    fault_json,
+    logger_json,
+    resolve_channel,
+)
 from sondalog.app.fleet import NamedDevice
 from sondalog.app.serve import RunningSite
 from sondalog.backends.sim.signals import constant
@@ -46,6 +58,16 @@ from sondalog.io.clock_control import ControlledClock
 MAX_SNAPSHOTS = 16
 #: Event-loop turns a step waits at most for the devices to run what fell due.
 _SETTLE_TURNS = 1000
+
+
+class Scheduled(Protocol):
+    """What runs at moments of the site's clock (a scenario)."""
+
+    def next_due(self) -> float | None: ...
+
+    async def run_due(self) -> None: ...
+
+    async def close(self) -> None: ...
 
 
 class Controller:
@@ -63,14 +85,16 @@ class Controller:
                 assert isinstance(store, LoggerNvStore) and isinstance(named, NamedDevice)
                 name = f"loggers.{member.serial_number}"
                 self.loggers[name] = ControlledLogger(name, member.host, store, named)
+        self.bus = ControlledBus(site.bus.core) if site.bus is not None else None
         self.gsm_faults: dict[str | None, ActiveFault] = {}
         self.mail_fault: ActiveFault | None = None
         self._timer: asyncio.Task[None] | None = None
         self._rearm = asyncio.Event()
+        self.scheduled: list[Scheduled] = []
 
     # -- what there is -----------------------------------------------------------------------
     def names(self) -> list[str]:
-        names = list(self.loggers)
+        names = list(self.loggers) + (["bus"] if self.bus is not None else [])
         if self.site.gsm is not None:
             names.append("gsm")
         if self.site.mail is not None:
@@ -90,31 +114,35 @@ class Controller:
     def is_device(self, name: str) -> bool:
         return (
             name in self.loggers
+            or (name == "bus" and self.bus is not None)
             or (name == "gsm" and self.site.gsm is not None)
             or (name == "mail" and self.site.mail is not None)
         )
 
     def devices(self) -> list[dict[str, Any]]:
-        out = [_logger_json(name, logger) for name, logger in self.loggers.items()]
+        out = [logger_json(name, logger) for name, logger in self.loggers.items()]
+        out += [self.bus.json()] if self.bus is not None else []
         out += [self._other_json(name) for name in ("gsm", "mail") if self.is_device(name)]
         return out
 
     def _other_json(self, name: str) -> dict[str, Any]:
         """The network or the mail hub."""
         if name == "gsm":
-            faults = [_fault_json(a) for a in self.gsm_faults.values()]
+            faults = [fault_json(a) for a in self.gsm_faults.values()]
         else:
-            faults = [_fault_json(self.mail_fault)] if self.mail_fault is not None else []
+            faults = [fault_json(self.mail_fault)] if self.mail_fault is not None else []
         return {"name": name, "kind": name, "faults": faults}
 
     def describe(self, name: str) -> dict[str, Any]:
+        if name == "bus" and self.bus is not None:
+            return self.bus.describe(self.clock.now())
         if name not in self.loggers and self.is_device(name):
             return self._other_json(name)
         logger = self.logger(name)
         now = self.clock.now()
         state = logger.engine.state
         return {
-            **_logger_json(name, logger),
+            **logger_json(name, logger),
             "module_time": state.module_time(now).isoformat(),
             "record_rows": len(state.record),
             "restarts": logger.restarts,
@@ -123,8 +151,7 @@ class Controller:
         }
 
     def time(self) -> dict[str, Any]:
-        now = self.clock.now()
-        clock = self.clock
+        now, clock = self.clock.now(), self.clock
         controlled = isinstance(clock, ControlledClock)
         return {
             "now": now,
@@ -138,9 +165,13 @@ class Controller:
     async def apply(self, action: Action) -> dict[str, Any]:
         """Apply ``action``; its answer (JSON). Raises :class:`Refusal` (nothing applied)."""
         now = self.clock.now()
+        if (logger := self.loggers.get(getattr(action, "device", ""))) is not None:
+            action = resolve_channel(logger, action)  # (ch2: the input channel 2 reads)
         match action:
             case Pause() | Resume() | Speed() | Step():
                 return await self._time(action)
+            case SetInput() if action.device == "bus" and self.bus is not None:
+                return self.bus.set(action, now)
             case SetInput():
                 logger = self.logger(action.device)
                 logger.set_input(action, now)
@@ -190,14 +221,29 @@ class Controller:
         elif isinstance(action, Speed):
             clock.set_rate(action.factor)
         else:
-            clock.step(action.seconds)
-            await self.settle()
+            target = clock.now() + action.seconds
+            while (due := self._next_due()) is not None and due <= target:
+                clock.advance_to(due)  # (exactly there: a step's own moment)
+                await self._catch_up()
+            clock.advance_to(target)
+            await self._catch_up()
         self._rearm.set()
         return self.time()
 
+    def _next_due(self) -> float | None:
+        dues = [s.next_due() for s in self.scheduled]
+        return min((d for d in [self._next_end(), *dues] if d is not None), default=None)
+
+    async def _catch_up(self) -> None:
+        await self.settle()
+        self._end_due(self.clock.now())
+        for scheduled in self.scheduled:
+            await scheduled.run_due()
+
     async def settle(self) -> None:
-        """Let every logger run what is due now (after a step)."""
+        """Let every logger (and the bus) run what is due now (after a step)."""
         hosts = [logger.host for logger in self.loggers.values()]
+        hosts += [self.site.bus.host] if self.site.bus is not None else []
         for _ in range(_SETTLE_TURNS):
             now = self.clock.now()
             if all((d := h.device.next_deadline()) is None or d > now for h in hosts):
@@ -205,6 +251,10 @@ class Controller:
             await asyncio.sleep(0)
 
     def _fault(self, fault: Fault, now: float) -> dict[str, Any]:
+        if fault.device == "bus" and self.bus is not None:
+            answer = self.bus.fault(fault, now)
+            self._timers()
+            return answer
         if fault.device == "gsm":
             return self._gsm_fault(fault, now)
         if fault.device == "mail":
@@ -226,22 +276,19 @@ class Controller:
             logger.jump_clock(fault.seconds or 0.0, now)
             return {
                 "device": fault.device,
-                "fault": _fault_json(active),
+                "fault": fault_json(active),
                 "module_time": logger.engine.state.module_time(now).isoformat(),
             }
         elif fault.kind in ("noise", "cut", "slow"):
             logger.fault_line(fault)
-        elif fault.kind == "power_loss":
-            logger.check_restartable()
         elif fault.kind == "brownout":
             sim = logger.hardware("a brown-out")
-            logger.check_restartable()
             active.undo = sim.supply_signal
             sim.supply_signal = constant(fault.volts or 0.0)
         logger.faults[key] = active
         self._power(logger, now)
         self._timers()
-        return {"device": fault.device, "fault": _fault_json(active), "powered": not logger.off}
+        return {"device": fault.device, "fault": fault_json(active), "powered": not logger.off}
 
     def _gsm_fault(self, fault: Fault, now: float) -> dict[str, Any]:
         gsm = self.site.gsm
@@ -260,7 +307,7 @@ class Controller:
         active = ActiveFault(fault, None if fault.duration is None else now + fault.duration)
         self.gsm_faults[number] = active
         self._timers()
-        return {"device": "gsm", "fault": _fault_json(active)}
+        return {"device": "gsm", "fault": fault_json(active)}
 
     def _mail_fault(self, fault: Fault, now: float) -> dict[str, Any]:
         mail = self.site.mail
@@ -279,7 +326,7 @@ class Controller:
             fault, None if fault.duration is None else now + fault.duration
         )
         self._timers()
-        return {"device": "mail", "fault": _fault_json(self.mail_fault)}
+        return {"device": "mail", "fault": fault_json(self.mail_fault)}
 
     def _end_mail(self) -> None:
         self.mail_fault = None
@@ -287,15 +334,17 @@ class Controller:
             self.site.mail.accounts.refusal = None
 
     def _clear(self, clear: Clear, now: float) -> list[dict[str, Any]]:
+        if clear.device == "bus" and self.bus is not None:
+            return self.bus.clear(clear)
         if clear.device == "mail" and self.site.mail is not None:
             active = self.mail_fault
             if active is None or clear.kind not in (None, "smtp_refusing"):
                 return []
             self._end_mail()
-            return [_fault_json(active)]
+            return [fault_json(active)]
         if clear.device == "gsm" and self.site.gsm is not None:
             cleared = [
-                _fault_json(a)
+                fault_json(a)
                 for a in self.gsm_faults.values()
                 if clear.kind in (None, "no_coverage")
             ]
@@ -311,7 +360,7 @@ class Controller:
             for key in logger.faults
             if clear.kind in (None, key[0]) and clear.input in (None, key[1])
         ]
-        cleared = [_fault_json(logger.faults[key]) for key in keys]
+        cleared = [fault_json(logger.faults[key]) for key in keys]
         for key in keys:
             self._end(logger, key, now)
         return cleared
@@ -361,6 +410,7 @@ class Controller:
             if a.until is not None
         ]
         ends += [a.until for a in self.gsm_faults.values() if a.until is not None]
+        ends += [a.until for a in self.bus.faults.values() if a.until] if self.bus else []
         if self.mail_fault is not None and self.mail_fault.until is not None:
             ends.append(self.mail_fault.until)
         return min(ends, default=None)
@@ -378,50 +428,29 @@ class Controller:
                 for task in waits:
                     task.cancel()
                 await asyncio.gather(*waits, return_exceptions=True)
-            now = self.clock.now()
-            for logger in self.loggers.values():
-                for key, active in list(logger.faults.items()):
-                    if active.until is not None and active.until <= now:
-                        self._end(logger, key, now)
-            for number, active in list(self.gsm_faults.items()):
+            self._end_due(self.clock.now())
+
+    def _end_due(self, now: float) -> None:
+        """End every fault whose duration ran out by ``now``."""
+        for logger in self.loggers.values():
+            for key, active in list(logger.faults.items()):
                 if active.until is not None and active.until <= now:
-                    self._end_gsm(number)
-            mail = self.mail_fault
-            if mail is not None and mail.until is not None and mail.until <= now:
-                self._end_mail()
+                    self._end(logger, key, now)
+        for number, active in list(self.gsm_faults.items()):
+            if active.until is not None and active.until <= now:
+                self._end_gsm(number)
+        bus = self.bus
+        for key, active in list(bus.faults.items()) if bus is not None else []:
+            if bus is not None and active.until is not None and active.until <= now:
+                bus.end(key)
+        mail = self.mail_fault
+        if mail is not None and mail.until is not None and mail.until <= now:
+            self._end_mail()
 
     async def close(self) -> None:
+        for scheduled in self.scheduled:
+            await scheduled.close()
         if self._timer is not None:
             self._timer.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await self._timer
-
-
-def _logger_json(name: str, logger: ControlledLogger) -> dict[str, Any]:
-    identity = logger.engine.identity
-    return {
-        "name": name,
-        "kind": "logger",
-        "serial_number": identity.serial_number,
-        "protocol": identity.version.value,
-        "simulated": logger.sim is not None,
-        "powered": not logger.off,
-        "faults": [_fault_json(a) for a in logger.faults.values()],
-    }
-
-
-def _fault_json(active: ActiveFault) -> dict[str, Any]:
-    fault = active.fault
-    out: dict[str, Any] = {"kind": fault.kind}
-    for key in ("input", "volts", "seconds", "number", "code"):
-        value = getattr(fault, key)
-        if value is not None:
-            out[key] = value
-    if fault.noise is not None:
-        noise = fault.noise
-        out.update(rate=noise.rate, seed=noise.seed, direction=noise.direction, mode=noise.mode)
-    if fault.slow is not None:
-        out.update(baud=fault.slow.baud, latency=fault.slow.latency)
-    if active.until is not None:
-        out["until"] = active.until
-    return out

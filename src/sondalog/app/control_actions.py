@@ -12,7 +12,8 @@ a running site is :mod:`sondalog.app.control`'s business; this module only descr
 Inputs are named as the simulated hardware names them (docs/control.md): ``supply``,
 ``analog:16`` (an A/D input address, §6.5.5), ``ds18b20:28FF...`` (a sensor's ROM code,
 §6.4.3.1.1), ``pulses:timer`` or ``pulses:17`` (a counter input), ``gsm:signal`` and
-``gsm:credit`` (channel types 12 and 11).
+``gsm:credit`` (channel types 12 and 11); on the bus, ``module:T1`` (an HCTMPS1 module by ID).
+``ch2`` names the input a logger's channel 2 reads now (its configuration, §6.5).
 """
 
 from __future__ import annotations
@@ -26,22 +27,27 @@ from sondalog.config import Table
 #: An input of a simulated logger (see the module docstring).
 INPUT_PATTERN = (
     r"supply|analog:\d{1,2}|ds18b20:[0-9A-Fa-f]{16}|pulses:(timer|\d{1,2})|gsm:(signal|credit)"
+    r"|module:[A-Za-z0-9_-]{1,8}|ch\d{1,2}"
 )
-_INPUT_WHAT = "an input such as supply, analog:16, ds18b20:<ROM hex>, pulses:timer, gsm:signal"
+_INPUT_WHAT = (
+    "an input such as supply, analog:16, ds18b20:<ROM hex>, pulses:timer, gsm:signal, module:T1"
+)
 #: A snapshot's name.
 NAME_PATTERN = r"[A-Za-z0-9_.-]{1,64}"
 #: The longest a fault may last, and the largest step or clock jump, in seconds (100 years).
 MAX_SECONDS = 100 * 366 * 86400.0
+_DURATION = re.compile(r"(?:(\d+(?:\.\d+)?)d)?(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m)?"
+                       r"(?:(\d+(?:\.\d+)?)s)?")  # fmt: skip
 #: The fastest a clock may be told to run.
 MAX_SPEED = 1e7
 
 #: Fault kinds -> what they act on: an input's kind (analog, ds18b20, pulses, supply, gsm),
 #: ``logger`` (the module and its lines), ``gsm`` (the network), ``mail`` (the mail hub).
 FAULTS: dict[str, tuple[str, ...]] = {
-    "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm"),
-    "stuck": ("analog", "ds18b20", "supply", "gsm"),
-    "power_on_reset": ("ds18b20",),  # it answers 85 °C, its power-on value
-    "bad_crc": ("ds18b20",),
+    "disconnected": ("analog", "ds18b20", "pulses", "supply", "gsm", "module", "ch"),
+    "stuck": ("analog", "ds18b20", "supply", "gsm", "module", "ch"),
+    "power_on_reset": ("ds18b20", "ch"),  # it answers 85 °C, its power-on value
+    "bad_crc": ("ds18b20", "ch"),
     "power_loss": ("logger",),
     "brownout": ("logger",),
     "clock_jump": ("logger",),
@@ -177,8 +183,9 @@ ACTIONS = (
 
 
 def input_kind(name: str) -> str:
-    """``analog`` of ``analog:16``, ``supply`` of ``supply``."""
-    return name.partition(":")[0]
+    """``analog`` of ``analog:16``, ``supply`` of ``supply``, ``ch`` of ``ch2``."""
+    kind = name.partition(":")[0]
+    return "ch" if re.fullmatch(r"ch\d{1,2}", kind) else kind
 
 
 def parse_action(
@@ -247,8 +254,10 @@ def parse_set(
             name,
             rate=table.number("rate", lo=0, hi=1e6, what="pulses per second, 0 to 1e6"),
         )
-    if given == ["rate"]:
+    if given == ["rate"] and input_kind(name) != "ch":  # (a channel's: once it is resolved)
         raise table.fail("rate", "only a counter input (pulses:...) takes a rate")
+    if given == ["rate"]:
+        return SetInput(device, name, rate=table.number("rate", lo=0, hi=1e6))
     if given == ["value"]:
         value = table.number("value", lo=-1e9, hi=1e9)
         return SetInput(device, name, SignalPlan("constant", None, lambda origin: constant(value)))
@@ -289,9 +298,15 @@ def parse_fault(device: str, table: Table, extra: tuple[str, ...] = ()) -> Fault
         raise table.fail("input", f"a {kind} fault is not an input's")
     if kind in MOMENTARY and "duration" in table:
         raise table.fail("duration", f"a {kind} happens once: it has no duration")
-    duration = table.opt_number(
-        "duration", above=0, hi=MAX_SECONDS, what=f"seconds > 0 and <= {MAX_SECONDS:g}"
+    duration = (
+        table.convert("duration", parse_duration)
+        if table.is_text("duration")
+        else table.opt_number(
+            "duration", above=0, hi=MAX_SECONDS, what=f"seconds > 0 and <= {MAX_SECONDS:g}"
+        )
     )
+    if duration == 0:
+        raise table.fail("duration", "must be longer than 0 seconds")
     fault = Fault(device, kind, name, duration)
     if kind == "brownout":
         return replace(fault, volts=table.number("volts", lo=0, hi=40, what="volts, 0 to 40"))
@@ -346,3 +361,19 @@ def _opt_input(table: Table) -> str | None:
 def is_input(name: str) -> bool:
     """Whether ``name`` is an input's name (:data:`INPUT_PATTERN`)."""
     return re.fullmatch(INPUT_PATTERN, name) is not None
+
+
+def parse_duration(text: str) -> float:
+    """``90``, ``90s``, ``15m``, ``2h30m``, ``1d``: seconds (0 to 100 years)."""
+    value = text.strip()
+    match = _DURATION.fullmatch(value)
+    if re.fullmatch(r"\d+(\.\d+)?", value):
+        seconds = float(value)
+    elif value and match is not None:
+        d, h, m, s = (float(g) if g else 0.0 for g in match.groups())
+        seconds = 86400 * d + 3600 * h + 60 * m + s
+    else:
+        raise ValueError(f"must be a duration like 90s, 15m, 2h30m or 1d, not {text!r}")
+    if seconds > MAX_SECONDS:
+        raise ValueError(f"must be at most {MAX_SECONDS:g} seconds")
+    return seconds

@@ -195,10 +195,12 @@ class _Server(uvicorn.Server):
 
 
 async def start_control(
-    site: RunningSite, clock: Clock, host: str, port: int, token: str | None = None
+    site: RunningSite | Controller, clock: Clock, host: str, port: int, token: str | None = None
 ) -> ControlServer:
-    """The control API over ``site`` on ``host:port``, started."""
-    server = ControlServer(Controller(site, clock), host, port, token)
+    """The control API over ``site`` (or its controller: one a scenario runs on) on
+    ``host:port``, started."""
+    control = site if isinstance(site, Controller) else Controller(site, clock)
+    server = ControlServer(control, host, port, token)
     await server.start()
     return server
 

@@ -24,7 +24,7 @@ from typing import Any
 
 from sondalog.ala1 import Engine
 from sondalog.ala1.hardware import pin_of
-from sondalog.app.control_actions import Fault, SetInput, input_kind
+from sondalog.app.control_actions import FAULTS, Action, Clear, Fault, SetInput, input_kind
 from sondalog.app.control_snapshot import Preloaded, StoredState, read_state, write_state
 from sondalog.app.faults_line import FaultyLines
 from sondalog.app.fleet import NamedDevice
@@ -143,6 +143,40 @@ class ControlledLogger:
             known = ", ".join(self.inputs(0.0)) or "none"
             raise Refusal(404, f"{self.name} has no input {name} (its inputs: {known})", field)
 
+    def channel_input(self, name: str) -> str:
+        """The input channel ``chN`` reads first, as configured now (§6.5.5: its type, its
+        device's type and address)."""
+        n, state = int(name[2:]), self.engine.state
+        count = int(state.get("channel max number"))
+        if not 1 <= n <= count:
+            raise Refusal(404, f"{self.name} has no channel {n} (it has {count})", "input")
+        cfg = state.channel_config(n)
+        first, kind = cfg.inputs[0], cfg.type
+        device = first.device_type if first.device else ""
+        found = {
+            (11, ""): "gsm:credit",
+            (12, ""): "gsm:signal",
+            (1, "MSP430ADC"): "supply",
+            (3, "MSP430ADC"): f"analog:{first.address}",
+            (9, "MSP430ADC"): f"analog:{first.address}",
+            (2, "MSP430TA"): "pulses:timer",
+            (6, "MSP430TA"): "pulses:timer",
+            (2, "MSP430ADC"): f"pulses:{first.address}",
+            (6, "MSP430ADC"): f"pulses:{first.address}",
+        }.get((kind, "" if kind in (11, 12) else device))
+        if kind in (3, 9) and device == "DS18B20":
+            found = self._thermometer(first.device_address, first.address)
+        if found is None:
+            raise Refusal(409, f"channel {n} reads no simulated input: name the input", "input")
+        return found
+
+    def _thermometer(self, pin: int, rom: int) -> str | None:
+        sim = self.hardware("an input")
+        if rom and rom & 0xFF:
+            return f"ds18b20:{rom:016X}"
+        on_pin = [t for t in sim.thermometers if t.pin == pin]
+        return f"ds18b20:{on_pin[0].rom:016X}" if len(on_pin) == 1 else None
+
     def fault_on(self, name: str) -> str | None:
         return next((kind for (kind, on) in self.faults if on == name), None)
 
@@ -251,7 +285,6 @@ class ControlledLogger:
 
     def power_off(self) -> None:
         """The supply is gone: everything in RAM with it; the memory keeps what it holds."""
-        self.check_restartable()
         self.store.database.flush()  # (rows the group commit holds are written at once)
         lines = self.wrapped()
         lines.off = True
@@ -270,14 +303,11 @@ class ControlledLogger:
         self.unwrap_if_quiet()
         self.host.wake()
 
-    def check_restartable(self) -> None:
-        if self.engine.modem is not None:
-            raise Refusal(409, f"{self.name} drives a GSM modem: it cannot be restarted here")
-
     def restart(self, now: float, memory: Preloaded | None = None) -> None:
         """A new engine from the memory, on the same lines (see the module docstring);
-        ``memory``: the memory just restored, which it starts from without reading it back."""
-        self.check_restartable()
+        ``memory``: the memory just restored, which it starts from without reading it back.
+        A com line that drives a GSM modem drives it again: the new engine's modem driver
+        starts afresh (the modem itself keeps its state, as a real one across a reset)."""
         self.store.database.flush()
         old = self.engine
         lines = dict(old._lines)  # the attached lines: the engine has no public list of them
@@ -285,8 +315,13 @@ class ControlledLogger:
         new = Engine(old.identity, memory or self.store, now, hardware, line_time_scale=scale)
         new.state.store = self.store
         top = max(lines, default=0)
+        modem = old.modem.line if old.modem is not None else None
         for line_id in range(1, top + 1):  # the same ids, as the host knows them
-            opened = new.open_line(paced=lines[line_id].pacer.paced if line_id in lines else False)
+            if line_id == modem:
+                opened = new.attach_modem(now)
+            else:
+                paced = lines[line_id].pacer.paced if line_id in lines else False
+                opened = new.open_line(paced=paced)
             assert opened == line_id
             if line_id not in lines:
                 new.close_line(line_id)
@@ -322,7 +357,6 @@ class ControlledLogger:
             raise Refusal(
                 404, f"{self.name} has no snapshot {name!r} (its snapshots: {known})", "name"
             )
-        self.check_restartable()
 
     def restore(self, name: str, now: float) -> StoredState:
         self.check_restorable(name)
@@ -333,6 +367,21 @@ class ControlledLogger:
             inputs.put(sim)
         self.restart(now, Preloaded(self.store, state))
         return state
+
+
+def resolve_channel(logger: ControlledLogger, action: Action) -> Action:
+    """``action`` with a channel's input (``ch2``) replaced by the input it reads, checked
+    as the input's name would have been when the request was read."""
+    name = getattr(action, "input", None)
+    if not isinstance(action, SetInput | Fault | Clear) or not (name or "").startswith("ch"):
+        return action
+    real = logger.channel_input(str(name))
+    kind = input_kind(real)
+    if isinstance(action, Fault) and kind not in FAULTS[action.kind]:
+        raise Refusal(400, f"{name} reads {real}: a {action.kind} fault needs another", "input")
+    if isinstance(action, SetInput) and (action.rate is not None) != (kind == "pulses"):
+        raise Refusal(400, f"{name} reads {real}: a counter takes a rate, others a value", "input")
+    return replace(action, input=real)
 
 
 def _value(signal: Signal | None, t: float) -> float | None:
@@ -375,3 +424,33 @@ def _signal_of(sim: SimHardware, name: str) -> Signal | None:
     if what == "ds18b20":
         return _sensor(sim, key).signal
     return sim.gsm_signals.get(key)
+
+
+def logger_json(name: str, logger: ControlledLogger) -> dict[str, Any]:
+    identity = logger.engine.identity
+    return {
+        "name": name,
+        "kind": "logger",
+        "serial_number": identity.serial_number,
+        "protocol": identity.version.value,
+        "simulated": logger.sim is not None,
+        "powered": not logger.off,
+        "faults": [fault_json(a) for a in logger.faults.values()],
+    }
+
+
+def fault_json(active: ActiveFault) -> dict[str, Any]:
+    fault = active.fault
+    out: dict[str, Any] = {"kind": fault.kind}
+    for key in ("input", "volts", "seconds", "number", "code"):
+        value = getattr(fault, key)
+        if value is not None:
+            out[key] = value
+    if fault.noise is not None:
+        noise = fault.noise
+        out.update(rate=noise.rate, seed=noise.seed, direction=noise.direction, mode=noise.mode)
+    if fault.slow is not None:
+        out.update(baud=fault.slow.baud, latency=fault.slow.latency)
+    if active.until is not None:
+        out["until"] = active.until
+    return out

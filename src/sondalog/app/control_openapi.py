@@ -23,6 +23,7 @@ _ERROR = {
 }
 _INPUT = {"type": "string", "pattern": f"^({INPUT_PATTERN})$", "example": "analog:16"}
 _SECONDS = {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_SECONDS}
+_DURATION = r"^(\d+(\.\d+)?|(\d+(\.\d+)?d)?(\d+(\.\d+)?h)?(\d+(\.\d+)?m)?(\d+(\.\d+)?s)?)$"
 
 
 def _schema(
@@ -58,8 +59,15 @@ _SCHEMAS: dict[str, Any] = {
     "Fault": _schema(
         {
             "kind": {"enum": list(FAULTS)},
-            "input": {**_INPUT, "description": "for disconnected, stuck, power_on_reset, bad_crc"},
-            "duration": {**_SECONDS, "description": "clock seconds until it ends by itself"},
+            "input": {
+                **_INPUT,
+                "description": "for disconnected, stuck (also a bus's module:ID), "
+                "power_on_reset, bad_crc",
+            },
+            "duration": {
+                "oneOf": [_SECONDS, {"type": "string", "pattern": _DURATION}],
+                "description": "clock seconds (or 90s, 15m, 2h30m, 1d) until it ends by itself",
+            },
             "volts": {"type": "number", "minimum": 0, "maximum": 40, "description": "brownout"},
             "seconds": {"type": "number", "description": "clock_jump: seconds, + or -, not 0"},
             "rate": {
@@ -146,7 +154,7 @@ def _post(action: str, summary: str, device: bool) -> dict[str, Any]:
     if device:
         operation["parameters"] = [
             {"name": "name", "in": "path", "required": True, "schema": {"type": "string"},
-             "description": "logger, loggers.SERIAL, gsm, mail"},
+             "description": "logger, loggers.SERIAL, bus, gsm, mail"},
         ]  # fmt: skip
     return {"post": operation}
 

@@ -16,7 +16,9 @@ hundred rows, not a whole record.
 
 from __future__ import annotations
 
+import json
 import sqlite3
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from sondalog.ala1.record import RecordChanges, RecordMemory
@@ -120,11 +122,28 @@ def _write_record(
                 for seq, (old, row) in enumerate(zip(mine, kept, strict=True), low)
                 if old != row
             ]
-        writes += [(key, first + i, want[i]) for i in range(low - first)]
-        writes += [(key, seq, want[seq - first]) for seq in range(high + 1, last + 1)]
+        _write_run(conn, key, first, want[: low - first])
+        _write_run(conn, key, high + 1, want[high + 1 - first :])
     else:
-        writes = [(key, first + i, row) for i, row in enumerate(want)]
+        _write_run(conn, key, first, want)
     conn.executemany("INSERT OR REPLACE INTO record (logger, seq, row) VALUES (?, ?, ?)", writes)
+
+
+def _write_run(conn: sqlite3.Connection, key: str, first: int, rows: Sequence[str]) -> None:
+    """Rows ``first``, ``first + 1``, ... in one statement: SQLite reads them from one JSON
+    array (``json_each``), about three times faster than a statement per row, which is
+    most of a restore that rewrites a whole record (docs/control.md "Figures")."""
+    if len(rows) < 64:
+        conn.executemany(
+            "INSERT OR REPLACE INTO record (logger, seq, row) VALUES (?, ?, ?)",
+            [(key, first + i, row) for i, row in enumerate(rows)],
+        )
+        return
+    conn.execute(
+        "INSERT OR REPLACE INTO record (logger, seq, row) "
+        "SELECT ?, ? + CAST(key AS INTEGER), value FROM json_each(?)",
+        (key, first, json.dumps(list(rows), ensure_ascii=True, separators=(",", ":"))),
+    )
 
 
 class Preloaded:

@@ -347,7 +347,9 @@ class ApiServer:
     """uvicorn serving :func:`build_app` on a socket bound here (errors raise OSError)."""
 
     def __init__(self, runtime: GsmRuntime, host: str, port: int) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        # IPPROTO_TCP named: asyncio sets TCP_NODELAY only on sockets that say so, and without
+        # it a keep-alive client waits 40 ms for a delayed ACK on every answer sent in parts
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM, socket.IPPROTO_TCP)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             self.sock.bind((host, port))

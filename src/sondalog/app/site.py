@@ -26,7 +26,9 @@ delays) serves the bus on that adapter.
 
 A logger is served when the file has a ``[logger]`` table; a bus when it has ``[bus]``; a mail
 hub when it has ``[mail]``; a GSM network when it has ``[gsm]`` (:mod:`sondalog.app.gsm_site`);
-a fleet of loggers for its ``[[loggers]]`` (:mod:`sondalog.app.fleet_site`).
+a fleet of loggers for its ``[[loggers]]`` (:mod:`sondalog.app.fleet_site`); its
+``[[scenario]]`` entries (:mod:`sondalog.app.scenario`) are run on them, or those of another
+file (:func:`with_scenario`, ``serve --scenario FILE``).
 Everything is read through :class:`sondalog.config.Table`: an unknown table or key anywhere
 (``[loger]``, ``[bsu]``, ``intervall =``) is refused with a "did you mean", and errors name the
 file, line and field (:class:`ConfigError`). :func:`load_site` returns a :class:`SitePlan`
@@ -45,6 +47,7 @@ from sondalog.app.fleet_site import FleetLogger, parse_fleet
 from sondalog.app.gsm_site import GsmPlan, parse_gsm_site
 from sondalog.app.logger import HardwarePlan, plan_hardware
 from sondalog.app.mailhub import MailHubConfig, parse_mail
+from sondalog.app.scenario import ScenarioStep, parse_scenario
 from sondalog.backends.linux.board import read_board_of_site
 from sondalog.backends.linux.rs485 import MODES, Rs485Error, Rs485Settings, check_delays
 from sondalog.backends.sim.site_bus import BusSite, read_bus_site
@@ -55,7 +58,7 @@ DEFAULT_BUS_LISTEN = ("127.0.0.1", 10485)
 _LOGGER_SERVE = ("listen", "protocol", "serial_number", "ptys", "serials", "line_rate", "modem")
 _BUS_SERVE = ("listen", "pty", "serial", "rs485", "delay_before_tx", "delay_before_rx")
 #: The top-level tables (and keys) of a site file; anything else is a misspelling.
-_TOP = ("logger", "loggers", "bus", "mail", "gsm", "board")
+_TOP = ("logger", "loggers", "bus", "mail", "gsm", "board", "scenario")
 #: Hosts that bind every address: their port clashes with the same port on any host.
 _ANY_HOST = {"", "0.0.0.0", "::", "*"}
 
@@ -98,6 +101,16 @@ class SitePlan:
     listens: list[tuple[str, tuple[str, int]]] = field(default_factory=list)
     gsm: GsmPlan | None = None
     fleet: list[FleetLogger] = field(default_factory=list)
+    scenario: list[ScenarioStep] = field(default_factory=list)
+
+    @property
+    def devices(self) -> list[str]:
+        """The names the control API and a scenario give the site's devices."""
+        names = ["logger"] if self.logger is not None else []
+        names += [f"loggers.{member.serial_number}" for member in self.fleet]
+        names += ["bus"] if self.bus is not None else []
+        names += ["gsm"] if self.gsm is not None else []
+        return names + (["mail"] if self.mail is not None else [])
 
     @property
     def data(self) -> Mapping[str, object]:
@@ -143,7 +156,17 @@ def load_site(path: Path) -> SitePlan:
             "site",
             "nothing to serve: the file has no [logger], [[loggers]], [bus], [mail] or [gsm]",
         )
-    return SitePlan(path, root, logger, bus, mail, listens, gsm, fleet)
+    plan = SitePlan(path, root, logger, bus, mail, listens, gsm, fleet)
+    return replace(plan, scenario=parse_scenario(root, plan.devices))
+
+
+def with_scenario(plan: SitePlan, path: Path) -> SitePlan:
+    """``plan`` running the ``[[scenario]]`` entries of the file ``path`` instead of its own
+    (``serve --scenario FILE``: a file of nothing but ``[[scenario]]``)."""
+    root = load(path).keys(("scenario",))
+    if "scenario" not in root:
+        raise root.fail("scenario", "the file has no [[scenario]] entries")
+    return replace(plan, scenario=parse_scenario(root, plan.devices))
 
 
 def _check_ports(root: Table, listens: list[tuple[str, tuple[str, int]]]) -> None:

@@ -47,6 +47,14 @@ _TOKEN = r"[A-Za-z0-9._~+/=-]{16,256}"
     help="Serve the control API there: inputs, faults, time, snapshots (docs/control.md). "
     f"Beyond loopback it needs --allow-remote and a token in ${CONTROL_TOKEN_ENV}.",
 )
+@click.option(
+    "--scenario",
+    "scenario",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Run the [[scenario]] entries of this file instead of the site file's own "
+    "(docs/control.md).",
+)
 @allow_remote_site_option
 @click.option(
     "--check",
@@ -61,6 +69,7 @@ def serve(
     speed: float,
     trace: Path | None,
     control: str | None,
+    scenario: Path | None,
     check: bool,
 ) -> None:
     """Serve the loggers, buses and mail hub that the site file SITE describes.
@@ -69,11 +78,13 @@ def serve(
     "logger 000001 listening on 127.0.0.1:10001"). SIGINT or SIGTERM stop everything cleanly.
     See docs/architecture.md and docs/simulation.md for the site file.
     """
-    from sondalog.app.site import load_site
+    from sondalog.app.site import load_site, with_scenario
     from sondalog.config import ConfigError
 
     try:
         plan = load_site(site)
+        if scenario is not None:
+            plan = with_scenario(plan, scenario)
     except ConfigError as exc:
         raise Refused(str(exc)) from exc
     for field, (host, _port) in plan.listens:
@@ -85,7 +96,8 @@ def serve(
     control_at = _control_address(ctx, control, plan.listens) if control is not None else None
     token = os.environ.get(CONTROL_TOKEN_ENV) or None
     if check:
-        click.echo(f"{site}: {len(plan.listens)} listening addresses, no clash")
+        steps = f", {len(plan.scenario)} scenario steps" if plan.scenario else ""
+        click.echo(f"{site}: {len(plan.listens)} listening addresses, no clash{steps}")
         return
     state = state_dir if state_dir is not None else Path("state") / site.stem
     try:
@@ -132,6 +144,7 @@ async def _serve(
     token: str | None = None,
 ) -> None:
     from sondalog.app.control_api import start_control
+    from sondalog.app.scenario_run import site_control
     from sondalog.app.serve import start_site
     from sondalog.app.site import SitePlan
     from sondalog.config.address import format_address
@@ -147,13 +160,17 @@ async def _serve(
 
     clock: Clock = ControlledClock(speed) if control is not None else make_clock(speed)
     running = await start_site(plan, state, clock, announce, trace)
-    server = None
+    server = controller = None
     try:
-        if control is not None:
-            server = await start_control(running, clock, *control, token=token)
+        if control is not None or plan.scenario:
+            controller = site_control(running, clock, plan.scenario, announce)
+        if control is not None and controller is not None:
+            server = await start_control(controller, clock, *control, token=token)
             announce(f"control API on http://{format_address(*server.address)}")
         await stop.wait()
     finally:
         if server is not None:
-            await server.stop()
+            await server.stop()  # (and its controller)
+        elif controller is not None:
+            await controller.close()
         await running.close()

@@ -76,6 +76,14 @@ class ControlledClock:
         self._rebase(now)
         return now
 
+    def advance_to(self, moment: float) -> float:
+        """Move the clock forward to exactly ``moment`` (if it is not there yet); the new time."""
+        now = self.now()
+        if moment > now:
+            self._rebase(moment)
+            return moment
+        return now
+
     async def sleep_until(self, deadline: float) -> None:
         while True:
             now = self.now()

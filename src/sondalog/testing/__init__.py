@@ -12,9 +12,11 @@ names the fixtures::
 
 Fixtures (:mod:`sondalog.testing.fixtures`): ``sondalog_logger``, ``sondalog_logger_process``,
 ``sondalog_bus``, ``sondalog_gsm`` and the factory ``sondalog_site``; each gives handles with
-the device's ``url`` and its controls (``step``, ``set``, ``fault``:
-:mod:`sondalog.testing.handles`). An async test that wants the site in its own event loop
-uses :func:`running_site`.
+the device's ``url`` and its controls through the site's control API (``step``, ``set``,
+``fault``, ``clear``, ``restart``, ``snapshot``, ``restore``; the site's ``pause``, ``resume``,
+``speed`` and ``api``: :mod:`sondalog.testing.handles`), in the test process or a subprocess
+alike; a refusal raises :class:`ControlError`. An async test that wants the site in its own
+event loop uses :func:`running_site`.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 from sondalog.app.inprocess import InProcessSite, UnknownInput, start_inprocess
+from sondalog.client.control import ControlClient, ControlError
 from sondalog.testing.fixtures import (
     SiteFactory,
     sondalog_bus,
@@ -39,6 +42,8 @@ __all__ = [
     "BUS_SITE",
     "GSM_SITE",
     "LOGGER_SITE",
+    "ControlClient",
+    "ControlError",
     "ControlUnavailable",
     "DeviceHandle",
     "InProcessSite",

@@ -2,8 +2,10 @@
 
 In the test process the site runs on an event loop of its own thread (a test calls the
 blocking :class:`sondalog.client.Client` from its own thread, and an async test keeps its own
-loop free): :class:`InProcessRunner`. As a subprocess: :class:`ProcessRunner`, which reads the
-addresses from the lines ``sondalog serve`` prints. An async test that wants the site in its
+loop free): :class:`InProcessRunner`. As a subprocess: :class:`ProcessRunner`, which starts
+``sondalog serve --control`` on a free loopback port and reads the addresses from the lines it
+prints. Either way the handles' controls go through the site's control API
+(:class:`~sondalog.client.control.ControlClient`). An async test that wants the site in its
 own event loop uses :func:`sondalog.testing.running_site` instead.
 """
 
@@ -22,7 +24,8 @@ from typing import Any, TypeVar
 
 from sondalog.app.inprocess import InProcessSite, start_inprocess
 from sondalog.app.site import SitePlan, load_site
-from sondalog.testing.handles import FAULTS_LATER, ControlUnavailable, DeviceHandle, SiteHandle
+from sondalog.client.control import ControlClient
+from sondalog.testing.handles import DeviceHandle, SiteHandle
 
 T = TypeVar("T")
 #: Seconds a site may take to start (a loaded CI machine).
@@ -47,7 +50,7 @@ class _LoopThread:
 
 
 class InProcessRunner:
-    """A site served in this process; its handle's controls act on it directly."""
+    """A site served in this process, its control API on a loopback port of its own."""
 
     def __init__(self, site: Path, state: Path) -> None:
         self._thread = _LoopThread()
@@ -56,28 +59,26 @@ class InProcessRunner:
         except BaseException:
             self._thread.close()
             raise
+        self._api = ControlClient(self.site.control_url)
+        names = self.site.names
         self.handle = SiteHandle(
-            {name: DeviceHandle(name, url, self) for name, url in self.site.urls.items()},
+            {
+                name: DeviceHandle(name, url, self, names.get(name))
+                for name, url in self.site.urls.items()
+            },
             self,
             str(state),
         )
 
+    @property
+    def api(self) -> ControlClient:
+        return self._api
+
     def step(self, seconds: float) -> None:
-        self._thread.run(self.site.step(seconds))
-
-    def set(self, device: str, what: str, value: float) -> None:
-        if device != "logger":
-            raise ControlUnavailable(f"inputs of {device!r} are set through the control API")
-
-        async def set_it() -> None:  # on the loop's thread, between two device turns
-            self.site.set_input(what, value)
-
-        self._thread.run(set_it())
-
-    def fault(self, device: str, where: str, kind: str) -> None:
-        raise ControlUnavailable(FAULTS_LATER)
+        self._thread.run(self.site.step(seconds))  # (it waits for the GSM network too)
 
     def close(self) -> None:
+        self._api.close()
         try:
             self._thread.run(self.site.close())
         finally:
@@ -88,11 +89,21 @@ class ProcessRunner:
     """A site served by a ``sondalog serve SITE --state STATE`` subprocess."""
 
     def __init__(self, site: Path, state: Path) -> None:
-        expected = _announced(load_site(site))
+        expected = _announced(load_site(site)) | {"control"}
         self.log = state.parent / f"{state.name}.log"
         self._log = self.log.open("ab")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(state)],
+            [
+                sys.executable,
+                "-m",
+                "sondalog",
+                "serve",
+                str(site),
+                "--state",
+                str(state),
+                "--control",
+                "127.0.0.1:0",
+            ],
             stdout=subprocess.PIPE,
             stderr=self._log,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
@@ -102,8 +113,15 @@ class ProcessRunner:
         except BaseException:
             self.close()
             raise
+        self._api = ControlClient(urls.pop("control"))
+        names = {d["name"] for d in self._api.devices()}
         self.handle = SiteHandle(
-            {name: DeviceHandle(name, url, self) for name, url in urls.items()}, self, str(state)
+            {
+                name: DeviceHandle(name, url, self, name if name in names else None)
+                for name, url in urls.items()
+            },
+            self,
+            str(state),
         )
 
     def _read_urls(self, expected: set[str]) -> dict[str, str]:
@@ -123,22 +141,16 @@ class ProcessRunner:
             urls.update(parse_announcement(line.strip()))
         return urls
 
+    @property
+    def api(self) -> ControlClient:
+        return self._api
+
     def step(self, seconds: float) -> None:
-        raise ControlUnavailable(
-            "stepping a site served as a subprocess needs the control API (sondalog serve "
-            "--control); use the in-process fixture (process=False) to step the clock"
-        )
-
-    def set(self, device: str, what: str, value: float) -> None:
-        raise ControlUnavailable(
-            "inputs of a site served as a subprocess are set through the control API "
-            "(sondalog serve --control); use the in-process fixture (process=False)"
-        )
-
-    def fault(self, device: str, where: str, kind: str) -> None:
-        raise ControlUnavailable(FAULTS_LATER)
+        self._api.step(seconds)
 
     def close(self) -> None:
+        if hasattr(self, "_api"):
+            self._api.close()
         if self.proc.poll() is None:
             self.proc.terminate()
             try:
@@ -171,6 +183,8 @@ def parse_announcement(line: str) -> dict[str, str]:
         return {"logger": f"tcp://{words[4]}"}
     if line.startswith("bus listening on "):
         return {"bus": f"tcp://{words[3]}"}
+    if line.startswith("control API on "):
+        return {"control": words[3]}
     if line.startswith("gsm API on "):
         return {"gsm": words[3]}
     if line.startswith("gsm modem ") and words[3:5] == ["listening", "on"]:

@@ -163,28 +163,40 @@ class Share:
         if held != self._held and self.hold is not None:
             self.hold(held)
         self._held = held
-        if taken and snap is not None:
-            self._start(loop, taken, snap, once)
+        if taken:
+            log.info("cluster: took %d sources", len(taken))
+        # a source taken now, or kept by a turn that came too late for its poller
+        idle = [s for s in self.sources if s in held and s not in self.tasks]
+        leases = {t.source: t for t in taken}
+        for i, name in enumerate(idle):
+            self._start(loop, name, leases.get(name), snap, i / len(idle), once)
 
-    def _start(self, loop: Loop, taken: Sequence[Taken], snap: Snapshot, once: bool) -> None:
-        log.info("cluster: took %d sources", len(taken))
-        for i, lease in enumerate(taken):
-            source = self.sources[lease.source]
-            interval = source.config.interval
-            state: dict[str, Any] = {}
-            if lease.cursor is not None:
-                state["cursor"] = lease.cursor
-            if lease.logger is not None:
-                state["logger"] = lease.logger
+    def _start(
+        self,
+        loop: Loop,
+        name: str,
+        lease: Taken | None,
+        snap: Snapshot | None,
+        place: float,
+        once: bool,
+    ) -> None:
+        """Start ``name``'s poller (``lease``: it was just taken, resume from its cursor) at
+        its next due time, ``place`` (0..1) into the spread of the sources starting now."""
+        source = self.sources[name]
+        interval = source.config.interval
+        due = 0.0
+        if lease is not None:
+            state = {"cursor": lease.cursor, "logger": lease.logger}
+            state = {k: v for k, v in state.items() if v is not None}
             if state:
-                self.store.set_state(lease.source, **state)
-            due = 0.0 if lease.last_contact is None else lease.last_contact + interval - snap.now
-            spread = 0.0 if once else min(SPREAD, interval / 8) * i / len(taken)
-            delay = max(min(max(due, 0.0), interval), spread)
-            self.tasks[lease.source] = asyncio.create_task(
-                loop(_Leased(source, self), 0.0 if once else delay, once),
-                name=f"source {lease.source}",
-            )
+                self.store.set_state(name, **state)
+            if lease.last_contact is not None and snap is not None:
+                due = lease.last_contact + interval - snap.now
+        spread = min(SPREAD, interval / 8) * place
+        delay = 0.0 if once else max(min(max(due, 0.0), interval), spread)
+        self.tasks[name] = asyncio.create_task(
+            loop(_Leased(source, self), delay, once), name=f"source {name}"
+        )
 
     async def _stop(self, names: Iterable[str]) -> None:
         tasks = [t for n in list(names) if (t := self.tasks.pop(n, None)) is not None]

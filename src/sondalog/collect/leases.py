@@ -25,6 +25,7 @@ offsets do not matter, every lease time is the database's).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from collections.abc import Iterable, Mapping, Sequence
@@ -58,6 +59,7 @@ def quota(sources: int, members: int) -> int:
     return math.ceil(sources / max(1, members))
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def preference(member: str, source: str) -> int:
     """How much ``member`` wants ``source`` (rendezvous hashing: stable, spread)."""
     digest = hashlib.blake2b(f"{member}\0{source}".encode(), digest_size=8).digest()

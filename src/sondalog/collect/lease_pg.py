@@ -19,6 +19,7 @@ advisory lock (collectors starting together).
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -78,11 +79,17 @@ class LeaseTables:
         self.lease = lease
         self.connect_timeout = connect_timeout
         self._conn: Conn | None = None
+        self._connecting = asyncio.Lock()  # the turns and the pollers share the connection
 
     async def _db(self) -> Conn:
-        if self._conn is not None and not (self._conn.closed or self._conn.broken):
+        async with self._connecting:
+            if self._conn is not None and not (self._conn.closed or self._conn.broken):
+                return self._conn
+            await self.close()
+            self._conn = await self._connect()
             return self._conn
-        await self.close()
+
+    async def _connect(self) -> Conn:
         conn = await psycopg.AsyncConnection.connect(
             self.dsn, autocommit=True, connect_timeout=self.connect_timeout
         )
@@ -93,7 +100,6 @@ class LeaseTables:
         except BaseException:
             await conn.close()
             raise
-        self._conn = conn
         return conn
 
     async def close(self) -> None:

@@ -55,6 +55,10 @@ class LeaseLost(RuntimeError):
     """This member no longer holds the source (its lease ran out): another one polls it."""
 
 
+def describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+
+
 def member_name() -> str:
     """``HOST:PID:random``: unique among the members, new at every start."""
     return f"{socket.gethostname()}:{os.getpid()}:{secrets.token_hex(3)}"
@@ -126,32 +130,18 @@ class Share:
             await self.tables.close()
 
     async def turn(self, loop: Loop, once: bool = False) -> None:
-        """One turn: the plan carried out; the pollers of lapsed leases stopped."""
-        names = list(self.sources)
+        """One turn: the plan carried out (within a lease: a server that hangs counts as
+        away); the pollers of lapsed leases stopped, those of new ones started."""
+        snap: Snapshot | None = None
+        taken: list[Taken] = []
         try:
-            if not self._joined:
-                await self.tables.join(names)
-                self._joined = True
-            snap = await self.tables.snapshot(names)
-            todo = plan(self.tables.me, names, snap.leases, snap.members, snap.now)
-            if todo.release:
-                await self._stop(todo.release)
-                self.holding.drop(todo.release)
-                await self.tables.release(todo.release)
-                log.info("cluster: %d sources handed to other collectors", len(todo.release))
-            sent = self.clock()
-            kept = await self.tables.renew(todo.keep)
-            self.holding.renewed(kept, sent)
-            self.holding.drop(set(todo.keep) - kept)
-            sent = self.clock()
-            taken = await self.tables.take(todo.take, todo.want)
-            self.holding.renewed((t.source for t in taken), sent)
-        except (psycopg.Error, OSError) as exc:
+            snap, taken = await asyncio.wait_for(self._carry_out(), self.tables.lease)
+        except (psycopg.Error, OSError, TimeoutError) as exc:
             if not self._failing:
-                log.warning("cluster: the lease tables are unreachable: %s", exc)
+                log.warning("cluster: the lease tables are unreachable: %s", describe(exc))
             self._failing = True
-            taken = []
-            snap = None
+            if isinstance(exc, TimeoutError):  # a statement cut short: a new connection
+                await self.tables.close()
         else:
             if self._failing:
                 log.warning("cluster: the lease tables answer again")
@@ -170,6 +160,27 @@ class Share:
         leases = {t.source: t for t in taken}
         for i, name in enumerate(idle):
             self._start(loop, name, leases.get(name), snap, i / len(idle), once)
+
+    async def _carry_out(self) -> tuple[Snapshot, list[Taken]]:
+        names = list(self.sources)
+        if not self._joined:
+            await self.tables.join(names)
+            self._joined = True
+        snap = await self.tables.snapshot(names)
+        todo = plan(self.tables.me, names, snap.leases, snap.members, snap.now)
+        if todo.release:
+            await self._stop(todo.release)
+            self.holding.drop(todo.release)
+            await self.tables.release(todo.release)
+            log.info("cluster: %d sources handed to other collectors", len(todo.release))
+        sent = self.clock()
+        kept = await self.tables.renew(todo.keep)
+        self.holding.renewed(kept, sent)
+        self.holding.drop(set(todo.keep) - kept)
+        sent = self.clock()
+        taken = await self.tables.take(todo.take, todo.want)
+        self.holding.renewed((t.source for t in taken), sent)
+        return snap, taken
 
     def _start(
         self,

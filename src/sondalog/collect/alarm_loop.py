@@ -133,6 +133,13 @@ class AlarmLoop:
         self.store.release(self.owner)
         self._restore()
 
+    def hold(self, sources: set[str]) -> None:
+        """Collectors that share their sources (docs/scaling.md): only the ``sources`` this
+        one holds now are watched for no contact, and the states are read again from the
+        store (the collector that held a source before changed them)."""
+        self._sources = [s for s in self.config.sources if s.name in sources]
+        self._stale = True
+
     def _restore(self) -> None:
         """The alarms as the store has them (at the start, and after a failed write: the
         transitions it lost are computed again from the readings read again)."""

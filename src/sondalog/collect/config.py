@@ -45,6 +45,9 @@
     [web]                       # the dashboard (default: on, 127.0.0.1:8080)
     listen = "127.0.0.1:8080"   # beyond loopback: allow_remote = true and a token
 
+    [cluster]                   # optional: share the sources with the other collectors
+    lease = 30                  # that use the same [postgres] server (docs/scaling.md)
+
     [postgres]                  # optional sinks (docs/collector-sinks.md): a table of
     dsn = "postgresql://..."    # every sink registered in sondalog.collect.sinks, checked
     [mqtt]                      # by the sink's own parse when the file is loaded
@@ -69,6 +72,7 @@ from sondalog.client.station_file import Station
 from sondalog.collect.alarms import AlarmPlan, parse_alarms
 from sondalog.collect.alarms.senders import find_sender
 from sondalog.collect.config_expect import read_expect
+from sondalog.collect.leases import default_lease
 from sondalog.collect.message_url import check_message_url
 from sondalog.collect.sinks import SinkError, find_sink, known_names
 from sondalog.collect.store_sqlite import parse_store
@@ -76,7 +80,7 @@ from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.config import Table, load
 
 #: The collector's own tables; any other top-level table is a sink's (``sinks.find_sink``).
-OWN_TABLES = ("sqlite", "buffer", "source", "web", "alarm", "notify")
+OWN_TABLES = ("sqlite", "buffer", "source", "web", "alarm", "notify", "cluster")
 _SOURCE = (
     "url",
     "interval",
@@ -139,6 +143,15 @@ class SourceConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class ClusterConfig:
+    """``[cluster]``: this collector shares its sources with the others on the
+    ``[postgres]`` server (:mod:`sondalog.collect.share`)."""
+
+    #: Seconds a source stays with a member that stopped renewing (turns: a third of it).
+    lease: float
+
+
+@dataclass(frozen=True, slots=True)
 class CollectorConfig:
     path: Path
     store: Path
@@ -150,6 +163,8 @@ class CollectorConfig:
     web: WebConfig = field(default_factory=WebConfig)
     #: ``[[alarm]]`` rules and ``[[notify]]`` destinations (docs/alarms.md).
     alarms: AlarmPlan = field(default_factory=AlarmPlan)
+    #: ``[cluster]``, None: this collector polls every source itself.
+    cluster: ClusterConfig | None = None
 
 
 def load_config(path: Path) -> CollectorConfig:
@@ -182,9 +197,28 @@ def parse_config(root: Table) -> CollectorConfig:
         seen.add(source.name)
     web = parse_web(root.table("web"), os.environ)
     alarms = _alarms(root)
+    cluster = _cluster(root, sources, sinks)
     return CollectorConfig(
-        path, store.path, store.readings, buffer, tuple(sources), sinks, web, alarms
+        path, store.path, store.readings, buffer, tuple(sources), sinks, web, alarms, cluster
     )
+
+
+def _cluster(
+    root: Table, sources: list[SourceConfig], sinks: dict[str, Any]
+) -> ClusterConfig | None:
+    """``[cluster]`` (``share = false`` turns it off), which needs ``[postgres]``."""
+    table = root.table("cluster", keys=("share", "lease"))
+    if "cluster" not in root or not table.flag("share", True):
+        return None
+    if "postgres" not in sinks:
+        raise root.fail(
+            "cluster", "sharing the sources needs a [postgres] table: the leases live there"
+        )
+    lease = default_lease(s.interval for s in sources)
+    return ClusterConfig(table.number("lease", lease, lo=0.3, hi=3600, what=_LEASE))
+
+
+_LEASE = "a number of seconds from 0.3 to 3600"
 
 
 def _alarms(root: Table) -> AlarmPlan:

@@ -25,6 +25,7 @@ from sondalog.collect.alarm_loop import AlarmLoop
 from sondalog.collect.buffer import DiskBuffer, deliver, drain
 from sondalog.collect.config import CollectorConfig
 from sondalog.collect.model import Announcing, Reading, Sink, SinkUnavailable
+from sondalog.collect.share import Share, share_of
 from sondalog.collect.sinks import build_sinks
 from sondalog.collect.sources import Source, make_source
 from sondalog.collect.store_sqlite import SqliteStore, now_text
@@ -60,6 +61,8 @@ class Collector:
         self.failing: set[str] = set()
         #: The alarms (docs/alarms.md), when the file has ``[[alarm]]`` rules.
         self.alarms: AlarmLoop | None = AlarmLoop(config) if config.alarms.rules else None
+        #: ``[cluster]``: the sources this collector holds are polled (docs/scaling.md).
+        self.share: Share | None = None
 
     def open(self) -> None:
         """Build the sinks (their tables were checked when the file was loaded) and open the
@@ -71,8 +74,10 @@ class Collector:
         for source_config in self.config.sources:
             self.store.add_source(source_config.name, source_config.url, source_config.kind)
             self.sources.append(make_source(source_config, self.store))
+        hold = None if self.alarms is None else self.alarms.hold
+        self.share = share_of(self.config, self.store, self.sources, self._confirmed, hold)
         if self.alarms is not None:
-            self.alarms.open(self.store, self.config.sources)
+            self.alarms.open(self.store, () if self.share else self.config.sources)
 
     async def run(self, stop: asyncio.Event, *, once: bool = False) -> None:
         """Contact every source until ``stop`` is set (``once``: one contact each, then return)."""
@@ -90,7 +95,10 @@ class Collector:
                 name=f"source {source.config.name}",
             )
             for i, source in enumerate(self.sources)
+            if self.share is None
         ]
+        if self.share is not None:  # the sources it holds, started and stopped by it
+            tasks.append(asyncio.create_task(self.share.run(self._loop, once), name="cluster"))
         replay = asyncio.create_task(self._replay(), name="sink replay")
         background = [replay]
         if self.alarms is not None:
@@ -157,6 +165,10 @@ class Collector:
         if self.alarms is not None:  # alarms and their notifications before the cursor
             self.alarms.readings(source, batch, **state)
         self.store.commit_chunk(source, batch, cursor, **state)
+
+    def _confirmed(self) -> bool:
+        """Every batch delivered so far is on the PostgreSQL server (none waits for it)."""
+        return self.buffer is None or self.buffer.count("postgres") == 0
 
     def _sink_state(self, sink: Sink, up: bool) -> None:
         if self.alarms is not None and self.buffer is not None:

@@ -208,9 +208,12 @@ class Api(AlarmHandlers):
             return overview.overview(c), store.sources(c)
 
         data, sources = await self._db(work)
-        on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
+        shown = await self._alarms_shown(lambda s: alarms.active(s, sources), list[Any]())
+        on, unavailable = shown
         refresh = self.settings.overview_refresh_s
-        return HTMLResponse(pages.overview(data, refresh_s=refresh, alarms=on))
+        return HTMLResponse(
+            pages.overview(data, refresh_s=refresh, alarms=on, unavailable=unavailable)
+        )
 
     async def page_plot(self, request: Request) -> Response:
         logger = request.path_params["logger"]
@@ -220,7 +223,8 @@ class Api(AlarmHandlers):
             return store.channels(c, logger), store.sources(c)
 
         chans, sources = await self._db(work)
-        on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
+        shown = await self._alarms_shown(lambda s: alarms.active(s, sources), list[Any]())
+        on, unavailable = shown
         mine = [a for a in on if a["logger"] == logger]
         return HTMLResponse(
             pages.plot(
@@ -229,6 +233,7 @@ class Api(AlarmHandlers):
                 alarms=mine,
                 alarm_count=len(on),
                 refresh_s=self.settings.overview_refresh_s,
+                unavailable=unavailable,
             )
         )
 
@@ -246,7 +251,7 @@ class Api(AlarmHandlers):
             return alarms.history(s), len(s.active_states())
 
         no_alarms: tuple[list[dict[str, Any]], int] = ([], 0)
-        past, count = await self._alarms_shown(work, no_alarms)
+        (past, count), unavailable = await self._alarms_shown(work, no_alarms)
         return HTMLResponse(
             pages.log(
                 evs,
@@ -255,6 +260,7 @@ class Api(AlarmHandlers):
                 alarm_history=past,
                 alarm_count=count,
                 refresh_s=self.settings.overview_refresh_s,
+                unavailable=unavailable,
             )
         )
 

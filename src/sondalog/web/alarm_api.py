@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import logging
-import sqlite3
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -34,7 +33,7 @@ log = logging.getLogger(__name__)
 class Settings(Protocol):
     """What the alarm requests need of :class:`~.app.Settings`."""
 
-    store: Path
+    store: Path | None
     token: str | None
     alarms: alarms.AlarmAccess
 
@@ -66,7 +65,7 @@ class AlarmHandlers:
 
     settings: Settings
 
-    async def _db(self, work: Callable[[sqlite3.Connection], T]) -> T:
+    async def _db(self, work: Callable[[store.Db], T]) -> T:
         raise NotImplementedError
 
     async def _alarms(

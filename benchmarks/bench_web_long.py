@@ -5,7 +5,9 @@ channel), the plot request of the whole year, a month and a week
 (``/api/loggers/1001/series``), served by :func:`sondalog.web.serve` over real uvicorn:
 
 - **server time**: the handler's own time, from the response's ``Server-Timing`` header
-  (query, downsampling and JSON; not the HTTP client), best and median of ``--runs``;
+  (query, downsampling and JSON; not the HTTP client), best and median of ``--runs``; and
+  the CPU time of the request's threads (``cpu``), which other processes' load on a shared
+  machine does not inflate (a PostgreSQL server's own CPU is not in it);
 - end to end over HTTP, best;
 - each store with its per-block extremes (``readings_blocks``, :mod:`sondalog.web.blocks`)
   and, for the year, without them (the rows' path, the one before issue 24), with the time
@@ -111,19 +113,22 @@ def measure(label: str, app: object, runs: int, ranges: tuple[str, ...]) -> None
             days = {"year": 365, "month": 31, "week": 7}[name]
             frm = (START + timedelta(days=365 - days)).strftime("%Y-%m-%dT%H:%M:%S")
             url = f"{base}?from={frm}&to=2025-12-31T23:59:59"
-            server, total = [], []
+            server, cpu, total = [], [], []
             for _ in range(runs):
                 t0 = time.perf_counter()
                 with urllib.request.urlopen(url) as resp:
                     body = resp.read()
                     timing = resp.headers["Server-Timing"]
                 total.append(time.perf_counter() - t0)
-                server.append(float(timing.split("dur=")[1]) / 1e3)
+                parts = dict(p.strip().split(";dur=") for p in timing.split(","))
+                server.append(float(parts["app"]) / 1e3)
+                cpu.append(float(parts["cpu"]) / 1e3)
             data = json.loads(body)
             most = max(len(s["v"]) for s in data["series"])
             print(
                 f"{label:>26} {name:>5}: server best {min(server) * 1e3:6.1f} ms, "
-                f"median {statistics.median(server) * 1e3:6.1f} ms; HTTP best "
+                f"median {statistics.median(server) * 1e3:6.1f} ms; CPU best "
+                f"{min(cpu) * 1e3:6.1f} median {statistics.median(cpu) * 1e3:6.1f} ms; HTTP best "
                 f"{min(total) * 1e3:6.1f} ms; {len(data['series'])} series <= {most} points, "
                 f"bucket {data['bucket_s']} s",
                 flush=True,

@@ -70,7 +70,9 @@ def sqlite_with(rows: list[Row], *, blocks_first: bool | None) -> sqlite3.Connec
 
 
 def answers(conn: sqlite3.Connection, edges: list[str]) -> list[tuple[object, ...]]:
-    return sorted(store.bucketed(conn, "L", edges), key=repr)
+    """The old path's answer, times in seconds as the new one gives them."""
+    old = store.bucketed(conn, "L", edges)
+    return sorted(((i, ch, w, v, to_epoch(t)) for i, ch, w, v, t in old), key=repr)
 
 
 @settings(max_examples=60, deadline=None)
@@ -101,7 +103,7 @@ def test_install_is_idempotent_and_the_trigger_keeps_up(tmp_path: Path) -> None:
     )
     edges = ["2026-03-01T00:00:00", "2026-03-01T01:00:00"]
     got = {(w, v, t) for _, ch, w, v, t in blocks.extremes(store.of_file(conn), "L", edges)}
-    assert (0, -1000.0, "2026-03-01T00:10:00") in got
+    assert (0, -1000.0, to_epoch("2026-03-01T00:10:00")) in got
 
 
 # -- PostgreSQL ---------------------------------------------------------------------------

@@ -48,6 +48,8 @@ from .times import from_epoch
 
 #: Block lengths (seconds), finest first.
 SIZES = (300, 3600)
+#: A block size serves buckets at least this many times as long.
+WORTH = 4
 _LOCK_ID = 0x50D4_B10C  # advisory lock of the PostgreSQL install
 
 
@@ -253,23 +255,28 @@ def _query(dialect: Any, layout: tuple[int, ...]) -> str:
     for which in ("min", "max"):
         arms = [_RAW if size == 0 else _blocks(size, which) for size in layout]
         inner = dialect.extreme(which, " UNION ALL ".join(arms))
-        out.append(f"SELECT channel, {0 if which == 'min' else 1}, v, t FROM ({inner}) e{which}")
+        at = dialect.epoch("t")  # seconds, as the plot's x: no conversion per point in Python
+        out.append(f"SELECT channel, {0 if which == 'min' else 1}, v, {at} FROM ({inner}) e{which}")
     return " UNION ALL ".join(out)
 
 
 def extremes(
     db: Db, logger: str, edges: Sequence[str], *, use_blocks: bool | None = None
-) -> Iterator[tuple[int, int, int, float | None, str]]:
+) -> Iterator[tuple[int, int, int, float | None, int]]:
     """``(bucket, channel, which, value, time)`` as :func:`~.store.bucketed` gives them, for
-    buckets ``[edges[i], edges[i+1])`` (whole seconds), on either store; from the blocks
-    when the store has them (``use_blocks`` None) or when told."""
+    buckets ``[edges[i], edges[i+1])`` (whole seconds), on either store, but ``time`` in
+    seconds since 1970 (:func:`~.times.to_epoch` of the text); from the blocks when the
+    store has them (``use_blocks`` None) or when told. A block size is used only for
+    buckets at least :data:`WORTH` times as long (shorter ones read fewer rows raw)."""
     from .times import to_epoch
 
     blocks = db.has_blocks if use_blocks is None else use_blocks
-    sizes = SIZES if blocks else ()
     queries: dict[tuple[int, ...], list[tuple[int, list[object]]]] = {}
+    at = [to_epoch(e) for e in edges]
+    width = at[1] - at[0] if len(at) > 1 else 0
+    sizes = tuple(s for s in SIZES if blocks and width >= WORTH * s)
     for i in range(len(edges) - 1):
-        parts = pieces(to_epoch(edges[i]), to_epoch(edges[i + 1]), sizes)
+        parts = pieces(at[i], at[i + 1], sizes)
         params: list[object] = []
         for size, lo, hi in parts:
             params += [logger, from_epoch(lo), from_epoch(hi)] if size == 0 else [logger, lo, hi]
@@ -286,7 +293,7 @@ def extremes(
 
 def _pipelined(
     db: Db, sql: str, runs: list[tuple[int, list[object]]]
-) -> Iterator[tuple[int, int, int, float | None, str]]:
+) -> Iterator[tuple[int, int, int, float | None, int]]:
     """One round trip for many buckets (psycopg's pipeline)."""
     with db.conn.cursor() as cur:
         cur.executemany(sql, [p for _, p in runs], returning=True)

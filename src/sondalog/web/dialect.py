@@ -64,14 +64,14 @@ class ReadDialect:
         """Per channel of ``pieces`` (a query of ``channel, v, t`` rows in time order): its
         smallest (``which`` = ``min``) or largest (``max``) ``v`` with the earliest ``t``
         that has it, or, with every ``v`` NULL, NULL and the latest ``t``. Gives
-        ``channel, v, t`` (``t`` as text)."""
+        ``channel, v, t`` (``t`` as stored)."""
         if which not in ("min", "max"):
             raise ValueError(f"which must be min or max, not {which!r}")
         if not self.postgres:
             return f"SELECT channel, {which}(v) AS v, t FROM ({pieces}) GROUP BY channel"
         order = "" if which == "min" else " DESC"
         return (
-            f"SELECT DISTINCT ON (channel) channel, v, {self.time('t')} AS t FROM ({pieces}) p "
+            f"SELECT DISTINCT ON (channel) channel, v, t FROM ({pieces}) p "
             f"ORDER BY channel, v{order} NULLS LAST, CASE WHEN v IS NULL THEN t END DESC, t"
         )
 

@@ -134,7 +134,7 @@ def _downsampled(
     by_ch: dict[int, Series],
 ) -> float:
     edges, width = blocks.bucket_edges(lo, hi, buckets)
-    cells: dict[int, dict[int, dict[int, tuple[float | None, str]]]] = {}
+    cells: dict[int, dict[int, dict[int, tuple[float | None, int]]]] = {}
     for i, ch, which, value, time in blocks.extremes(db, logger, edges):
         cells.setdefault(ch, {}).setdefault(i, {})[which] = (value, time)
     for ch, per_bucket in cells.items():
@@ -153,16 +153,16 @@ def _downsampled(
 
 
 def _extremes(
-    cell: dict[int, tuple[float | None, str]], bars: bool
+    cell: dict[int, tuple[float | None, int]], bars: bool
 ) -> list[tuple[float, float | None]]:
     """A bucket's points: its smallest and largest value at the times of readings that
     have them, in time order (so every point lies in the range, where a reading was);
     bars: the largest only."""
     vmax, tmax = cell[1]
     if bars or cell[0][0] == vmax:
-        return [(to_epoch(tmax), vmax)]
+        return [(tmax, vmax)]
     vmin, tmin = cell[0]
-    a, b = to_epoch(tmin), to_epoch(tmax)
+    a, b = tmin, tmax
     if a == b:  # two rows of one second (counters): a millisecond apart, as raw rows are
         return [(a, vmin), (b + 0.001, vmax)]
     return sorted([(a, vmin), (b, vmax)])

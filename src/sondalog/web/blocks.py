@@ -282,25 +282,39 @@ def extremes(
             params += [logger, from_epoch(lo), from_epoch(hi)] if size == 0 else [logger, lo, hi]
         queries.setdefault(tuple(p[0] for p in parts), []).append((i, params + params))
     for layout, runs in queries.items():
-        sql = db.dialect.sql(_query(db.dialect, layout))
         if db.dialect.postgres:
-            yield from _pipelined(db, sql, runs)
+            yield from _lateral(db, layout, runs)
             continue
+        sql = db.dialect.sql(_query(db.dialect, layout))
         for i, params in runs:
             for ch, which, value, time in db.conn.execute(sql, params):
                 yield i, ch, which, value, time
 
 
-def _pipelined(
-    db: Db, sql: str, runs: list[tuple[int, list[object]]]
+def _lateral(
+    db: Db, layout: tuple[int, ...], runs: list[tuple[int, list[object]]]
 ) -> Iterator[tuple[int, int, int, float | None, int]]:
-    """One round trip for many buckets (psycopg's pipeline)."""
-    with db.conn.cursor() as cur:
-        cur.executemany(sql, [p for _, p in runs], returning=True)
-        for i, _ in runs:
-            for ch, which, value, time in cur.fetchall():
-                yield i, ch, which, value, time
-            cur.nextset()
+    """Every bucket of one layout in one statement on PostgreSQL: the buckets' parameters
+    as arrays (``unnest``), the bucket's query (the same text as on SQLite, its ``?`` now
+    the row's columns) run for each (``CROSS JOIN LATERAL``): one round trip, one plan."""
+    text = _query(db.dialect, layout)
+    parts = text.split("?")
+    half = (len(parts) - 1) // 2  # the min and the max half take the same parameters
+    sql = parts[0] + "".join(f"b.c{j % half}{rest}" for j, rest in enumerate(parts[1:]))
+    kinds = [
+        kind
+        for size in layout
+        for kind in ("text", *(("timestamp",) * 2 if size == 0 else ("bigint",) * 2))
+    ]
+    arrays = ", ".join(f"%s::{kind}[]" for kind in kinds)
+    columns = ", ".join(f"c{k}" for k in range(half))
+    query = (
+        f"SELECT b.i, e.* FROM unnest(%s::int[], {arrays}) AS b(i, {columns}) "
+        f"CROSS JOIN LATERAL ({sql}) e"
+    )
+    params: list[object] = [[i for i, _ in runs]]
+    params += [[p[k] for _, p in runs] for k in range(half)]
+    yield from db.conn.execute(query, params)
 
 
 def bucket_edges(lo: str, hi: str, buckets: int) -> tuple[list[str], int]:

@@ -171,3 +171,16 @@ def test_postgres_readings_without_a_postgres_sink_is_refused(tmp_path: Path) ->
     config = _file(tmp_path, 'readings = "postgres"\n')  # in [web]
     with pytest.raises(WebUnavailable, match=r"web\.readings: readings = 'postgres' needs"):
         _serve(config)
+
+
+def test_blocks_false_leaves_the_file_as_it_is(tmp_path: Path) -> None:
+    config = _file(tmp_path, "blocks = false\n")  # in [web]
+    _url, stop, thread, _ = _serve(config)
+    try:
+        file = sqlite3.connect(tmp_path / "collector.sqlite")
+        names = {r[0] for r in file.execute("SELECT name FROM sqlite_master")}
+        file.close()
+        assert "readings_blocks" not in names and "readings_blocks_add" not in names
+    finally:
+        stop.set()
+        thread.join(30)

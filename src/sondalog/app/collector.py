@@ -77,7 +77,9 @@ async def run_collector(
             )
         else:
             dsn = readings_dsn(collector)
-            if dsn is None:
+            if not web.blocks:
+                pass  # [web] blocks = false: the store is left as it is
+            elif dsn is None:
                 await asyncio.to_thread(_blocks_in_file, collector.config.store)
             else:
                 helpers.append(asyncio.create_task(_blocks_on_server(dsn), name="blocks"))

@@ -8,6 +8,7 @@
     token = "..."               # ... and then a token is required (or $SONDALOG_WEB_TOKEN)
     enabled = true              # false: no dashboard
     readings = "auto"           # where it reads the readings: "sqlite", "postgres", "auto"
+    blocks = true               # per-block extremes kept at ingest there (fast long ranges)
 
 Without a ``[web]`` table the collector serves the dashboard on ``127.0.0.1:8080``. An address
 beyond loopback is refused here, at configuration time, unless ``allow_remote = true`` and a
@@ -18,7 +19,10 @@ token is set: the same rule as :func:`sondalog.web.server.check_listen`, checked
 docs/decisions.md): ``sqlite`` the collector's file, ``postgres`` the server of the
 ``[postgres]`` sink, ``auto`` (the default) the file unless it keeps no readings
 (``[sqlite] readings = false``) and a ``[postgres]`` sink is configured. Sources, events,
-channel types always come from the file (only it has them).
+channel types always come from the file (only it has them). ``blocks`` (default true) makes
+the per-block extremes there (:mod:`sondalog.web.blocks`): a year's plot in a fraction of
+the time, each stored reading costing a little more; false leaves a store as it is (an
+existing table and trigger stay).
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from sondalog.config import Table, format_address, is_loopback
 DEFAULT_LISTEN = ("127.0.0.1", 8080)
 #: The environment variable a token may come from (kept out of the file and the command line).
 TOKEN_ENV = "SONDALOG_WEB_TOKEN"
-_KEYS = ("allow_remote", "enabled", "listen", "readings", "token")
+_KEYS = ("allow_remote", "blocks", "enabled", "listen", "readings", "token")
 #: Where the dashboard may read the readings from.
 READINGS = ("auto", "sqlite", "postgres")
 _TOKEN = r"[A-Za-z0-9._~+/=-]{8,}"
@@ -52,6 +56,8 @@ class WebConfig:
     explicit: bool = False
     #: The store of record the dashboard reads the readings from (:data:`READINGS`).
     readings: str = "auto"
+    #: Make the per-block extremes where the dashboard reads (``[web] blocks``).
+    blocks: bool = True
 
 
 def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
@@ -82,7 +88,8 @@ def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
                 f"(or ${TOKEN_ENV}); requests then need 'Authorization: Bearer <token>'",
             )
     readings = table.text("readings", "auto", choices=READINGS)
-    return WebConfig(enabled, host, port, remote, token, "listen" in table, readings)
+    blocks = table.flag("blocks", True)
+    return WebConfig(enabled, host, port, remote, token, "listen" in table, readings, blocks)
 
 
 def readings_on_server(web: WebConfig, *, file_keeps_readings: bool, has_postgres: bool) -> bool:

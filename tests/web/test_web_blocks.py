@@ -97,6 +97,9 @@ def test_sqlite_blocks_answer_as_the_rows_did(seed: int, n: int, channels: int) 
 def test_install_is_idempotent_and_the_trigger_keeps_up(tmp_path: Path) -> None:
     conn = sqlite_with(random_rows(random.Random(1), 50, 2, 3600), blocks_first=False)
     assert not blocks.install_sqlite(conn)  # already there
+    conn.execute("DROP TRIGGER readings_blocks_add")  # a table without its trigger: not used
+    assert not store.of_file(conn).has_blocks
+    assert blocks.install_sqlite(conn) and store.of_file(conn).has_blocks
     conn.execute(
         "INSERT INTO readings (logger, channel, time, counter, type, value) "
         "VALUES ('L', 1, '2026-03-01T00:10:00', 7, 1, -1000)"

@@ -73,9 +73,21 @@ def connect_file(path: Path) -> sqlite3.Connection:
     return conn
 
 
+#: The blocks are used only with the trigger that keeps them (a table left without it would
+#: miss every reading stored since: the rows are read instead).
+FILE_BLOCKS = (
+    "SELECT count(*) = 2 FROM sqlite_master WHERE (type, name) IN "
+    "(VALUES ('table', 'readings_blocks'), ('trigger', 'readings_blocks_add'))"
+)
+SERVER_BLOCKS = (
+    "SELECT to_regclass('readings_blocks') IS NOT NULL AND EXISTS (SELECT 1 FROM pg_trigger "
+    "WHERE tgname = 'readings_blocks_add' AND tgrelid = 'readings'::regclass "
+    "AND tgenabled <> 'D')"
+)
+
+
 def _file_blocks(conn: sqlite3.Connection) -> bool:
-    q = "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'readings_blocks'"
-    return conn.execute(q).fetchone() is not None
+    return bool(conn.execute(FILE_BLOCKS).fetchone()[0])
 
 
 class Readings:
@@ -109,8 +121,7 @@ class Readings:
         try:
             conn = self._take()
             try:
-                found = conn.execute("SELECT to_regclass('readings_blocks') IS NOT NULL")
-                blocks = bool(found.fetchone()[0])
+                blocks = bool(conn.execute(SERVER_BLOCKS).fetchone()[0])
             except Exception as exc:
                 self._discard(conn)
                 self._slots.release()

@@ -23,7 +23,7 @@ from typing import Any
 
 from sondalog.collect.schema import COLUMNS
 
-from .db import Db, StoreUnavailable, connect_file
+from .db import FILE_BLOCKS, Db, StoreUnavailable, connect_file
 from .dialect import SQLITE
 
 __all__ = ["Channel", "Db", "StoreUnavailable"]
@@ -61,8 +61,7 @@ def connect(path: Path) -> Db:
 def of_file(conn: sqlite3.Connection) -> Db:
     """A :class:`Db` whose readings are in the SQLite connection ``conn`` (read-only or not:
     the queries only read)."""
-    q = "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'readings_blocks'"
-    return Db(SQLITE, conn, conn, conn.execute(q).fetchone() is not None)
+    return Db(SQLITE, conn, conn, bool(conn.execute(FILE_BLOCKS).fetchone()[0]))
 
 
 def _file_rows(db: Db, sql: str, params: Sequence[object] = ()) -> list[tuple[Any, ...]]:

@@ -26,6 +26,7 @@ import asyncio
 import contextlib
 import json
 import math
+import os
 import shutil
 import sqlite3
 import statistics
@@ -159,6 +160,7 @@ def main() -> None:
     parser.add_argument("--skip-postgres", action="store_true")
     parser.add_argument("--no-rows-path", action="store_true", help="skip the slow old path")
     args = parser.parse_args()
+    print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()), flush=True)
     tmp = tempfile.TemporaryDirectory()
     ranges = ("year", "month", "week")
     if not args.skip_sqlite:

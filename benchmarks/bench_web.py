@@ -80,7 +80,8 @@ def main() -> None:
     )
     print(f"store: {path} ({size / 1e6:.0f} MB)")
 
-    conn = web_store.connect(path)
+    db = web_store.connect(path)
+    conn = db.conn
     plan = conn.execute(
         "EXPLAIN QUERY PLAN SELECT channel, min(value), max(value) FROM readings WHERE "
         "logger = '1001' AND time >= '2025-03' AND time < '2025-04' AND channel > 0 "
@@ -88,7 +89,7 @@ def main() -> None:
     ).fetchall()
     print("bucket query plan:", "; ".join(str(row[3]) for row in plan))
     t0 = time.perf_counter()
-    n = len(web_store.newer(conn, "1001", "2025-12-31T23:59:00", 5000))
+    n = len(web_store.newer(db, "1001", "2025-12-31T23:59:00", 5000))
     print(f"live poll query: {(time.perf_counter() - t0) * 1e3:.2f} ms ({n} rows)")
     conn.close()
 

@@ -56,3 +56,27 @@ def server(store: Path) -> Iterator[Running]:
     running = Running(create_app(store, poll_interval=0.2, overview_refresh=0.3))
     yield running
     running.stop()
+
+
+def _services() -> object:
+    """The collector tests' real servers (``tests/collect/services.py``)."""
+    import sys
+
+    here = str(Path(__file__).resolve().parents[1] / "collect")
+    if here not in sys.path:
+        sys.path.append(here)
+    import services
+
+    return services
+
+
+@pytest.fixture(scope="session")
+def postgres() -> Iterator[object]:
+    """A throwaway PostgreSQL server (skipped without the binaries)."""
+    yield from _services().postgres.__wrapped__()  # type: ignore[attr-defined]
+
+
+@pytest.fixture
+def pg_dsn(postgres: object) -> str:
+    """A fresh database on the session's server."""
+    return postgres.create_db()  # type: ignore[attr-defined,no-any-return]

@@ -226,3 +226,33 @@ def test_an_alarm_server_that_cannot_be_reached(store: Path) -> None:
         assert html(running.url + "/loggers/1001") and html(running.url + "/log")
     finally:
         running.stop()
+
+
+def test_pages_say_alarms_are_unavailable_not_that_there_are_none(store: Path) -> None:
+    """With the alarm server down no page says "No active alarms" (or "0 active alarms",
+    "No alarm has been raised"): each says the alarms are unavailable, naming no DSN; once
+    the store can be read again the pages say there are none."""
+    from sondalog.collect.alarms.store_pg import PostgresAlarmStore
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    down = PostgresAlarmStore(f"host=127.0.0.1 port={port} user=secret-user", connect_timeout=1)
+    running = Running(create_app(store, alarm_store=down))
+    try:
+        for path in ("/", "/loggers/1001", "/log"):
+            page = html(running.url + path)
+            assert "Alarms unavailable:" in page, path
+            assert "the alarms on the [postgres] server cannot be read now" in page
+            assert ">alarms unavailable</a>" in page  # the header's count
+            assert "No active alarms" not in page and "0 active alarms" not in page
+            assert "No alarm has been raised" not in page and "secret-user" not in page
+    finally:
+        running.stop()
+    running = Running(create_app(store))  # the file's alarm tables: readable, none there
+    try:
+        assert "No active alarms" in html(running.url + "/")
+        assert "No alarm has been raised" in html(running.url + "/log")
+        assert "unavailable" not in html(running.url + "/loggers/1001")
+    finally:
+        running.stop()

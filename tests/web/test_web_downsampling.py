@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sondalog.collect.schema import SQLITE_DDL
-from sondalog.web import series, store
+from sondalog.web import blocks, series, store
 from sondalog.web.series import break_gaps
 from sondalog.web.times import to_epoch
 
@@ -23,12 +23,15 @@ values = st.one_of(st.none(), st.floats(-1e6, 1e6, allow_nan=False))
     vals=st.lists(values, min_size=400, max_size=400),
     channels=st.integers(1, 3),
     max_points=st.sampled_from([10, 40, 100, 2000]),
+    kept=st.sampled_from(["rows", "blocks by trigger", "blocks filled"]),
 )
 def test_budget_extremes_and_gaps(
-    steps: list[int], vals: list[float | None], channels: int, max_points: int
+    steps: list[int], vals: list[float | None], channels: int, max_points: int, kept: str
 ) -> None:
-    conn = sqlite3.connect(":memory:")
+    conn = sqlite3.connect(":memory:", isolation_level=None)
     conn.executescript(SQLITE_DDL)
+    if kept == "blocks by trigger":
+        blocks.install_sqlite(conn)
     t = datetime(2026, 1, 1)
     rows = []
     for i, step in enumerate(steps):
@@ -42,8 +45,12 @@ def test_budget_extremes_and_gaps(
         "value, text, name, unit) VALUES (?,?,?,?,?,?,?,?,?)",
         rows,
     )
+    if kept == "blocks filled":
+        blocks.install_sqlite(conn)
+    db = store.of_file(conn)
+    assert db.has_blocks == (kept != "rows")
     lo, hi = "2026-01-01T00:00:00", t.strftime("%Y-%m-%dT%H:%M:%S")
-    got, width = series.load(conn, "L", store.channels(conn, "L"), lo, hi, max_points)
+    got, width = series.load(db, "L", store.channels(db, "L"), lo, hi, max_points)
     assert len(got) == channels
     stored = [v for v in vals[: len(steps)] if v is not None]
     readings = {(to_epoch(r[2]), r[5]) for r in rows if r[1] == 1 and r[5] is not None}
@@ -90,7 +97,8 @@ def test_downsampled_extremes_keep_their_times_and_order() -> None:
         rows,
     )
     lo, hi = rows[0][2], rows[-1][2]
-    (s,), width = series.load(conn, "L", store.channels(conn, "L"), lo, hi, 40)
+    db = store.of_file(conn)
+    (s,), width = series.load(db, "L", store.channels(db, "L"), lo, hi, 40)
     assert width is not None
     assert s.v == sorted(s.v, reverse=True)  # falling, as the readings do
     assert s.t[0] == to_epoch(lo) and s.t[-1] == to_epoch(hi)

@@ -49,3 +49,39 @@ def test_a_bad_or_remote_listen_is_refused_before_serving(store: Path) -> None:
         )
         assert done.returncode == 2, done.stderr
         assert message in done.stderr and "Traceback" not in done.stderr
+
+
+def test_store_options_for_a_server(store: Path, pg_dsn: str) -> None:
+    """``--store`` takes a PostgreSQL connection string (issue 24); a bad one, or ``--file``
+    with a file as ``--store``, is a message and exit code 2; a good one is served."""
+    for args, message in [
+        (["--store", "host=h nonsense", "--listen", "127.0.0.1:0"], "--store: not a valid"),
+        (["--store", str(store), "--file", str(store)], "--file: only with a PostgreSQL server"),
+    ]:
+        done = subprocess.run([*WEB, *args], capture_output=True, text=True, timeout=30)
+        assert done.returncode == 2, done.stderr
+        assert message in done.stderr and "Traceback" not in done.stderr
+    proc = subprocess.Popen(
+        [*WEB, "--store", pg_dsn, "--file", str(store), "--listen", "127.0.0.1:0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = re.search(r"http://\S+/", line)
+        assert url, line
+        import urllib.error
+        import urllib.request
+
+        try:  # the server has no readings table yet: 503, naming no DSN
+            urllib.request.urlopen(url.group(0) + "api/loggers", timeout=30)
+            raise AssertionError("expected 503")
+        except urllib.error.HTTPError as exc:
+            body = exc.read().decode()
+            assert exc.code == 503 and "the [postgres] server" in body, body
+            assert "dbname" not in body
+    finally:
+        proc.terminate()
+        proc.wait(10)

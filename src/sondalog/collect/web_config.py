@@ -7,11 +7,22 @@
     allow_remote = false        # true: allow an address beyond loopback ...
     token = "..."               # ... and then a token is required (or $SONDALOG_WEB_TOKEN)
     enabled = true              # false: no dashboard
+    readings = "auto"           # where it reads the readings: "sqlite", "postgres", "auto"
+    blocks = false              # true: per-block extremes kept at ingest (fast long ranges)
 
 Without a ``[web]`` table the collector serves the dashboard on ``127.0.0.1:8080``. An address
 beyond loopback is refused here, at configuration time, unless ``allow_remote = true`` and a
 token is set: the same rule as :func:`sondalog.web.server.check_listen`, checked early so that
 ``sondalog collect --check`` reports it with the file's line.
+
+``readings`` says which store of record the dashboard reads the readings from (issue 24,
+docs/decisions.md): ``sqlite`` the collector's file, ``postgres`` the server of the
+``[postgres]`` sink, ``auto`` (the default) the file unless it keeps no readings
+(``[sqlite] readings = false``) and a ``[postgres]`` sink is configured. Sources, events,
+channel types always come from the file (only it has them). ``blocks`` (default false; true makes
+the per-block extremes there) (:mod:`sondalog.web.blocks`): a year's plot in a fraction of
+the time, each stored reading costing a little more; false leaves a store as it is (an
+existing table and trigger stay).
 """
 
 from __future__ import annotations
@@ -25,7 +36,9 @@ from sondalog.config import Table, format_address, is_loopback
 DEFAULT_LISTEN = ("127.0.0.1", 8080)
 #: The environment variable a token may come from (kept out of the file and the command line).
 TOKEN_ENV = "SONDALOG_WEB_TOKEN"
-_KEYS = ("allow_remote", "enabled", "listen", "token")
+_KEYS = ("allow_remote", "blocks", "enabled", "listen", "readings", "token")
+#: Where the dashboard may read the readings from.
+READINGS = ("auto", "sqlite", "postgres")
 _TOKEN = r"[A-Za-z0-9._~+/=-]{8,}"
 _TOKEN_WHAT = "8 or more characters of letters, digits and ._~+/=-"
 
@@ -41,6 +54,10 @@ class WebConfig:
     token: str | None = None
     #: The file names ``listen`` (a busy port is then an error, not a warning).
     explicit: bool = False
+    #: The store of record the dashboard reads the readings from (:data:`READINGS`).
+    readings: str = "auto"
+    #: Make the per-block extremes where the dashboard reads (``[web] blocks``).
+    blocks: bool = False
 
 
 def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
@@ -70,4 +87,19 @@ def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
                 f"refusing to serve the dashboard on {host} without a token: set token "
                 f"(or ${TOKEN_ENV}); requests then need 'Authorization: Bearer <token>'",
             )
-    return WebConfig(enabled, host, port, remote, token, "listen" in table)
+    readings = table.text("readings", "auto", choices=READINGS)
+    blocks = table.flag("blocks", False)
+    return WebConfig(enabled, host, port, remote, token, "listen" in table, readings, blocks)
+
+
+def readings_on_server(web: WebConfig, *, file_keeps_readings: bool, has_postgres: bool) -> bool:
+    """Whether the dashboard reads the readings from the ``[postgres]`` server (else the
+    collector's file), by ``[web] readings``; ``postgres`` without a ``[postgres]`` sink is
+    a ``ValueError`` (the caller names the field)."""
+    if web.readings == "postgres":
+        if not has_postgres:
+            raise ValueError("readings = 'postgres' needs a [postgres] sink")
+        return True
+    if web.readings == "sqlite":
+        return False
+    return has_postgres and not file_keeps_readings

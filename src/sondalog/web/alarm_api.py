@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import logging
-import sqlite3
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -34,7 +33,7 @@ log = logging.getLogger(__name__)
 class Settings(Protocol):
     """What the alarm requests need of :class:`~.app.Settings`."""
 
-    store: Path
+    store: Path | None
     token: str | None
     alarms: alarms.AlarmAccess
 
@@ -66,7 +65,7 @@ class AlarmHandlers:
 
     settings: Settings
 
-    async def _db(self, work: Callable[[sqlite3.Connection], T]) -> T:
+    async def _db(self, work: Callable[[store.Db], T]) -> T:
         raise NotImplementedError
 
     async def _alarms(
@@ -76,15 +75,20 @@ class AlarmHandlers:
         no alarm tables yet); raises ``StoreUnavailable`` (503) when it cannot be read."""
         return await run_in_threadpool(self.settings.alarms.run, work, default, write=write)
 
-    async def _alarms_shown(self, work: Callable[[SqlAlarmStore], T], default: T) -> T:
+    async def _alarms_shown(
+        self, work: Callable[[SqlAlarmStore], T], default: T
+    ) -> tuple[T, str | None]:
         """As :meth:`_alarms` for a page: an alarm store that cannot be read (the
         ``[postgres]`` server is down) leaves the page without its alarms, and says so in
-        the log, rather than failing the whole page with the readings."""
+        the log, rather than failing the whole page with the readings. Returns the value
+        (``default`` then) and why the alarms are unavailable (None: they were read), so
+        the page says "alarms unavailable" rather than "no active alarms"."""
         try:
-            return await self._alarms(work, default)
+            return await self._alarms(work, default), None
         except store.StoreUnavailable as exc:
             log.warning("dashboard: %s", exc)
-            return default
+            # the page names the store, not the driver's message (it may name a user)
+            return default, f"the alarms on {self.settings.alarms.where} cannot be read now"
 
     async def alarm_list(self, request: Request) -> Response:
         """The active alarms and the latest transitions (``?logger=``: that logger's)."""

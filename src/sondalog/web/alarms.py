@@ -19,6 +19,7 @@ rebinding -- sends its own name as ``Host`` and ``Origin``).
 
 from __future__ import annotations
 
+import sqlite3
 import threading
 from collections.abc import Callable
 from datetime import UTC, datetime
@@ -51,6 +52,8 @@ class AlarmAccess:
         """The store in answers (never a DSN: it may hold a password)."""
         if isinstance(self.store, AlarmStore):
             return str(self.store.path)
+        if isinstance(self.store, NoAlarmStore):
+            return self.store.where
         return "the [postgres] server"
 
     def run(self, work: Callable[[SqlAlarmStore], T], default: T, *, write: bool = False) -> T:
@@ -70,6 +73,21 @@ class AlarmAccess:
     def close(self) -> None:
         with self._lock:
             self.store.close()
+
+
+class NoAlarmStore(SqlAlarmStore):
+    """No alarm store was named (``python -m sondalog.web`` on a server without
+    ``--file``): every look fails, so the pages say the alarms are unavailable rather than
+    that there are none (the collector may keep them anywhere)."""
+
+    errors = (sqlite3.Error,)
+
+    @property
+    def where(self) -> str:
+        return "no alarm store (give the collector's file with --file)"
+
+    def _connect(self) -> Any:
+        raise sqlite3.OperationalError("no alarm store was given")
 
 
 def host_time(epoch: object) -> str | None:

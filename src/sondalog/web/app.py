@@ -16,7 +16,7 @@ import csv
 import io
 import json
 import re
-import sqlite3
+import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from dataclasses import dataclass, field
 from functools import partial
@@ -43,6 +43,7 @@ from sondalog.collect.schema import COLUMNS
 from . import alarms, config_log, overview, pages, series, store
 from .alarm_api import AlarmHandlers
 from .auth import TokenGate
+from .db import Readings, query_errors
 from .times import BadParameter, parse_time, shift, to_epoch
 
 STATIC = Path(__file__).parent / "static"
@@ -64,7 +65,9 @@ def check_token(token: str | None) -> str | None:
 class Settings:
     """What the app serves and how."""
 
-    store: Path
+    #: The collector's SQLite file (sources, events, channel types; its readings too unless
+    #: ``readings_dsn``); None: a PostgreSQL server alone.
+    store: Path | None
     token: str | None = None
     poll_interval: float = 1.0
     max_points: int = 2000
@@ -73,21 +76,30 @@ class Settings:
     overview_refresh_s: float = 10.0
     #: Set by :func:`~sondalog.web.serve` when stopping: live streams end.
     stopping: bool = False
+    #: The PostgreSQL server the readings are read from (None: the store file's).
+    readings_dsn: str | None = None
     #: Where the alarms are (default: the alarm tables of the store file).
     alarms: alarms.AlarmAccess = field(init=False)
+    #: Where the readings are (:class:`~.db.Readings`).
+    readings: Readings = field(init=False)
 
     def __post_init__(self) -> None:
-        self.alarms = alarms.AlarmAccess(AlarmStore(self.store))
+        self.readings = Readings(self.store, self.readings_dsn)
+        if self.store is not None:
+            self.alarms = alarms.AlarmAccess(AlarmStore(self.store))
+        else:  # a server alone: the caller names the alarm store (create_app)
+            self.alarms = alarms.AlarmAccess(alarms.NoAlarmStore())
 
 
 def create_app(
-    store_path: Path,
+    store_path: Path | None,
     *,
     token: str | None = None,
     poll_interval: float = 1.0,
     max_points: int = 2000,
     overview_refresh: float = 10.0,
     alarm_store: SqlAlarmStore | None = None,
+    readings_dsn: str | None = None,
 ) -> Starlette:
     """The dashboard for the store at ``store_path`` (read-only; it may not exist yet).
 
@@ -97,13 +109,21 @@ def create_app(
     ``overview_refresh``: seconds between the overview page's refreshes;
     ``alarm_store``: where the collector keeps its alarms (not opened yet: the collector's
     ``alarm_store(config)``, a PostgreSQL store with ``[postgres] alarms = true``); default
-    the alarm tables of the store file.
+    the alarm tables of the store file;
+    ``readings_dsn``: read the readings from this PostgreSQL server (the collector's
+    ``[postgres]`` sink as its store of record), the rest from ``store_path`` (may be None:
+    no sources, events or channel types then).
     """
     if poll_interval <= 0 or overview_refresh <= 0:
         raise ValueError("poll_interval and overview_refresh must be more than 0 seconds")
     if max_points < 10:
         raise ValueError(f"max_points must be 10 or more, got {max_points}")
-    settings = Settings(Path(store_path), check_token(token), poll_interval, max_points)
+    if store_path is None and readings_dsn is None:
+        raise ValueError("the dashboard needs a store: a file or a PostgreSQL server")
+    path = None if store_path is None else Path(store_path)
+    settings = Settings(
+        path, check_token(token), poll_interval, max_points, readings_dsn=readings_dsn
+    )
     settings.overview_refresh_s = overview_refresh
     if alarm_store is not None:
         settings.alarms = alarms.AlarmAccess(alarm_store)
@@ -179,6 +199,15 @@ def _range(request: Request) -> tuple[str | None, str | None]:
     return lo, hi
 
 
+def _cpu_timed(work: Callable[[store.Db], T], cpu: list[float], db: store.Db) -> T:
+    """``work(db)``; ``cpu[0]`` becomes the CPU time its thread spent in it (``work`` puts
+    the start there)."""
+    try:
+        return work(db)
+    finally:
+        cpu[0] = time.thread_time() - cpu[0]
+
+
 class Api(AlarmHandlers):
     """The request handlers over one :class:`Settings` (the alarms' in :mod:`.alarm_api`)."""
 
@@ -187,13 +216,19 @@ class Api(AlarmHandlers):
     def __init__(self, settings: Settings) -> None:
         self.settings = settings
 
-    async def _db(self, work: Callable[[sqlite3.Connection], T]) -> T:
+    async def _db(self, work: Callable[[store.Db], T]) -> T:
+        readings = self.settings.readings
+
         def run() -> T:
-            conn = store.connect(self.settings.store)
+            db = readings.open()
             try:
-                return work(conn)
+                return work(db)
+            except query_errors() as exc:  # the server went away, the file is busy
+                raise store.StoreUnavailable(
+                    f"the readings on {readings.where} cannot be read: {exc}"
+                ) from exc
             finally:
-                conn.close()
+                readings.close(db)
 
         return await run_in_threadpool(run)
 
@@ -204,24 +239,28 @@ class Api(AlarmHandlers):
     # pages
 
     async def page_overview(self, request: Request) -> Response:
-        def work(c: sqlite3.Connection) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+        def work(c: store.Db) -> tuple[dict[str, Any], list[dict[str, Any]]]:
             return overview.overview(c), store.sources(c)
 
         data, sources = await self._db(work)
-        on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
+        shown = await self._alarms_shown(lambda s: alarms.active(s, sources), list[Any]())
+        on, unavailable = shown
         refresh = self.settings.overview_refresh_s
-        return HTMLResponse(pages.overview(data, refresh_s=refresh, alarms=on))
+        return HTMLResponse(
+            pages.overview(data, refresh_s=refresh, alarms=on, unavailable=unavailable)
+        )
 
     async def page_plot(self, request: Request) -> Response:
         logger = request.path_params["logger"]
         await self._known(logger)
 
-        def work(c: sqlite3.Connection) -> tuple[list[store.Channel], list[dict[str, Any]]]:
+        def work(c: store.Db) -> tuple[list[store.Channel], list[dict[str, Any]]]:
             return store.channels(c, logger), store.sources(c)
 
         chans, sources = await self._db(work)
         changed = await self._db(partial(config_log.changes, logger=logger))
-        on: list[dict[str, Any]] = await self._alarms_shown(lambda s: alarms.active(s, sources), [])
+        shown = await self._alarms_shown(lambda s: alarms.active(s, sources), list[Any]())
+        on, unavailable = shown
         mine = [a for a in on if a["logger"] == logger]
         return HTMLResponse(
             pages.plot(
@@ -231,6 +270,7 @@ class Api(AlarmHandlers):
                 alarm_count=len(on),
                 refresh_s=self.settings.overview_refresh_s,
                 config_changes=changed,
+                unavailable=unavailable,
             )
         )
 
@@ -248,7 +288,7 @@ class Api(AlarmHandlers):
             return alarms.history(s), len(s.active_states())
 
         no_alarms: tuple[list[dict[str, Any]], int] = ([], 0)
-        past, count = await self._alarms_shown(work, no_alarms)
+        (past, count), unavailable = await self._alarms_shown(work, no_alarms)
         return HTMLResponse(
             pages.log(
                 evs,
@@ -257,6 +297,7 @@ class Api(AlarmHandlers):
                 alarm_history=past,
                 alarm_count=count,
                 refresh_s=self.settings.overview_refresh_s,
+                unavailable=unavailable,
             )
         )
 
@@ -269,7 +310,7 @@ class Api(AlarmHandlers):
         logger = request.path_params["logger"]
         await self._known(logger)
 
-        def work(c: sqlite3.Connection) -> dict[str, Any]:
+        def work(c: store.Db) -> dict[str, Any]:
             return overview.logger_json(c, logger, store.sources(c))
 
         return JSONResponse(await self._db(work))
@@ -281,7 +322,10 @@ class Api(AlarmHandlers):
         await self._known(logger)
         span = self.settings.default_span_s
 
-        def work(c: sqlite3.Connection) -> dict[str, Any]:
+        cpu: list[float] = []
+
+        def work(c: store.Db) -> dict[str, Any]:
+            cpu.append(time.thread_time())
             last = store.last_time(c, logger)
             first = store.first_time(c, logger)
             to = hi or last or "1970-01-01T00:00:00"
@@ -302,16 +346,24 @@ class Api(AlarmHandlers):
                 "series": [s.as_json() for s in got],
             }
 
-        return JSONResponse(await self._db(work))
+        began = time.perf_counter()
+        body = await self._db(partial(_cpu_timed, work, cpu))
+        json_cpu = time.thread_time()
+        answer = JSONResponse(body)  # the JSON is made here: part of the server's time
+        cpu[0] += time.thread_time() - json_cpu
+        took = (time.perf_counter() - began) * 1e3
+        # wall time, and the CPU time of this request's threads (unaffected by other load)
+        answer.headers["Server-Timing"] = f"app;dur={took:.1f}, cpu;dur={cpu[0] * 1e3:.1f}"
+        return answer
 
     async def csv(self, request: Request) -> Response:
         logger = request.path_params["logger"]
         lo, hi = _range(request)
         await self._known(logger)
-        path = self.settings.store
+        readings = self.settings.readings
 
         def rows() -> Iterator[str]:
-            conn = store.connect(path)
+            conn = readings.open()
             try:
                 buf = io.StringIO()
                 out = csv.writer(buf, lineterminator="\n")
@@ -324,7 +376,7 @@ class Api(AlarmHandlers):
                         buf.truncate()
                 yield buf.getvalue()
             finally:
-                conn.close()
+                readings.close(conn)
 
         name = re.sub(r"[^A-Za-z0-9._-]", "_", logger)
         return StreamingResponse(

@@ -8,15 +8,19 @@ from __future__ import annotations
 import sqlite3
 from typing import Any
 
+from .db import Db
+
 #: Rows the dashboard shows at most at once.
 MAX_SHOWN = 50
 
 
-def changes(
-    conn: sqlite3.Connection, *, logger: str | None = None, limit: int = MAX_SHOWN
-) -> list[dict[str, Any]]:
+def changes(db: Db, *, logger: str | None = None, limit: int = MAX_SHOWN) -> list[dict[str, Any]]:
     """The newest history rows (of ``logger``), newest first, without their ``config``; [] for
-    a store that has no history table yet (read-only readers of an older store)."""
+    a store that has no history table yet (read-only readers of an older store) and for a
+    dashboard without the collector's file (the history is kept there, beside the events)."""
+    if db.file is None:
+        return []
+    conn = db.file
     q = "SELECT id, time, source, logger, old_hash, new_hash, diff FROM config_history"
     params: list[object] = []
     if logger is not None:

@@ -6,7 +6,6 @@ has a ``last_error`` and its state is not ``ok`` (``sources`` table, schema vers
 
 from __future__ import annotations
 
-import sqlite3
 from typing import Any
 
 from . import store
@@ -48,14 +47,12 @@ def source_json(s: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def logger_json(
-    conn: sqlite3.Connection, logger: str, srcs: list[dict[str, Any]]
-) -> dict[str, Any]:
+def logger_json(db: store.Db, logger: str, srcs: list[dict[str, Any]]) -> dict[str, Any]:
     """One logger's overview entry."""
     mine = [source_json(s) for s in srcs if s.get("logger") == logger]
-    chans = store.channels(conn, logger)
+    chans = store.channels(db, logger)
     contacts = [s["last_contact"] for s in mine if s["last_contact"]]
-    last = store.last_time(conn, logger)
+    last = store.last_time(db, logger)
     return {
         "logger": logger,
         "module": logger.startswith("bus:"),
@@ -80,10 +77,10 @@ def _first(items: list[dict[str, Any]], key: str) -> Any:
     return None
 
 
-def overview(conn: sqlite3.Connection) -> dict[str, Any]:
+def overview(db: store.Db) -> dict[str, Any]:
     """Every logger, and the sources not (yet) tied to a logger."""
-    srcs = store.sources(conn)
+    srcs = store.sources(db)
     return {
-        "loggers": [logger_json(conn, lg, srcs) for lg in store.loggers(conn)],
+        "loggers": [logger_json(db, lg, srcs) for lg in store.loggers(db)],
         "unbound_sources": [source_json(s) for s in srcs if not s.get("logger")],
     }

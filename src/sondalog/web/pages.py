@@ -95,7 +95,7 @@ ENV.filters.update(
     logger_url=logger_url,
     record_fill=record_fill,
 )
-ENV.globals.update(clock=LOGGER_CLOCK, current="", alarm_count=None)
+ENV.globals.update(clock=LOGGER_CLOCK, current="", alarm_count=None, alarms_unavailable=None)
 
 
 def render(name: str, **context: Any) -> str:
@@ -103,9 +103,15 @@ def render(name: str, **context: Any) -> str:
 
 
 def overview(
-    data: dict[str, Any], *, refresh_s: float = 10.0, alarms: list[dict[str, Any]] | None = None
+    data: dict[str, Any],
+    *,
+    refresh_s: float = 10.0,
+    alarms: list[dict[str, Any]] | None = None,
+    unavailable: str | None = None,
 ) -> str:
-    """The overview; ``alarms``: the active ones (:func:`sondalog.web.alarms.active`)."""
+    """The overview; ``alarms``: the active ones (:func:`sondalog.web.alarms.active`);
+    ``unavailable``: why the alarm store could not be read (the page says so instead of
+    "No active alarms")."""
     alarms = alarms or []
     return render(
         "overview.html",
@@ -116,6 +122,7 @@ def overview(
         unbound_sources=data["unbound_sources"],
         alarms=alarms,
         alarm_count=len(alarms),
+        alarms_unavailable=unavailable,
     )
 
 
@@ -127,8 +134,10 @@ def plot(
     alarm_count: int | None = None,
     refresh_s: float = 10.0,
     config_changes: list[dict[str, Any]] | None = None,
+    unavailable: str | None = None,
 ) -> str:
-    """A logger's page: its plot, its active ``alarms`` and its ``config_changes`` (rows of
+    """A logger's page: its plot, its active ``alarms`` (``unavailable``: as
+    :func:`overview`) and its ``config_changes`` (rows of
     :func:`sondalog.web.config_log.changes`)."""
     return render(
         "plot.html",
@@ -139,6 +148,7 @@ def plot(
         alarm_count=alarm_count,
         refresh_s=refresh_s,
         config_changes=config_changes or [],
+        alarms_unavailable=unavailable,
     )
 
 
@@ -150,6 +160,7 @@ def log(
     alarm_history: list[dict[str, Any]] | None = None,
     alarm_count: int | None = None,
     refresh_s: float = 10.0,
+    unavailable: str | None = None,
 ) -> str:
     params = {"source": source} if source else {}
     older = None
@@ -163,6 +174,7 @@ def log(
         alarm_history=alarm_history or [],
         alarm_count=alarm_count,
         refresh_s=refresh_s,
+        alarms_unavailable=unavailable,
         source=source,
         newest="/log?" + urlencode(params),
         older=older,

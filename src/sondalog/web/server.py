@@ -112,5 +112,7 @@ async def serve(
         raise
     finally:
         sock.close()
-        # the alarm store's connection (a PostgreSQL one is kept), once no request uses it
+        # the alarm store's connection (a PostgreSQL one is kept), once no request uses it,
+        # and the readings' kept server connections
         await asyncio.shield(asyncio.to_thread(settings.alarms.close))
+        await asyncio.shield(asyncio.to_thread(settings.readings.shutdown))

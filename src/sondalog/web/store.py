@@ -1,13 +1,16 @@
-"""Read-only queries on the collector's SQLite store (:mod:`sondalog.collect.schema`).
+"""Read-only queries on the collector's store (:mod:`sondalog.collect.schema`), written once
+for its SQLite file and a PostgreSQL server (:mod:`.dialect`, :mod:`.db`).
 
 Every query keeps to the ``readings`` primary key ``(logger, time, counter, channel)``: a
 logger's rows in a time range are one index range, so the cost follows the rows asked for,
-not the size of the store. The dashboard never writes: connections are opened read-only.
+not the size of the store. The dashboard never writes: connections are read-only.
 
-The optional table ``channels(logger, channel, name, unit, type)`` (not part of schema
-version 1) gives each channel's type when the collector fills it; a type-6 channel
-(§6.5.6.4, sporadic pulses) is then drawn as bars. Without it every channel is a line and
-names and units come from the readings themselves.
+``sources``, ``events`` and the optional ``channels(logger, channel, name, unit, type,
+format)`` are read from the collector's SQLite file (``db.file``), which only it has; with a
+server alone (no file) there are none. ``channels`` (not part of schema version 1) gives
+each channel's type when the collector fills it; a type-6 channel (§6.5.6.4, sporadic
+pulses) is then drawn as bars. Without it every channel is a line and names and units come
+from the readings themselves.
 """
 
 from __future__ import annotations
@@ -20,12 +23,13 @@ from typing import Any
 
 from sondalog.collect.schema import COLUMNS
 
+from .db import FILE_BLOCKS, Db, StoreUnavailable, connect_file
+from .dialect import SQLITE
+
+__all__ = ["Channel", "Db", "StoreUnavailable"]
+
 #: How many of a logger's newest rows are read to find its channels and last values.
 RECENT_ROWS = 4000
-
-
-class StoreUnavailable(RuntimeError):
-    """The store file is missing or unreadable (the collector has not created it yet)."""
 
 
 @dataclass(frozen=True)
@@ -49,68 +53,86 @@ class Channel:
         return "bars" if self.type == 6 else "line"
 
 
-def connect(path: Path) -> sqlite3.Connection:
-    """A read-only connection to the store at ``path``."""
-    if not path.is_file():
-        raise StoreUnavailable(f"the store {path} does not exist yet")
+def connect(path: Path) -> Db:
+    """A read-only :class:`Db` on the collector's file at ``path`` (its readings too)."""
+    return of_file(connect_file(path))
+
+
+def of_file(conn: sqlite3.Connection) -> Db:
+    """A :class:`Db` whose readings are in the SQLite connection ``conn`` (read-only or not:
+    the queries only read)."""
+    return Db(SQLITE, conn, conn, bool(conn.execute(FILE_BLOCKS).fetchone()[0]))
+
+
+def _file_rows(db: Db, sql: str, params: Sequence[object] = ()) -> list[tuple[Any, ...]]:
+    """Rows of the collector's file (none without one, or without the table: an older
+    collector's file, or a file a collector with readings elsewhere has not filled)."""
+    if db.file is None:
+        return []
     try:
-        conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=5.0)
-        conn.execute("SELECT 1 FROM readings LIMIT 1")
-    except sqlite3.Error as exc:
-        raise StoreUnavailable(f"the store {path} cannot be read: {exc}") from exc
-    return conn
+        return db.file.execute(sql, tuple(params)).fetchall()
+    except sqlite3.OperationalError as exc:
+        if "no such table" in str(exc):
+            return []
+        raise
 
 
-def loggers(conn: sqlite3.Connection) -> list[str]:
+def loggers(db: Db) -> list[str]:
     """Every logger with readings or a source, sorted (a skip scan over the key)."""
     found = {
         row[0]
-        for row in conn.execute(
+        for row in db.rows(
             "WITH RECURSIVE l(x) AS (SELECT min(logger) FROM readings UNION ALL "
             "SELECT (SELECT min(logger) FROM readings WHERE logger > x) FROM l "
             "WHERE x IS NOT NULL) SELECT x FROM l WHERE x IS NOT NULL"
         )
     }
     found.update(
-        row[0] for row in conn.execute("SELECT logger FROM sources WHERE logger IS NOT NULL")
+        row[0] for row in _file_rows(db, "SELECT logger FROM sources WHERE logger IS NOT NULL")
     )
     return sorted(found)
 
 
-def known(conn: sqlite3.Connection, logger: str) -> bool:
+def known(db: Db, logger: str) -> bool:
     """Whether ``logger`` has readings or a source."""
-    q = "SELECT 1 FROM readings WHERE logger = ? LIMIT 1"
-    if conn.execute(q, (logger,)).fetchone():
+    if db.first("SELECT 1 FROM readings WHERE logger = ? LIMIT 1", (logger,)):
         return True
-    return bool(conn.execute("SELECT 1 FROM sources WHERE logger = ?", (logger,)).fetchone())
+    return bool(_file_rows(db, "SELECT 1 FROM sources WHERE logger = ?", (logger,)))
 
 
-def sources(conn: sqlite3.Connection) -> list[dict[str, Any]]:
+def sources(db: Db) -> list[dict[str, Any]]:
     """The ``sources`` table as dicts, by name."""
-    cur = conn.execute("SELECT * FROM sources ORDER BY name")
+    if db.file is None:
+        return []
+    try:
+        cur = db.file.execute("SELECT * FROM sources ORDER BY name")
+    except sqlite3.OperationalError as exc:
+        if "no such table" in str(exc):
+            return []
+        raise
     cols = [d[0] for d in cur.description]
     return [dict(zip(cols, row, strict=True)) for row in cur]
 
 
-def channels(conn: sqlite3.Connection, logger: str) -> list[Channel]:
+def channels(db: Db, logger: str) -> list[Channel]:
     """The logger's channels with their last values, by channel number.
 
     From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows.
     """
     out: dict[int, Channel] = {}
     formats: dict[int, int] = {}
-    columns = {row[1] for row in conn.execute("PRAGMA table_info(channels)")}  # {}: no table
+    columns = {row[1] for row in _file_rows(db, "PRAGMA table_info(channels)")}  # {}: none
     if columns:
         fmt = "format" if "format" in columns else "NULL"
-        for ch, name, unit, typ, form in conn.execute(
-            f"SELECT channel, name, unit, type, {fmt} FROM channels WHERE logger = ?", (logger,)
+        for ch, name, unit, typ, form in _file_rows(
+            db, f"SELECT channel, name, unit, type, {fmt} FROM channels WHERE logger = ?", (logger,)
         ):
             out[int(ch)] = Channel(int(ch), name, unit, None if typ is None else int(typ))
             if form:
                 formats[int(ch)] = format_decimals(str(form))
-    recent = conn.execute(
-        "SELECT channel, time, value, name, unit FROM readings WHERE logger = ? "
-        "ORDER BY time DESC, counter DESC LIMIT ?",
+    recent = db.rows(
+        f"SELECT channel, {db.dialect.time('time')}, value, name, unit FROM readings "
+        "WHERE logger = ? ORDER BY time DESC, counter DESC LIMIT ?",
         (logger, RECENT_ROWS),
     )
     places: dict[int, int] = {}
@@ -152,23 +174,24 @@ def decimals(value: float) -> int:
     return 0 if frac in ("", "0") else min(len(frac), 6)
 
 
-def last_time(conn: sqlite3.Connection, logger: str) -> str | None:
-    row = conn.execute(
-        "SELECT time FROM readings WHERE logger = ? ORDER BY time DESC LIMIT 1", (logger,)
-    ).fetchone()
+def last_time(db: Db, logger: str) -> str | None:
+    row = db.first(
+        f"SELECT {db.dialect.time('time')} FROM readings WHERE logger = ? "
+        "ORDER BY time DESC LIMIT 1",
+        (logger,),
+    )
     return None if row is None else str(row[0])
 
 
-def first_time(conn: sqlite3.Connection, logger: str) -> str | None:
-    row = conn.execute(
-        "SELECT time FROM readings WHERE logger = ? ORDER BY time LIMIT 1", (logger,)
-    ).fetchone()
+def first_time(db: Db, logger: str) -> str | None:
+    row = db.first(
+        f"SELECT {db.dialect.time('time')} FROM readings WHERE logger = ? ORDER BY time LIMIT 1",
+        (logger,),
+    )
     return None if row is None else str(row[0])
 
 
-def counts(
-    conn: sqlite3.Connection, logger: str, lo: str, hi: str, cap: int
-) -> tuple[dict[int, int], bool]:
+def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, int], bool]:
     """Rows per channel in ``[lo, hi]``, counting at most ``cap`` rows in all.
 
     Returns the counts and whether the cap was reached (then the range holds more rows:
@@ -176,22 +199,20 @@ def counts(
     """
     got = {
         int(ch): int(n)
-        for ch, n in conn.execute(
+        for ch, n in db.rows(
             "SELECT channel, count(*) FROM (SELECT channel FROM readings WHERE logger = ? "
-            "AND time >= ? AND time <= ? AND channel > 0 LIMIT ?) GROUP BY channel",
+            "AND time >= ? AND time <= ? AND channel > 0 LIMIT ?) r GROUP BY channel",
             (logger, lo, hi, cap),
         )
     }
     return got, sum(got.values()) >= cap
 
 
-def raw(
-    conn: sqlite3.Connection, logger: str, lo: str, hi: str
-) -> Iterator[tuple[str, int, int, float | None]]:
+def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` in ``[lo, hi]`` in time order."""
-    yield from conn.execute(
-        "SELECT time, counter, channel, value FROM readings WHERE logger = ? AND time >= ? "
-        "AND time <= ? AND channel > 0 ORDER BY time, counter",
+    yield from db.rows(
+        f"SELECT {db.dialect.time('time')}, counter, channel, value FROM readings "
+        "WHERE logger = ? AND time >= ? AND time <= ? AND channel > 0 ORDER BY time, counter",
         (logger, lo, hi),
     )
 
@@ -205,6 +226,9 @@ def bucketed(
 
     One key range per bucket and extreme: no function per row, and each bucket's grouping
     is small (measured faster than one joined query whose grouping sorts every row).
+
+    The path of issue 14, on SQLite only: :mod:`.blocks` gives the same answers on either
+    store, from the per-block extremes when the store has them (the tests compare both).
     """
     one = (
         "SELECT channel, {w}, {f}(value), time FROM readings WHERE logger = ? "
@@ -217,38 +241,46 @@ def bucketed(
             yield i, ch, which, value, time
 
 
-def newer(
-    conn: sqlite3.Connection, logger: str, since: str, limit: int
-) -> list[tuple[str, int, int, float | None]]:
+def newer(db: Db, logger: str, since: str, limit: int) -> list[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` at or after ``since``, oldest first."""
-    return list(
-        conn.execute(
-            "SELECT time, counter, channel, value FROM readings WHERE logger = ? "
-            "AND time >= ? AND channel > 0 ORDER BY time, counter LIMIT ?",
-            (logger, since, limit),
-        )
+    return db.rows(
+        f"SELECT {db.dialect.time('time')}, counter, channel, value FROM readings "
+        "WHERE logger = ? AND time >= ? AND channel > 0 ORDER BY time, counter LIMIT ?",
+        (logger, since, limit),
     )
 
 
 def rows_for_csv(
-    conn: sqlite3.Connection, logger: str, lo: str | None, hi: str | None
+    db: Db, logger: str, lo: str | None, hi: str | None, *, batch: int = 5000
 ) -> Iterator[tuple[Any, ...]]:
     """Every row of ``logger`` in ``[lo, hi]`` (open ends allowed) in the long-form CSV's
-    :data:`~sondalog.collect.schema.COLUMNS`, the same as the download tool's."""
-    q = f"SELECT {', '.join(COLUMNS)} FROM readings WHERE logger = ?"
-    params: list[object] = [logger]
-    if lo is not None:
-        q += " AND time >= ?"
-        params.append(lo)
-    if hi is not None:
-        q += " AND time <= ?"
-        params.append(hi)
-    yield from conn.execute(q + " ORDER BY time, counter, channel", params)
+    :data:`~sondalog.collect.schema.COLUMNS`, the same as the download tool's; read in
+    key-ordered pages of ``batch`` rows (a year is never held in memory at once)."""
+    d = db.dialect
+    spell = {"time": d.time("time"), "utc": d.utc("utc")}
+    cols = ", ".join(spell.get(c, c) for c in COLUMNS)
+    after: tuple[Any, ...] | None = None
+    while True:
+        q = f"SELECT {cols} FROM readings WHERE logger = ?"
+        params: list[object] = [logger]
+        if lo is not None:
+            q += " AND time >= ?"
+            params.append(lo)
+        if hi is not None:
+            q += " AND time <= ?"
+            params.append(hi)
+        if after is not None:  # the rows after the last one sent, by the key's order
+            q += " AND (time > ? OR (time = ? AND (counter > ? OR (counter = ? AND channel > ?))))"
+            params += [after[0], after[0], after[1], after[1], after[2]]
+        page = db.rows(q + f" ORDER BY time, counter, channel LIMIT {int(batch)}", params)
+        yield from page
+        if len(page) < batch:
+            return
+        last = page[-1]
+        after = tuple(last[COLUMNS.index(c)] for c in ("time", "counter", "channel"))
 
 
-def events(
-    conn: sqlite3.Connection, *, before: int | None, limit: int, source: str | None
-) -> list[dict[str, Any]]:
+def events(db: Db, *, before: int | None, limit: int, source: str | None) -> list[dict[str, Any]]:
     """The newest ``limit`` events with ``id < before``, newest first."""
     q = "SELECT id, time, source, kind, text FROM events WHERE 1 = 1"
     params: list[object] = []
@@ -261,4 +293,4 @@ def events(
     q += " ORDER BY id DESC LIMIT ?"
     params.append(limit)
     keys = ("id", "time", "source", "kind", "text")
-    return [dict(zip(keys, row, strict=True)) for row in conn.execute(q, params)]
+    return [dict(zip(keys, row, strict=True)) for row in _file_rows(db, q, params)]

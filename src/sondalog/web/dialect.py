@@ -1,0 +1,87 @@
+"""What differs in the dashboard's reading queries between SQLite and PostgreSQL (issue 24).
+
+The queries of :mod:`.store` and :mod:`.blocks` are written once, with ``?`` for each
+parameter (as :mod:`sondalog.collect.alarms.dialect` does for the alarm store). A
+:class:`ReadDialect` turns such a text into its server's and spells the few expressions that
+differ:
+
+- ``?`` becomes the driver's marker (``sqlite3``: ``?``; psycopg: ``%s``);
+- a ``time`` column read back: on SQLite it is the text ``YYYY-MM-DDTHH:MM:SS`` already; on
+  PostgreSQL (``timestamp``, :mod:`sondalog.collect.sink_postgres`) it is written as that
+  text by ``to_char``, so every caller gets the store's one spelling
+  (:mod:`sondalog.collect.schema`); ``utc`` likewise as ``2007-03-01T11:00:00Z``;
+- seconds since 1970 of a ``time`` (the logger's clock read as UTC, :mod:`.times`):
+  ``unixepoch`` / ``extract(epoch ...)``;
+- a bucket's extreme with the time of a reading that has it (:meth:`extreme`): SQLite takes
+  a bare column from the row of a lone ``min``/``max`` (the first such row in scan order;
+  with every value NULL, the last row), PostgreSQL has no bare columns and says the same
+  with ``DISTINCT ON`` and an ``ORDER BY`` that breaks ties alike.
+
+Comparing a ``timestamp`` with a text parameter works on PostgreSQL (psycopg sends text as
+``unknown``, the server casts it), so parameters are the store's texts on both.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+_TEXT_TIME = "to_char({0}, 'YYYY-MM-DD\"T\"HH24:MI:SS')"
+_TEXT_UTC = "to_char({0} AT TIME ZONE 'UTC', 'YYYY-MM-DD\"T\"HH24:MI:SS\"Z\"')"
+
+
+@dataclass(frozen=True, slots=True)
+class ReadDialect:
+    """One server's spelling of the dashboard's reading queries."""
+
+    name: str
+    #: The driver's parameter marker.
+    mark: str
+
+    @property
+    def postgres(self) -> bool:
+        return self.name == "postgresql"
+
+    def sql(self, text: str) -> str:
+        """``text`` (``?`` markers) in this dialect."""
+        return _adapt(self, text)
+
+    def time(self, column: str) -> str:
+        """``column`` (a ``time``) read back as ``YYYY-MM-DDTHH:MM:SS``."""
+        return _TEXT_TIME.format(column) if self.postgres else column
+
+    def utc(self, column: str) -> str:
+        """``column`` (``utc``) read back as ``YYYY-MM-DDTHH:MM:SSZ`` (NULL stays NULL)."""
+        return _TEXT_UTC.format(column) if self.postgres else column
+
+    def epoch(self, column: str) -> str:
+        """Whole seconds since 1970 of ``column`` (a ``time``) read as UTC."""
+        if self.postgres:
+            return f"extract(epoch FROM {column})::bigint"
+        return f"unixepoch({column})"
+
+    def extreme(self, which: str, pieces: str) -> str:
+        """Per channel of ``pieces`` (a query of ``channel, v, t`` rows in time order): its
+        smallest (``which`` = ``min``) or largest (``max``) ``v`` with the earliest ``t``
+        that has it, or, with every ``v`` NULL, NULL and the latest ``t``. Gives
+        ``channel, v, t`` (``t`` as stored)."""
+        if which not in ("min", "max"):
+            raise ValueError(f"which must be min or max, not {which!r}")
+        if not self.postgres:
+            return f"SELECT channel, {which}(v) AS v, t FROM ({pieces}) GROUP BY channel"
+        order = "" if which == "min" else " DESC"
+        return (
+            f"SELECT DISTINCT ON (channel) channel, v, t FROM ({pieces}) p "
+            f"ORDER BY channel, v{order} NULLS LAST, CASE WHEN v IS NULL THEN t END DESC, t"
+        )
+
+
+@functools.cache
+def _adapt(dialect: ReadDialect, text: str) -> str:
+    if "%" in text and dialect.mark == "%s":  # a literal % would be a psycopg marker
+        raise ValueError(f"a literal % in SQL for {dialect.name}: {text!r}")
+    return text.replace("?", dialect.mark)
+
+
+SQLITE = ReadDialect("sqlite", "?")
+POSTGRES = ReadDialect("postgresql", "%s")

@@ -40,14 +40,12 @@ from .events import (
     Transition,
     alarm_id,
     event_key,
-    reading_time,
 )
+from .ingest import Ingest
 from .kinds import (
     READINGS,
-    Check,
     Track,
     Verdict,
-    compile_check,
     level,
     refusing,
 )
@@ -78,10 +76,7 @@ class Alarms:
         self._timers: dict[str, tuple[Track, float]] = {}
         self._reading_rules = plan.of_kind(*READINGS)
         self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
-        #: (source, logger) -> (channel, name) -> the compiled checks of its rules.
-        self._checks: dict[tuple[str, str], dict[tuple[int, str | None], tuple[Check, ...]]] = {}
-        self._logger_rules: dict[tuple[str, str], list[Rule]] = {}
-        self._channel_names: dict[tuple[str, str | None], bool] = {}
+        self._ingest = Ingest(self._reading_rules, self._reading_track, self._apply, self._progress)
         for record in records:
             rule = self._rules.get(record.rule)
             if rule is None or rule.kind != record.kind:
@@ -198,66 +193,8 @@ class Alarms:
     def ingest(self, source: str, readings: Iterable[Reading]) -> list[Transition]:
         """The collector's readings of ``source`` as they are stored: the same answer as
         ``readings(Sample.of(source, r) for r in readings)``, made fast for the ingest path
-        (issue 21: 10 rules on every channel cost a fraction of the ingest). Each (logger,
-        channel) gets its matching rules compiled once (:func:`~.kinds.compile_check`); a
-        row's time is computed once for its channels."""
-        out: list[Transition] = []
-        loggers = self._checks
-        logger: object = None
-        compiled: dict[tuple[int, str | None], tuple[Check, ...]] = {}
-        stamp: object = None
-        utc: object = None
-        t = 0.0
-        for r in readings:
-            v = r.value
-            if v is None:
-                continue
-            if r.logger is not logger:  # a chunk is mostly one logger's
-                logger = r.logger
-                known = loggers.get((source, r.logger))
-                if known is None:
-                    known = loggers[(source, r.logger)] = {}
-                compiled = known
-            key = (r.channel, r.name)
-            checks = compiled.get(key)
-            if checks is None:
-                checks = compiled[key] = self._compile(source, r.logger, r.channel, r.name)
-            if not checks:
-                continue
-            if r.time is not stamp or r.utc is not utc:
-                stamp, utc = r.time, r.utc
-                t = reading_time(r)
-            c = r.counter
-            for check in checks:
-                got = check(t, c, v)
-                if got:
-                    out += got
-        return out
-
-    def _compile(
-        self, source: str, logger: str, channel: int, name: str | None
-    ) -> tuple[Check, ...]:
-        rules = self._logger_rules.get((source, logger))
-        if rules is None:
-            rules = [r for r in self._reading_rules if r.matches(source, logger)]
-            self._logger_rules[(source, logger)] = rules
-        subject = f"{logger}/{channel}"
-        apply = self._apply
-        return tuple(
-            compile_check(r, self._reading_track(r, subject), self._progress, apply)
-            for r in rules
-            if self._channel_matches(r, channel, name)
-        )
-
-    def _channel_matches(self, rule: Rule, channel: int, name: str | None) -> bool:
-        if rule.channel is not None or rule.channel_name is None or name is None:
-            return rule.matches_channel(channel, name)
-        known = self._channel_names.get((rule.channel_name, name))
-        if known is None:
-            known = self._channel_names[(rule.channel_name, name)] = fnmatchcase(
-                name, rule.channel_name
-            )
-        return known
+        (:mod:`.ingest`)."""
+        return self._ingest.run(source, readings)
 
     def watch_source(
         self,

@@ -7,10 +7,10 @@ answer is exactly that of one :class:`~.events.Sample` a reading through
 changed, the same states (tests/collect/alarms/test_alarm_ingest.py checks it on random rules
 and readings). What makes it fast:
 
-- each (source, logger, channel, name) is a :class:`Channel`: its matching rules compiled
-  once into closures (:func:`~.kinds.compile_check`; the rules that match a logger are
-  matched once for every logger they match alike), and a row's time is computed once for
-  its channels;
+- each (source, logger, channel, name) is a :class:`Channel`: its matching rules (matched
+  once for every logger they match alike), compiled into closures
+  (:func:`~.kinds.compile_check`) when a reading first needs them; a row's time is computed
+  once for its channels;
 - a channel whose rules are all thresholds (``for`` >= 1) and whose alarms are all off
   with no reading counted towards a raise is *quiet*: a reading on the good side of every
   limit changes nothing but each alarm's last reading, and that last reading is the newest
@@ -41,7 +41,7 @@ class Channel:
     """One channel's compiled rules, its alarms, and the quiet readings not settled yet."""
 
     name: str | None
-    checks: tuple[Check, ...]
+    rules: tuple[Rule, ...]
     tracks: tuple[Track, ...]
     #: Every rule a threshold with ``for`` >= 1 (and no alarm shared with another channel).
     thresholds: bool
@@ -49,6 +49,8 @@ class Channel:
     #: ``above`` limit.
     lo: float = -inf
     hi: float = inf
+    #: The rules compiled, when a reading first needs them (a quiet channel never does).
+    checks: tuple[Check, ...] | None = None
     quiet: bool = False
     #: The :class:`Ingest` call ``quiet`` was checked in.
     epoch: int = -1
@@ -75,12 +77,31 @@ class Channel:
                 progress[track.alarm] = track
 
 
+@dataclass(frozen=True, slots=True)
+class _Rules:
+    """The rules of a channel, and what makes its readings quiet (:class:`Channel`)."""
+
+    rules: tuple[Rule, ...]
+    thresholds: bool
+    lo: float
+    hi: float
+
+    @classmethod
+    def of(cls, rules: tuple[Rule, ...]) -> _Rules:
+        return cls(
+            rules,
+            thresholds=bool(rules) and all(r.kind == "threshold" and r.count >= 1 for r in rules),
+            lo=max((r.limit for r in rules if r.direction == "below"), default=-inf),
+            hi=min((r.limit for r in rules if r.direction == "above"), default=inf),
+        )
+
+
 @dataclass(slots=True)
 class _RuleSet:
     """The reading rules that watch some loggers, and those of each (channel, name)."""
 
     rules: tuple[Rule, ...]
-    by_channel: dict[tuple[int, str | None], tuple[Rule, ...]] = field(default_factory=dict)
+    by_channel: dict[tuple[int, str | None], _Rules] = field(default_factory=dict)
 
 
 class Ingest:
@@ -133,8 +154,7 @@ class Ingest:
                 ch = channels.get(r.channel)
                 if ch is None or (ch.name is not name and ch.name != name):
                     ch = channels[r.channel] = self._channel(source, r.logger, r.channel, name)
-                checks = ch.checks
-                if not checks:
+                if not ch.tracks:
                     continue
                 if r.time is not stamp or r.utc is not utc:
                     stamp, utc = r.time, r.utc
@@ -151,6 +171,9 @@ class Ingest:
                     continue
                 if ch.newest is not None:
                     ch.settle(progress)
+                checks = ch.checks
+                if checks is None:
+                    checks = ch.checks = self._compile(ch)
                 for check in checks:
                     got = check(t, c, v)
                     if got:
@@ -169,19 +192,10 @@ class Ingest:
             return found
         rules = self._rules_of(source, logger, channel, name)
         subject = f"{logger}/{channel}"
-        tracks = tuple(self._track(r, subject) for r in rules)
-        checks = tuple(
-            compile_check(r, track, self._progress, self._apply)
-            for r, track in zip(rules, tracks, strict=True)
-        )
-        found = self._channels[key] = Channel(
-            name,
-            checks,
-            tracks,
-            thresholds=bool(rules) and all(r.kind == "threshold" and r.count >= 1 for r in rules),
-            lo=max((r.limit for r in rules if r.direction == "below"), default=-inf),
-            hi=min((r.limit for r in rules if r.direction == "above"), default=inf),
-        )
+        alarm_of = self._track
+        tracks = tuple([alarm_of(r, subject) for r in rules.rules])
+        found = Channel(name, rules.rules, tracks, rules.thresholds, rules.lo, rules.hi)
+        self._channels[key] = found
         for track in tracks:
             owner = self._owner.setdefault(track.alarm, found)
             if owner is not found:  # a channel renamed: its alarms are shared
@@ -190,9 +204,14 @@ class Ingest:
                     ch.thresholds = ch.quiet = False
         return found
 
-    def _rules_of(
-        self, source: str, logger: str, channel: int, name: str | None
-    ) -> tuple[Rule, ...]:
+    def _compile(self, channel: Channel) -> tuple[Check, ...]:
+        progress, apply = self._progress, self._apply
+        return tuple(
+            compile_check(r, track, progress, apply)
+            for r, track in zip(channel.rules, channel.tracks, strict=True)
+        )
+
+    def _rules_of(self, source: str, logger: str, channel: int, name: str | None) -> _Rules:
         found = self._logger_rules.get((source, logger))
         if found is None:
             which = tuple(i for i, r in enumerate(self._rules) if r.matches(source, logger))
@@ -202,8 +221,8 @@ class Ingest:
             self._logger_rules[(source, logger)] = found
         rules = found.by_channel.get((channel, name))
         if rules is None:
-            rules = found.by_channel[(channel, name)] = tuple(
-                r for r in found.rules if self._channel_matches(r, channel, name)
+            rules = found.by_channel[(channel, name)] = _Rules.of(
+                tuple(r for r in found.rules if self._channel_matches(r, channel, name))
             )
         return rules
 

@@ -16,6 +16,7 @@ from dataclasses import fields
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
+import pytest
 from alarm_helpers import plan_of
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -245,7 +246,8 @@ above = 5
         assert {r.alarm: r for r in again.export()} == {r.alarm: r for r in alarms.export()}
 
 
-@settings(max_examples=300, deadline=None)
+@pytest.mark.timeout(600)  # long chunks: some 40 s on an idle machine
+@settings(max_examples=200, deadline=None)
 @given(rules(("threshold", "threshold", "threshold", "stuck")), calm_chunks(), calm_chunks())
 def test_quiet_readings_answer_as_reading(
     plan: AlarmPlan,

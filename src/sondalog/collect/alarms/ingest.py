@@ -124,8 +124,9 @@ class Ingest:
         #: (source, logger) -> channel number -> the channel of the name seen last.
         self._loggers: dict[tuple[str, str], dict[int, Channel]] = {}
         self._channels: dict[tuple[str, str, int, str | None], Channel] = {}
-        #: Alarm -> its channel (an alarm two channels share makes neither quiet).
-        self._owner: dict[str, Channel] = {}
+        #: ``LOGGER/CHANNEL`` (the alarms' subject) -> its first channel: the alarms of two
+        #: channels of one subject (renamed, or two sources) are shared, neither is quiet.
+        self._subjects: dict[str, Channel] = {}
         self._logger_rules: dict[tuple[str, str], _RuleSet] = {}
         self._rule_sets: dict[tuple[int, ...], _RuleSet] = {}
         self._channel_names: dict[tuple[str, str | None], bool] = {}
@@ -196,12 +197,11 @@ class Ingest:
         tracks = tuple([alarm_of(r, subject) for r in rules.rules])
         found = Channel(name, rules.rules, tracks, rules.thresholds, rules.lo, rules.hi)
         self._channels[key] = found
-        for track in tracks:
-            owner = self._owner.setdefault(track.alarm, found)
-            if owner is not found:  # a channel renamed: its alarms are shared
-                for ch in (owner, found):
-                    ch.settle(self._progress)
-                    ch.thresholds = ch.quiet = False
+        other = self._subjects.setdefault(subject, found)
+        if other is not found:  # renamed, or read by two sources: the alarms are shared
+            for ch in (other, found):
+                ch.settle(self._progress)
+                ch.thresholds = ch.quiet = False
         return found
 
     def _compile(self, channel: Channel) -> tuple[Check, ...]:

@@ -16,7 +16,9 @@ event loop:
 - the collector (``state/demo/collector.toml``) into SQLite, with its dashboard on 8080, and
   its alarms (:mod:`sondalog.app.demo_alarms`): the river at ``CABLE-01`` floods a module
   hour after the start; the alarm is raised, e-mailed to ``ops@example.net`` and texted
-  through the GSM network to ``+420700000001``, shown, and cleared a few module hours later.
+  through the GSM network to ``+420700000001``, shown, and cleared a few module hours later;
+  ``GSM-03``'s modem loses coverage for a few module hours, its e-mails stop, and a
+  ``no_contact`` alarm goes the same way.
 
 A default port that is taken is replaced by a free one, and the demo says which; a port given
 with ``--listen`` is used or the demo stops with a message (exit 1). It prints how to reach
@@ -38,7 +40,15 @@ from typing import TypeVar
 
 from sondalog.app.bus import BusServer, start_bus_server
 from sondalog.app.collector import collect_with_dashboard
-from sondalog.app.demo_alarms import ALARM_PHONE, LEVEL_LOGGER, OPS_MAIL, RULE, AlarmWorld
+from sondalog.app.demo_alarms import (
+    ALARM_PHONE,
+    LEVEL_LOGGER,
+    OPS_MAIL,
+    RULE,
+    SILENT_RULE,
+    AlarmWorld,
+    coverage_outage,
+)
 from sondalog.app.demo_world import (
     BUS_MODULES,
     GSM,
@@ -199,7 +209,7 @@ class Demo:
         # the GSM logger is in the field: its rows come by e-mail only
         addresses = {s.key: self.loggers[s.key].servers[0].address for s in LOGGERS}
         pop3 = (HOST, self.mail.pop3_port)
-        alarms = AlarmWorld((HOST, self.mail.smtp_port), self.gsm_api, GSM_PHONE)
+        alarms = AlarmWorld((HOST, self.mail.smtp_port), self.gsm_api, GSM_PHONE, self.clock.speed)
         config.write_text(
             collector_toml(addresses, self.bus.address, (HOST, web_port), pop3, alarms),
             encoding="utf-8",
@@ -241,9 +251,11 @@ class Demo:
         """The GSM logger with its modem and the network, as ``sondalog serve`` serves a site
         file (``gsm-site.toml``); then told to e-mail its new rows every hour."""
         site = STATE_DIR / "gsm-site.toml"
+        # the modem loses coverage for a while (the network keeps real time)
+        outage = coverage_outage(RealClock().now(), self.clock.speed)
 
         async def start(port: int, api: int) -> RunningSite:
-            site.write_text(gsm_site((HOST, port), (HOST, api)), encoding="utf-8")
+            site.write_text(gsm_site((HOST, port), (HOST, api), outage), encoding="utf-8")
             return await start_site(load_site(site), STATE_DIR / "gsm", self.clock)
 
         try:
@@ -308,6 +320,9 @@ class Demo:
             f"Alarms: the river at {LEVEL_LOGGER} floods about a module hour after the start: "
             f"the alarm {RULE!r} is raised (dashboard, e-mail to {OPS_MAIL}, SMS from "
             f"{ALARM_PHONE} to {GSM_PHONE}) and cleared a few module hours later.",
+            f"  {GSM.serial} loses coverage for a few module hours: no e-mail comes, and the "
+            f"alarm {SILENT_RULE!r} is raised, e-mailed and texted, then cleared by its next "
+            "e-mail.",
             f"  .venv/bin/sondalog alarms list {STATE_DIR}/collector.toml",
             f"  .venv/bin/sondalog alarms ack {STATE_DIR}/collector.toml ID",
             f"  .venv/bin/sondalog phone {api}inbox {GSM_PHONE}",

@@ -11,14 +11,16 @@ import pytest
 from alarm_mail import smtp_server
 
 from sondalog.collect.alarms import Message, Notify
+from sondalog.collect.alarms.send_email import EmailSettings
+from sondalog.collect.alarms.send_log import LogSettings
 from sondalog.collect.alarms.senders import DeliveryError, find_sender, sender_for
 
 MESSAGE = Message("3f2a9c1b12-1/raised/mail", "mail", "raised", "3f2a9c1b12-1", "x high", 0, 0)
 
 
-def _mail(port: int) -> Notify:
-    settings = {"smtp": ("127.0.0.1", port), "from": "c@example.net", "to": ("o@example.net",)}
-    return Notify(name="mail", kind="email", settings={**settings, "user": None})
+def _mail(port: int) -> Notify[EmailSettings]:
+    settings = EmailSettings(("127.0.0.1", port), "c@example.net", ("o@example.net",))
+    return Notify(name="mail", kind="email", settings=settings)
 
 
 def test_email_is_sent_and_an_unreachable_server_is_a_delivery_error() -> None:
@@ -38,7 +40,7 @@ def test_email_is_sent_and_an_unreachable_server_is_a_delivery_error() -> None:
 
 def test_log_sender_writes_one_line(caplog: pytest.LogCaptureFixture) -> None:
     assert find_sender("log") is not None
-    sender = sender_for(Notify(name="log", kind="log", settings={"level": "error"}))
+    sender = sender_for(Notify(name="log", kind="log", settings=LogSettings(logging.ERROR)))
     with caplog.at_level(logging.INFO, logger="sondalog.alarms"):
         asyncio.run(sender.send(MESSAGE))
     assert [(r.levelno, r.getMessage()) for r in caplog.records] == [

@@ -1,4 +1,5 @@
-"""The alarms of ``make demo`` (issue 21): a flood its world makes, and who is told.
+"""The alarms of ``make demo`` (issue 21): a flood and a lost coverage its world makes, and
+who is told.
 
 The water level of ``CABLE-01`` (channel 2, ``Level``) is :func:`level_csv`: a river
 wandering between :data:`BASE_LOW` and :data:`BASE_HIGH` through the whole history, then a
@@ -8,6 +9,16 @@ half an hour later, and falls under :data:`CLEAR` some three hours after that. A
 speed (a module hour a real minute) the alarm is raised within the first two minutes and
 cleared within the first five; the history never crossed, so the first download raises
 nothing. The file loops every :data:`PERIOD`: a flood a month.
+
+The GSM logger ``GSM-03`` e-mails its rows every module hour (:data:`MESSAGE_PERIOD`). Its
+modem loses coverage :data:`COVERAGE_START` module seconds after the demo's start (at the
+soonest :data:`FIRST_MAIL` real seconds after, when its first e-mail is in) for
+:data:`COVERAGE_LOST` (a ``[[gsm.outage]]`` of the demo's network, in its real time:
+:func:`coverage_outage`):
+no e-mail comes, the mailbox answers empty, and the ``no_contact`` rule :data:`SILENT_RULE`
+on its mailbox source raises after two message periods (:func:`silent_after`: seconds of
+the collector's clock, which is real time); when the modem is back its next e-mail clears
+it. At the demo's speed it is raised within the first four minutes and cleared within ten.
 
 :func:`alarm_toml` is the collector's ``[[notify]]`` and ``[[alarm]]`` tables: e-mail to
 :data:`OPS_MAIL` through the demo's mail hub (read it over POP3), SMS through the demo's GSM
@@ -37,6 +48,32 @@ LIMIT, CLEAR = 1.6, 1.4
 LEVEL_LOGGER, LEVEL_CHANNEL, RULE = "CABLE-01", 2, "river flood"
 #: The level file's name beside the site file.
 LEVEL_FILE = "level.csv"
+#: The GSM logger's message period (module seconds; ``write message 1 period 010000``).
+MESSAGE_PERIOD = 3600.0
+#: Its modem loses coverage this long after the demo's start, for this long (module time).
+COVERAGE_START, COVERAGE_LOST = 5400.0, 8 * 3600.0
+#: Real seconds the GSM logger's first e-mail (its whole history) may take: the coverage is
+#: lost after it at the soonest.
+FIRST_MAIL = 30.0
+#: The no_contact rule on the GSM logger's mailbox source, and that source's name.
+SILENT_RULE, MAILBOX_SOURCE = "gsm logger silent", "gsm-mail"
+#: Real seconds the collector may wait beyond two message periods for an e-mail to be
+#: sent, delivered and read from the mailbox (its poll interval is 5 s).
+SILENT_SLACK = 15.0
+
+
+def silent_after(speed: float) -> float:
+    """The no_contact rule's ``after`` (real seconds) with module time ``speed`` times
+    faster: two of the GSM logger's message periods and some slack."""
+    return round(2 * MESSAGE_PERIOD / speed + SILENT_SLACK, 1)
+
+
+def coverage_outage(now: float, speed: float) -> tuple[float, float]:
+    """The GSM logger's modem's outage for a demo that writes its network at ``now`` with
+    module time ``speed`` times faster: seconds since the epoch of the network's clock, which
+    is real time (a network is lines: ``sondalog serve`` keeps it at 1x under ``--speed``)."""
+    start = now + max(COVERAGE_START / speed, FIRST_MAIL)
+    return start, start + COVERAGE_LOST / speed
 
 
 def _flood(t: float, history: float, base: float) -> float | None:
@@ -82,12 +119,15 @@ class AlarmWorld:
     smtp: tuple[str, int]
     gsm_api: str  # http://HOST:PORT
     phone: str  # the user's phone the SMS go to
+    speed: float = 60.0  # module seconds per real second
 
 
 def alarm_toml(world: AlarmWorld) -> str:
     """The collector's ``[[notify]]`` and ``[[alarm]]`` tables (docs/alarms.md)."""
     host, port = world.smtp
+    after = silent_after(world.speed)
     return f"""# Alarms (docs/alarms.md): the river floods an hour after the start (module time)
+# and GSM-03 loses coverage for a few hours half an hour later
 [[notify]]
 name = "ops-mail"
 kind = "email"
@@ -121,4 +161,11 @@ name = "logger silent"
 kind = "no_contact"
 source = "[!g]*"
 after = "2m"
-notify = ["ops-mail"]"""
+notify = ["ops-mail"]
+
+[[alarm]]
+name = "{SILENT_RULE}"
+kind = "no_contact"
+source = "{MAILBOX_SOURCE}"
+after = {after:g}                      # seconds: 2 of its message periods at this speed
+notify = ["ops-mail", "oncall-sms"]"""

@@ -24,6 +24,7 @@ from sondalog.ala1.model import Version
 from sondalog.app.demo_alarms import (
     ALARM_PHONE,
     LEVEL_FILE,
+    MAILBOX_SOURCE,
     OPS_MAIL,
     AlarmWorld,
     alarm_toml,
@@ -172,8 +173,18 @@ GSM_CREDIT_CODE = "*101#"
 LOGGER_MAIL, USER_MAIL = "logger@example.net", "user@example.net"
 
 
-def gsm_site(listen: tuple[str, int], api: tuple[str, int]) -> str:
-    """The GSM logger's whole site file: the logger, its modem, the network and a phone."""
+def gsm_site(
+    listen: tuple[str, int], api: tuple[str, int], outage: tuple[float, float] | None = None
+) -> str:
+    """The GSM logger's whole site file: the logger, its modem, the network and a phone;
+    ``outage``: when its modem has no coverage (seconds since the epoch of the network's
+    real-time clock, :func:`~sondalog.app.demo_alarms.coverage_outage`)."""
+    lost = ""
+    if outage is not None:
+        lost = (
+            "\n[[gsm.outage]]                 # the modem loses coverage for a while\n"
+            f'number = "{GSM_MODEM}"\nstart = {outage[0]:.0f}\nend = {outage[1]:.0f}\n'
+        )
     return f"""# The demo logger {GSM.serial} with its modem {GSM_MODEM} and the demo's GSM network.
 {GSM.site}
 [logger.serve]
@@ -198,7 +209,7 @@ number = "{GSM_PHONE}"
 
 [[gsm.phone]]                   # the collector's SIM: it sends the alarms' SMS
 number = "{ALARM_PHONE}"
-"""
+{lost}"""
 
 
 def gsm_message_settings(smtp_port: int) -> tuple[str, ...]:
@@ -289,7 +300,7 @@ def collector_toml(
     )
     if pop3 is not None:
         parts.append(
-            f'[[source]]\nname = "gsm-mail"\nkind = "mailbox"\n'
+            f'[[source]]\nname = "{MAILBOX_SOURCE}"\nkind = "mailbox"\n'
             f'url = "pop3://{USER_MAIL}:secret@{pop3[0]}:{pop3[1]}"\n'
             f'loggers = {{ "{LOGGER_MAIL}" = "{GSM.serial}" }}\n'
             "signal = 3\ncredit = 4\ninterval = 5\n" + GSM_CHANNELS

@@ -119,6 +119,11 @@ class AlarmLoop:
         #: is not its logger heard from.
         self._messages = {s.name for s in config.sources if s.kind in MESSAGE_KINDS}
         self._heard: dict[str, bool] = {}
+        #: What the health rules measure: a batch's readings are looked at for the supply,
+        #: its state for the signal and credit, only if a rule wants them.
+        measures = {r.measure for r in self.plan.of_kind("health")}
+        self._watch_supply = "supply" in measures
+        self._watch_gsm = bool(measures & {"signal", "credit"})
         self._wake: asyncio.Event | None = None
         self.sent = 0
 
@@ -178,8 +183,10 @@ class AlarmLoop:
         on the next observation."""
         try:
             with self.store.transaction():
-                self.store.record(transitions)
-                added = self.policy.notify(transitions, now)
+                added = []
+                if transitions:  # most chunks change no alarm's state
+                    self.store.record(transitions)
+                    added = self.policy.notify(transitions, now)
                 if repeats:
                     added += self.policy.repeats(self.alarms.active(), now)
                 self.store.save_changes(self.alarms.changes())
@@ -199,27 +206,31 @@ class AlarmLoop:
         reading are made samples, for the health rules."""
         if batch:  # a logger was heard from (a skipped message brings none)
             self._heard[source] = True
-        valued = [r for r in batch if r.value is not None]
-        if not valued:
+        last = next((r for r in reversed(batch) if r.value is not None), None)
+        if last is None:
             return
         self._fresh()
-        out = self.alarms.ingest(source, valued)
-        out += self._batch_health(source, valued, state)
-        self._commit(out, self.clock())
-
-    def _batch_health(
-        self, source: str, valued: Sequence[Reading], state: dict[str, Any]
-    ) -> list[Transition]:
-        out: list[Transition] = []
-        for r in valued:
-            if r.channel in self._supply_channels(r.logger):
-                out += self.alarms.health(Health(source, reading_time(r), r.logger, supply=r.value))
+        out = self.alarms.ingest(source, batch)  # it skips readings without a value
+        if self._watch_supply:
+            out += self._supply_health(source, batch)
         signal, credit = state.get("signal"), state.get("credit")
-        if signal is not None or credit is not None:
-            last = valued[-1]
+        if self._watch_gsm and (signal is not None or credit is not None):
             out += self.alarms.health(
                 Health(source, reading_time(last), last.logger, signal=signal, credit=credit)
             )
+        self._commit(out, self.clock())
+
+    def _supply_health(self, source: str, batch: Sequence[Reading]) -> list[Transition]:
+        """The readings of supply channels as the loggers' ``supply``."""
+        out: list[Transition] = []
+        logger: str | None = None
+        supply: set[int] = set()
+        for r in batch:
+            if r.logger != logger:  # a batch is mostly one logger's
+                logger = r.logger
+                supply = self._supply_channels(logger)
+            if r.value is not None and r.channel in supply:
+                out += self.alarms.health(Health(source, reading_time(r), r.logger, supply=r.value))
         return out
 
     def _supply_channels(self, logger: str) -> set[int]:

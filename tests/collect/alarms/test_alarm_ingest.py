@@ -16,6 +16,7 @@ from dataclasses import fields
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
+import pytest
 from alarm_helpers import plan_of
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -30,10 +31,10 @@ VALUES = (0.0, 0.5, 1.0, 1.0005, 2.0, 2.5, -1.0, 10.0, math.nan, math.inf, -math
 
 
 @st.composite
-def rules(draw: st.DrawFn) -> AlarmPlan:
+def rules(draw: st.DrawFn, kinds: tuple[str, ...] = ("threshold", "stuck", "step")) -> AlarmPlan:
     out = []
     for i in range(draw(st.integers(1, 6))):
-        kind = draw(st.sampled_from(["threshold", "stuck", "step"]))
+        kind = draw(st.sampled_from(kinds))
         where = draw(st.sampled_from(["number", "name", "all"]))
         fields: dict[str, object] = {
             "logger": draw(st.sampled_from(["*", "F*", "F01", "G?", "X*"])),
@@ -86,6 +87,32 @@ def chunks(draw: st.DrawFn) -> list[tuple[str, list[Reading]]]:
                 if draw(st.booleans()) and draw(st.booleans()):
                     readings.append(reading)  # the same reading twice
         out.append((source, readings))
+    return out
+
+
+@st.composite
+def calm_chunks(draw: st.DrawFn) -> list[tuple[str, list[Reading]]]:
+    """Long runs of readings mostly on the good side of the limits, now and then one that
+    crosses (the quiet readings of :mod:`sondalog.collect.alarms.ingest`), mostly in order,
+    a channel sometimes renamed."""
+    out = []
+    minute = 0
+    for _ in range(draw(st.integers(1, 4))):
+        readings: list[Reading] = []
+        for _ in range(draw(st.integers(0, 25))):
+            minute += draw(st.sampled_from([1, 1, 1, 0, -2]))
+            stamp = T0 + timedelta(minutes=minute)
+            utc = draw(st.sampled_from([None, None, stamp.replace(tzinfo=UTC)]))
+            logger = draw(st.sampled_from(LOGGERS[:2]))
+            counter = draw(st.integers(0, 1))
+            for channel in (1, 2, 3):
+                calm = st.floats(0.55, 0.95)
+                value = draw(st.one_of(calm, calm, calm, calm, st.sampled_from(VALUES)))
+                name = draw(st.sampled_from(("T1", "T1", "T1", "T1", "T2", None)))
+                readings.append(
+                    Reading(logger, channel, stamp, counter, 1, value, None, name, None, utc)
+                )
+        out.append(("s1", readings))
     return out
 
 
@@ -217,3 +244,20 @@ above = 5
         again = Alarms(plan, store.load_states())
         assert again.ingest("s1", rows(7, [6.0])) == []  # an old row: ignored
         assert {r.alarm: r for r in again.export()} == {r.alarm: r for r in alarms.export()}
+
+
+@pytest.mark.timeout(600)  # long chunks: some 40 s on an idle machine
+@settings(max_examples=200, deadline=None)
+@given(rules(("threshold", "threshold", "threshold", "stuck")), calm_chunks(), calm_chunks())
+def test_quiet_readings_answer_as_reading(
+    plan: AlarmPlan,
+    first: list[tuple[str, list[Reading]]],
+    then: list[tuple[str, list[Reading]]],
+) -> None:
+    """Threshold rules on long calm runs: the quiet readings only move the newest reading,
+    settled into the alarms before a crossing and at the end of a chunk."""
+    run(plan, first, [])
+    before = Alarms(plan)
+    for source, readings in first:
+        before.readings(Sample.of(source, r) for r in readings)
+    run(plan, then, before.export())

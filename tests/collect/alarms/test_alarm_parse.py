@@ -3,15 +3,31 @@ refusal names file, line and field."""
 
 from __future__ import annotations
 
+import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
 from sondalog.collect.alarms import parse_alarms
 from sondalog.collect.alarms.durations import parse_duration, parse_quiet, parse_rate
-from sondalog.config import ConfigError, loads
+from sondalog.collect.alarms.outbox import Message
+from sondalog.collect.alarms.send_email import EmailSettings
+from sondalog.collect.alarms.send_log import LogSettings
+from sondalog.collect.alarms.send_mqtt import MqttSettings
+from sondalog.collect.alarms.send_sms import ModemSmsSettings, NetworkSmsSettings
+from sondalog.collect.alarms.send_webhook import WebhookSettings
+from sondalog.collect.alarms.senders import (
+    _REGISTERED,
+    COMMON_KEYS,
+    known_kinds,
+    register_sender,
+    sender_for,
+)
+from sondalog.config import ConfigError, Table, loads
 
 PATH = Path("/etc/collector.toml")
+TO, PAGER = ("ops@example.net",), ("+420700000002",)
 
 NOTIFY = """
 [[notify]]
@@ -148,12 +164,18 @@ for = 5
     assert p.rules[7].after == 120
     assert p.rules[8].count == 5
     mail = p.notify["ops-mail"]
-    assert mail.settings["smtp"] == ("127.0.0.1", 2525) and mail.repeat == 4 * 3600
+    assert mail.settings == EmailSettings(("127.0.0.1", 2525), "collector@example.net", TO)
+    assert mail.repeat == 4 * 3600
     assert mail.rate is not None and (mail.rate.count, mail.rate.per) == (5, 3600)
     assert str(mail.quiet[0]) == "22:00-06:00"
-    assert p.notify["pager"].settings["device"] == Path("/dev/ttyUSB0")
-    assert p.notify["hook"].retries == 8 and p.notify["hook"].settings["secret"] == "s3cret"
-    assert p.notify["ha"].settings["topic"] == "sondalog/alarms"
+    assert p.notify["pager"].settings == ModemSmsSettings(Path("/dev/ttyUSB0"), PAGER, 9600)
+    assert p.notify["oncall-sms"].settings == NetworkSmsSettings(
+        "http://127.0.0.1:8025", "+420700000009", ("+420700000001",)
+    )
+    assert p.notify["hook"].retries == 8
+    assert p.notify["hook"].settings == WebhookSettings("https://example.net/hook", "s3cret")
+    assert p.notify["ha"].settings == MqttSettings("mqtt://127.0.0.1:1883")
+    assert p.notify["log"].settings == LogSettings(logging.WARNING)
 
 
 @pytest.mark.parametrize(
@@ -225,6 +247,28 @@ def test_two_rules_with_one_name_are_refused() -> None:
         ('name = "x"\nkind = "log"\nlevle = "info"', "levle", "did you mean level"),
         ('name = "ops-mail"\nkind = "log"', "name", "another"),
         ('name = "x"\nkind = "log"\nbackoff = 60\nbackoff_max = 30', "backoff_max", "at least"),
+        # every kind's own mistakes, found by the parse registered with its sender
+        ('name = "x"\nkind = "pager"', "kind", "must be one of"),
+        ('name = "x"\nkind = "log"\nlevel = "loud"', "level", "must be one of"),
+        ('name = "x"\nkind = "log"\nurl = "http://h"', "url", "unknown"),
+        ('name = "x"\nkind = "email"\nsmtp = "h:1"\nfrom = "me"\nto = "a@b"', "from", "e-mail"),
+        ('name = "x"\nkind = "email"\nsmtp = "h:1"\nfrom = "a@b"', "to", "required"),
+        ('name = "x"\nkind = "email"\nsmtp = "h:1"\nfrom = "a@b"\nto = []', "to", ""),
+        ('name = "x"\nkind = "email"\nsmtp = "h:1"\nfrom = "a@b"\ntoo = "a@b"', "too", "to?"),
+        (
+            'name = "x"\nkind = "email"\nsmtp = "h:1"\nfrom = "a@b"\nto = "a@b"\nuser = 5',
+            "user",
+            "string",
+        ),
+        ('name = "x"\nkind = "sms"\nvia = "pigeon"\nnumber = "+1234"', "via", "must be one of"),
+        ('name = "x"\nkind = "sms"\nvia = "modem"\nnumber = "+1234"', "device", "required"),
+        ('name = "x"\nkind = "mqtt"\nurl = "http://h"', "url", "mqtt://"),
+        ('name = "x"\nkind = "mqtt"\nurl = "mqtt://h"\ntopic = "a/#"', "topic", "topic"),
+        ('name = "x"\nkind = "mqtt"\nurl = "mqtt://h"\ndiscovery = "yes"', "discovery", ""),
+        ('name = "x"\nkind = "mqtt"\nurl = "mqtt://h"\nsecret = "s"', "secret", "unknown"),
+        ('name = "x"\nkind = "webhook"\nurl = "http://h"\ntimeout = 0', "timeout", ""),
+        ('name = "x"\nkind = "webhook"\nurl = "http://h"\nsecret = 1', "secret", "string"),
+        ('name = "x"\nkind = "webhook"', "url", "required"),
     ],
 )
 def test_notify_refusals(text: str, where: str, words: str) -> None:
@@ -232,6 +276,45 @@ def test_notify_refusals(text: str, where: str, words: str) -> None:
     assert error.field == f"notify[6].{where}", error
     assert words in str(error)
     assert error.line is not None
+
+
+@dataclass(frozen=True)
+class PigeonSettings:
+    loft: str
+
+
+def _pigeon(t: Table) -> PigeonSettings:
+    t.keys(COMMON_KEYS | {"loft"})
+    return PigeonSettings(t.text("loft", pattern=r"[a-z]+", what="a loft"))
+
+
+class _Pigeon:
+    def __init__(self, settings: PigeonSettings) -> None:
+        self.loft = settings.loft
+
+    async def send(self, message: Message) -> None:
+        return None
+
+    async def close(self) -> None:
+        return None
+
+
+def test_a_kind_registered_elsewhere_parses_its_own_settings() -> None:
+    """A destination kind is one register_sender call: its parse reads its keys (with
+    file, line and field), its factory gets the typed settings."""
+    register_sender("pigeon", lambda notify: _Pigeon(notify.settings), _pigeon)
+    try:
+        text = '\n[[notify]]\nname = "coop"\nkind = "pigeon"\nloft = "north"\nrepeat = "1h"\n'
+        coop = plan(text).notify["coop"]
+        assert coop.settings == PigeonSettings("north") and coop.repeat == 3600
+        sender = sender_for(coop)
+        assert isinstance(sender, _Pigeon) and sender.loft == "north"
+        error = refused(text.replace("north", "North"))
+        assert error.field == "notify[6].loft" and "a loft" in str(error)
+        assert str(error).startswith(f"{PATH}:{NOTIFY.count(chr(10)) + 5}:")
+    finally:
+        _REGISTERED.pop("pigeon")
+    assert "pigeon" not in known_kinds()
 
 
 def test_no_tables_is_an_empty_plan() -> None:

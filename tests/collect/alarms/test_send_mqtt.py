@@ -14,7 +14,7 @@ from typing import Any
 import aiomqtt
 
 from sondalog.collect.alarms import Message, Notify
-from sondalog.collect.alarms.send_mqtt import MqttAlarms
+from sondalog.collect.alarms.send_mqtt import MqttAlarms, MqttSettings
 from sondalog.collect.alarms.senders import DeliveryError, sender_for
 
 
@@ -35,9 +35,9 @@ def message(what: str, subject: str, key: str, rule: str | None = "hot room") ->
     )
 
 
-def ha(url: str, **more: object) -> MqttAlarms:
-    settings = {"url": url, "topic": "site/alarms", "discovery": True}
-    sender = sender_for(Notify("ha", "mqtt", {**settings, "discovery_prefix": "hass", **more}))
+def ha(url: str, discovery: bool = True) -> MqttAlarms:
+    settings = MqttSettings(url, "site/alarms", discovery, "hass")
+    sender = sender_for(Notify("ha", "mqtt", settings))
     assert isinstance(sender, MqttAlarms)
     return sender
 
@@ -114,11 +114,11 @@ def test_discovery_state_availability_and_events(mosquitto: Any) -> None:
 KILLED = """
 import asyncio, sys
 from sondalog.collect.alarms import Message, Notify
+from sondalog.collect.alarms.send_mqtt import MqttSettings
 from sondalog.collect.alarms.senders import sender_for
 
 async def main():
-    notify = Notify("ha", "mqtt", {"url": sys.argv[1], "topic": "site/alarms",
-                                   "discovery": False, "discovery_prefix": "hass"})
+    notify = Notify("ha", "mqtt", MqttSettings(sys.argv[1], "site/alarms", False, "hass"))
     sender = sender_for(notify)
     await sender.send(Message(key="a1-1/raised/ha", destination="ha", what="raised",
                               event="a1-1", text="hot", created=0.0, next_try=0.0,

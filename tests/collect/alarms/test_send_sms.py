@@ -19,7 +19,13 @@ from sondalog.collect.alarms.modem_sms import (
     one_sms,
     submit_pdu,
 )
-from sondalog.collect.alarms.send_sms import ModemSms, NetworkSms, sms_text
+from sondalog.collect.alarms.send_sms import (
+    ModemSms,
+    ModemSmsSettings,
+    NetworkSms,
+    NetworkSmsSettings,
+    sms_text,
+)
 from sondalog.collect.alarms.senders import DeliveryError, sender_for
 from sondalog.gsm import pdu
 
@@ -126,28 +132,17 @@ def inbox(world: Served, number: str) -> list[tuple[str, str]]:
 
 
 def test_sms_through_the_network_api(world: Served) -> None:
-    notify = Notify(
-        "sms",
-        "sms",
-        {"via": "network", "url": world.api, "from": PHONE, "number": (PHONE2, MODEM)},
-    )
+    notify = Notify("sms", "sms", NetworkSmsSettings(world.api, PHONE, (PHONE2, MODEM)))
     sender = sender_for(notify)
     assert isinstance(sender, NetworkSms)
     asyncio.run(sender.send(message()))
     assert inbox(world, PHONE2) == [(PHONE, "ALARM: F01/1 Air above 40: 41.5")]
     assert inbox(world, MODEM) == [(PHONE, "ALARM: F01/1 Air above 40: 41.5")]
-    bad = Notify("x", "sms", {"via": "network", "url": world.api, "from": PHONE, "number": ("+1",)})
+    bad = Notify("x", "sms", NetworkSmsSettings(world.api, PHONE, ("+1",)))
     with pytest.raises(DeliveryError, match=r"SMS to \+1"):
         asyncio.run(sender_for(bad).send(message()))
     gone = Notify(
-        "x",
-        "sms",
-        {
-            "via": "network",
-            "url": f"http://127.0.0.1:{free_port()}",
-            "from": PHONE,
-            "number": (PHONE2,),
-        },
+        "x", "sms", NetworkSmsSettings(f"http://127.0.0.1:{free_port()}", PHONE, (PHONE2,))
     )
     with pytest.raises(DeliveryError, match="cannot reach"):
         asyncio.run(sender_for(gone).send(message()))
@@ -155,7 +150,7 @@ def test_sms_through_the_network_api(world: Served) -> None:
 
 def test_sms_through_the_served_modem_pty(world: Served) -> None:
     pty = next(x for x in world.lines if x.startswith("gsm modem pty")).split()[3]
-    notify = Notify("pager", "sms", {"via": "modem", "device": Path(pty), "number": (PHONE2,)})
+    notify = Notify("pager", "sms", ModemSmsSettings(Path(pty), (PHONE2,)))
     sender = sender_for(notify)
     assert isinstance(sender, ModemSms)
     long = "F01/1 Air above 40: " + "very hot " * 30
@@ -174,8 +169,6 @@ def test_sms_through_the_served_modem_pty(world: Served) -> None:
 
 
 def test_a_missing_modem_is_a_delivery_error(tmp_path: Path) -> None:
-    notify = Notify(
-        "pager", "sms", {"via": "modem", "device": tmp_path / "ttyNONE", "number": (PHONE2,)}
-    )
+    notify = Notify("pager", "sms", ModemSmsSettings(tmp_path / "ttyNONE", (PHONE2,)))
     with pytest.raises(DeliveryError, match="ttyNONE"):
         asyncio.run(sender_for(notify).send(message()))

@@ -11,13 +11,14 @@ import hmac
 import json
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import pytest
 from alarm_helpers import T0, plan_of, sample
 
 from sondalog.collect.alarms import Alarms, MemoryOutbox, Message, Notify, Policy
+from sondalog.collect.alarms.send_webhook import WebhookSettings
 from sondalog.collect.alarms.senders import DeliveryError, sender_for
 
 SECRET = "s3cret"
@@ -69,8 +70,8 @@ async def receiving(receiver: Receiver) -> AsyncIterator[Receiver]:
         server.close()
 
 
-def hook(url: str, **more: object) -> Notify:
-    return Notify("hook", "webhook", {"url": url, "secret": SECRET, "timeout": 5.0, **more})
+def hook(url: str, timeout: float = 5.0) -> Notify[WebhookSettings]:
+    return Notify("hook", "webhook", WebhookSettings(url, SECRET, timeout))
 
 
 MESSAGE = Message(
@@ -93,7 +94,7 @@ def test_the_post_is_signed_json_with_an_idempotency_key() -> None:
     async def run() -> Receiver:
         async with receiving(Receiver()) as rx:
             await sender_for(hook(rx.url)).send(MESSAGE)
-            unsigned = Notify("plain", "webhook", {"url": rx.url, "timeout": 5.0})
+            unsigned = Notify("plain", "webhook", WebhookSettings(rx.url, None, 5.0))
             await sender_for(unsigned).send(MESSAGE)
             return rx
 
@@ -157,9 +158,7 @@ notify = ["hook"]
         attempts: list[float] = []
         async with receiving(rx):
             notify = plan.notify["hook"]
-            sender = sender_for(
-                Notify(notify.name, notify.kind, {**notify.settings, "url": rx.url})
-            )
+            sender = sender_for(replace(notify, settings=replace(notify.settings, url=rx.url)))
             now = T0
             policy.notify(alarms.reading(sample(41, 0)), now)
             while (due := outbox.next_try()) is not None:

@@ -65,3 +65,17 @@ def one_or_many(table: Table, key: str) -> list[str]:
     if table.is_text(key):
         return [table.text(key)]
     return table.texts(key, empty=False)
+
+
+#: An http:// or https:// URL (sms via the network's API, webhooks).
+HTTP_URL = r"https?://\S+"
+
+
+def many_matching(table: Table, key: str, pattern: str, what: str) -> tuple[str, ...]:
+    """:func:`one_or_many`, each item matching ``pattern`` (``what`` names it: "must be
+    {what}, not ...")."""
+    items = one_or_many(table, key)
+    for item in items:
+        if re.fullmatch(pattern, item) is None:
+            raise table.fail(key, f"must be {what}, not {item!r}")
+    return tuple(items)

@@ -40,17 +40,14 @@ from .events import (
     Transition,
     alarm_id,
     event_key,
-    reading_time,
 )
+from .ingest import Ingest
 from .kinds import (
     READINGS,
-    Check,
     Track,
     Verdict,
-    compile_check,
     level,
     refusing,
-    state_row,
 )
 from .rules import AlarmPlan, Rule
 
@@ -74,21 +71,19 @@ class Alarms:
         #: and in their rule's progress only (count, last value, last reading's time).
         self._dirty: dict[str, Track] = {}
         self._progress: dict[str, Track] = {}
-        self._timers: dict[str, Track] = {}
+        #: Timers (no contact, sink down): the alarm and the seconds from its ``ref`` to the
+        #: raise (not kept: it comes from the file and the source's interval).
+        self._timers: dict[str, tuple[Track, float]] = {}
         self._reading_rules = plan.of_kind(*READINGS)
         self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
-        #: (source, logger) -> (channel, name) -> the compiled checks of its rules.
-        self._checks: dict[tuple[str, str], dict[tuple[int, str | None], tuple[Check, ...]]] = {}
-        self._logger_rules: dict[tuple[str, str], list[Rule]] = {}
-        self._channel_names: dict[tuple[str, str | None], bool] = {}
+        self._ingest = Ingest(self._reading_rules, self._reading_track, self._apply, self._progress)
         for record in records:
             rule = self._rules.get(record.rule)
             if rule is None or rule.kind != record.kind:
                 continue  # the rule left the file (or changed kind): its alarms go too
-            track = self._add(Track.of(record))
+            track = self._add(record.copy())
             if rule.watch == "sink" and track.ref is not None:
-                track.after = rule.after or 0.0
-                self._timers[track.alarm] = track
+                self._timers[track.alarm] = (track, rule.after or 0.0)
 
     # -- tracks ---------------------------------------------------------------------------
 
@@ -198,66 +193,8 @@ class Alarms:
     def ingest(self, source: str, readings: Iterable[Reading]) -> list[Transition]:
         """The collector's readings of ``source`` as they are stored: the same answer as
         ``readings(Sample.of(source, r) for r in readings)``, made fast for the ingest path
-        (issue 21: 10 rules on every channel cost a fraction of the ingest). Each (logger,
-        channel) gets its matching rules compiled once (:func:`~.kinds.compile_check`); a
-        row's time is computed once for its channels."""
-        out: list[Transition] = []
-        loggers = self._checks
-        logger: object = None
-        compiled: dict[tuple[int, str | None], tuple[Check, ...]] = {}
-        stamp: object = None
-        utc: object = None
-        t = 0.0
-        for r in readings:
-            v = r.value
-            if v is None:
-                continue
-            if r.logger is not logger:  # a chunk is mostly one logger's
-                logger = r.logger
-                known = loggers.get((source, r.logger))
-                if known is None:
-                    known = loggers[(source, r.logger)] = {}
-                compiled = known
-            key = (r.channel, r.name)
-            checks = compiled.get(key)
-            if checks is None:
-                checks = compiled[key] = self._compile(source, r.logger, r.channel, r.name)
-            if not checks:
-                continue
-            if r.time is not stamp or r.utc is not utc:
-                stamp, utc = r.time, r.utc
-                t = reading_time(r)
-            c = r.counter
-            for check in checks:
-                got = check(t, c, v)
-                if got:
-                    out += got
-        return out
-
-    def _compile(
-        self, source: str, logger: str, channel: int, name: str | None
-    ) -> tuple[Check, ...]:
-        rules = self._logger_rules.get((source, logger))
-        if rules is None:
-            rules = [r for r in self._reading_rules if r.matches(source, logger)]
-            self._logger_rules[(source, logger)] = rules
-        subject = f"{logger}/{channel}"
-        apply = self._apply
-        return tuple(
-            compile_check(r, self._reading_track(r, subject), self._progress, apply)
-            for r in rules
-            if self._channel_matches(r, channel, name)
-        )
-
-    def _channel_matches(self, rule: Rule, channel: int, name: str | None) -> bool:
-        if rule.channel is not None or rule.channel_name is None or name is None:
-            return rule.matches_channel(channel, name)
-        known = self._channel_names.get((rule.channel_name, name))
-        if known is None:
-            known = self._channel_names[(rule.channel_name, name)] = fnmatchcase(
-                name, rule.channel_name
-            )
-        return known
+        (:mod:`.ingest`)."""
+        return self._ingest.run(source, readings)
 
     def watch_source(
         self,
@@ -275,10 +212,10 @@ class Alarms:
         for rule in self.plan.of_kind("no_contact"):
             if rule.matches(source, logger):
                 track = self._track(rule, source)
-                track.after = rule.after if rule.after is not None else INTERVALS * interval
+                after = rule.after if rule.after is not None else INTERVALS * interval
                 if track.ref is None:
                     track.ref = last_contact if last_contact is not None else now
-                self._timers[track.alarm] = track
+                self._timers[track.alarm] = (track, after)
 
     def contact(self, contact: Contact) -> list[Transition]:
         """A contact of a source: a good one restarts its no-contact timer and clears it."""
@@ -328,11 +265,10 @@ class Alarms:
                 verdict = level(rule, track, condition.value)
                 out += self._apply(rule, track, verdict, condition.time, condition.value)
             elif condition.value > 0:  # the sink is down
-                track.after = rule.after or 0.0
                 if track.ref is None:
                     track.ref = condition.time
-                self._timers[track.alarm] = track
-                out += self._expire(track, condition.time)
+                self._timers[track.alarm] = (track, rule.after or 0.0)
+                out += self._expire(track, rule.after or 0.0, condition.time)
             else:
                 track.ref = None
                 self._timers.pop(track.alarm, None)
@@ -345,21 +281,25 @@ class Alarms:
         """Raise every timer (no contact, sink down) that ran out by ``now``, at the time
         it ran out."""
         out: list[Transition] = []
-        for track in list(self._timers.values()):
-            out += self._expire(track, now)
+        for track, after in list(self._timers.values()):
+            out += self._expire(track, after, now)
         return out
 
-    def _expire(self, track: Track, now: float) -> list[Transition]:
-        if track.active or track.ref is None or track.ref + track.after > now:
+    def _expire(self, track: Track, after: float, now: float) -> list[Transition]:
+        if track.active or track.ref is None or track.ref + after > now:
             return []
         rule = self._rules[track.rule]
         self._dirty[track.alarm] = track
-        due = track.ref + track.after
+        due = track.ref + after
         return self._apply(rule, track, "raise", due, round(due - track.ref, 3))
 
     def next_deadline(self) -> float | None:
         """When :meth:`advance` has something to do next (``None``: nothing is pending)."""
-        due = [t.ref + t.after for t in self._timers.values() if not t.active and t.ref is not None]
+        due = [
+            t.ref + after
+            for t, after in self._timers.values()
+            if not t.active and t.ref is not None
+        ]
         return min(due, default=None)
 
     # -- people ---------------------------------------------------------------------------
@@ -389,21 +329,21 @@ class Alarms:
 
     def get(self, alarm: str) -> AlarmRecord | None:
         track = self._by_id.get(alarm)
-        return track.record() if track is not None else None
+        return track.copy() if track is not None else None
 
     def active(self) -> list[AlarmRecord]:
         """The alarms that are on (raised or acknowledged), oldest first."""
-        on = [t.record() for t in self._tracks.values() if t.active]
+        on = [t.copy() for t in self._tracks.values() if t.active]
         return sorted(on, key=lambda r: (r.raised_at or 0.0, r.alarm))
 
     def export(self) -> list[AlarmRecord]:
         """Every alarm's state (for the store)."""
-        return [t.record() for t in self._tracks.values()]
+        return [t.copy() for t in self._tracks.values()]
 
     def changed(self) -> list[AlarmRecord]:
         """The alarms changed since the last call (what the store has to write)."""
-        out = [t.record() for t in self._dirty.values()]
-        out += [t.record() for a, t in self._progress.items() if a not in self._dirty]
+        out = [t.copy() for t in self._dirty.values()]
+        out += [t.copy() for a, t in self._progress.items() if a not in self._dirty]
         self._dirty.clear()
         self._progress.clear()
         return out
@@ -415,8 +355,8 @@ class Alarms:
         columns written."""
         dirty, progress = self._dirty, self._progress
         out = StateChanges(
-            [state_row(t) for t in dirty.values()],
-            [state_row(t) for a, t in progress.items() if a not in dirty],
+            [t.row() for t in dirty.values()],
+            [t.row() for a, t in progress.items() if a not in dirty],
         )
         dirty.clear()
         progress.clear()

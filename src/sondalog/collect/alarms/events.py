@@ -14,8 +14,9 @@ Its :class:`AlarmRecord` is what the store keeps, so a restart neither forgets n
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from datetime import UTC
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 if TYPE_CHECKING:
@@ -153,11 +154,15 @@ class Acknowledged(Transition):
     by: str = ""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class AlarmRecord:
     """An alarm's state with its times, and what its rule needs to go on after a restart
     (``count``, ``last_value``, the last observation's ``last_time``/``last_counter``, the
-    timer's ``ref``)."""
+    timer's ``ref``): a row of ``alarm_states`` (its columns are these fields, in order).
+
+    The one type of an alarm's state: the core (:class:`~.evaluate.Alarms`) keeps each alarm
+    as one and changes it in place (:mod:`.kinds`); what it hands out (``export``,
+    ``active``, ``get``) are copies (:meth:`copy`), so a reader never sees it change."""
 
     alarm: str
     rule: str
@@ -180,6 +185,26 @@ class AlarmRecord:
     @property
     def active(self) -> bool:
         return self.state in ACTIVE
+
+    def copy(self) -> AlarmRecord:
+        """A copy that the core's later changes do not touch."""
+        return AlarmRecord(*_record_values(self))
+
+    def row(self) -> tuple[Any, ...]:
+        """The record as a row of ``alarm_states`` (its fields, in order)."""
+        row: tuple[Any, ...] = _record_values(self)
+        return row
+
+    def newer(self, time: float, counter: int = 0) -> bool:
+        """Whether an observation at ``time`` comes after the last one (and note it):
+        a reading seen twice (a data message, then the download) counts once."""
+        if self.last_time is not None and (time, counter) <= (self.last_time, self.last_counter):
+            return False
+        self.last_time, self.last_counter = time, counter
+        return True
+
+
+_record_values = attrgetter(*(f.name for f in fields(AlarmRecord)))
 
 
 @dataclass(frozen=True, slots=True)

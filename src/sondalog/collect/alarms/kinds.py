@@ -1,7 +1,7 @@
 """How each kind of rule turns one observation into raise, clear or nothing (issue 21).
 
-Pure functions over a :class:`Track` (an alarm's mutable state): the counting that makes a
-rule wait for ``for`` observations and its clear condition, so that nothing flaps:
+Pure functions over a :class:`Track` (an alarm's record, changed in place): the counting
+that makes a rule wait for ``for`` observations and its clear condition, so that nothing flaps:
 
 - levels (``threshold``, ``health``, ``collector buffer``): raised after ``count`` bad
   observations in a row, cleared after ``clear_count`` in a row on the good side of
@@ -18,68 +18,15 @@ rule wait for ``for`` observations and its clear condition, so that nothing flap
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, fields
-from operator import attrgetter
-from typing import Any, Literal
+from typing import Literal
 
-from .events import ACTIVE, AlarmRecord, State, Transition
+from .events import AlarmRecord, Transition
 from .rules import Rule
 
 Verdict = Literal["raise", "clear"] | None
-#: What an :class:`AlarmRecord` holds, in order (the first fields of a :class:`Track`).
-_RECORD_FIELDS = tuple(f.name for f in fields(AlarmRecord))
-_record_values = attrgetter(*_RECORD_FIELDS)
-
-
-def state_row(track: Track) -> tuple[Any, ...]:
-    """The alarm's state as a row of ``alarm_states`` (its columns are the record's
-    fields, in order)."""
-    row: tuple[Any, ...] = _record_values(track)
-    return row
-
-
-@dataclass(slots=True)
-class Track:
-    """The mutable state of one alarm (exported as :class:`AlarmRecord`)."""
-
-    alarm: str
-    rule: str
-    kind: str
-    subject: str
-    state: State = "ok"
-    event: str | None = None
-    value: float | None = None
-    text: str = ""
-    since: float | None = None
-    raised_at: float | None = None
-    acked_at: float | None = None
-    cleared_at: float | None = None
-    count: int = 0
-    last_value: float | None = None
-    last_time: float | None = None
-    last_counter: int = 0
-    ref: float | None = None
-    #: Timers: seconds from ``ref`` to the raise (not kept: it comes from the file).
-    after: float = 0.0
-
-    @property
-    def active(self) -> bool:
-        return self.state in ACTIVE
-
-    def record(self) -> AlarmRecord:
-        return AlarmRecord(*_record_values(self))
-
-    @classmethod
-    def of(cls, record: AlarmRecord) -> Track:
-        return cls(*[getattr(record, name) for name in _RECORD_FIELDS])
-
-    def newer(self, time: float, counter: int = 0) -> bool:
-        """Whether an observation at ``time`` comes after the last one (and note it):
-        a reading seen twice (a data message, then the download) counts once."""
-        if self.last_time is not None and (time, counter) <= (self.last_time, self.last_counter):
-            return False
-        self.last_time, self.last_counter = time, counter
-        return True
+#: An alarm's mutable state, as the core keeps it: its record (:class:`AlarmRecord`),
+#: changed in place.
+Track = AlarmRecord
 
 
 def level(rule: Rule, track: Track, value: float) -> Verdict:

@@ -14,39 +14,27 @@
 
 Every kind takes ``repeat``, ``quiet``, ``quiet_mode``, ``rate``, ``timezone`` (of the quiet
 windows; default the collector's), ``retries`` (failed attempts before giving up; default
-never), ``backoff`` and ``backoff_max`` (first retry and the longest wait between tries).
+never), ``backoff`` and ``backoff_max`` (first retry and the longest wait between tries):
+they are read here. The rest of the table is the kind's own: the ``parse`` registered with
+its sender (:func:`~.senders.register_sender`) checks it and returns its typed settings.
 """
 
 from __future__ import annotations
 
-import re
 from typing import Any
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.config import Table
 
 from .durations import duration, one_or_many, parse_quiet, parse_rate
-from .rules import NOTIFY_KINDS, Notify
-
-_COMMON = {"name", "kind", "repeat", "quiet", "quiet_mode", "rate", "retries"}
-_COMMON |= {"backoff", "backoff_max", "timezone"}
-KEYS: dict[str, set[str]] = {
-    "email": _COMMON | {"smtp", "from", "to", "user", "password"},
-    "sms": _COMMON | {"via", "url", "from", "device", "baud", "number"},
-    "mqtt": _COMMON | {"url", "topic", "discovery", "discovery_prefix"},
-    "webhook": _COMMON | {"url", "secret", "timeout"},
-    "log": _COMMON | {"level"},
-}
-_ALL_KEYS = set().union(*KEYS.values())
-_HTTP = r"https?://\S+"
-_EMAIL = r"[^@\s]+@[^@\s]+"
-_PHONE = r"\+?[0-9]{3,20}"
+from .rules import Notify
+from .senders import SenderKind, SenderUnavailable, find_sender, known_kinds
 
 
-def parse_notify(root: Table) -> dict[str, Notify]:
+def parse_notify(root: Table) -> dict[str, Notify[Any]]:
     """The ``[[notify]]`` tables of ``root`` by name; raises ``ConfigError``."""
-    out: dict[str, Notify] = {}
-    for table in root.tables("notify", keys=_ALL_KEYS):
+    out: dict[str, Notify[Any]] = {}
+    for table in root.tables("notify"):
         notify = _notify(table)
         if notify.name in out:
             raise table.fail("name", f"{notify.name!r} is used by another [[notify]] table")
@@ -54,9 +42,21 @@ def parse_notify(root: Table) -> dict[str, Notify]:
     return out
 
 
-def _notify(t: Table) -> Notify:
-    kind = t.text("kind", choices=NOTIFY_KINDS)
-    t.keys(KEYS[kind])
+def _sender(t: Table) -> SenderKind[Any]:
+    """The registration of the table's ``kind`` (its module imported)."""
+    kind = t.text("kind", choices=tuple(known_kinds()))
+    try:
+        found = find_sender(kind)
+    except SenderUnavailable as exc:
+        raise t.fail("kind", str(exc)) from None
+    if found is None:  # known_kinds() lists every kind find_sender knows
+        raise t.fail("kind", f"no sender for notifications of kind {kind!r} is registered")
+    return found
+
+
+def _notify(t: Table) -> Notify[Any]:
+    sender = _sender(t)
+    settings = sender.parse(t)  # checks the keys: the common ones and the kind's own
     name = t.text("name", pattern=r"[A-Za-z0-9_.-]+", what="a name of letters, digits, - _ .")
     quiet = []
     for i, text in enumerate(one_or_many(t, "quiet") if "quiet" in t else []):
@@ -72,8 +72,8 @@ def _notify(t: Table) -> Notify:
         raise t.fail("backoff_max", f"must be at least backoff ({backoff:g} s)")
     return Notify(
         name=name,
-        kind=kind,
-        settings=_SETTINGS[kind](t),
+        kind=sender.kind,
+        settings=settings,
         repeat=duration(t, "repeat"),
         quiet=tuple(quiet),
         quiet_mode="drop"
@@ -93,72 +93,3 @@ def _zone(text: str) -> ZoneInfo:
         return ZoneInfo(text)
     except (ZoneInfoNotFoundError, ValueError):
         raise ValueError(f'must be a time zone like "Europe/Prague", not {text!r}') from None
-
-
-def _email(t: Table) -> dict[str, Any]:
-    to = one_or_many(t, "to")
-    for address in to:
-        if not _matches(_EMAIL, address):
-            raise t.fail("to", f"must be e-mail addresses, not {address!r}")
-    return {
-        "smtp": t.address("smtp"),
-        "from": t.text("from", pattern=_EMAIL, what="an e-mail address"),
-        "to": tuple(to),
-        "user": t.opt_text("user"),
-        "password": t.opt_text("password"),
-    }
-
-
-def _sms(t: Table) -> dict[str, Any]:
-    via = t.text("via", choices=("network", "modem"))
-    numbers = one_or_many(t, "number")
-    for number in numbers:
-        if not _matches(_PHONE, number):
-            raise t.fail("number", f"must be phone numbers like +420700000001, not {number!r}")
-    if via == "network":
-        for key in ("device", "baud"):
-            if key in t:
-                raise t.fail(key, 'is for via = "modem"; via = "network" takes url and from')
-        return {
-            "via": via,
-            "url": t.text("url", pattern=_HTTP, what="an http:// URL"),
-            "from": t.text("from", pattern=_PHONE, what="the phone number the SMS come from"),
-            "number": tuple(numbers),
-        }
-    for key in ("url", "from"):
-        if key in t:
-            raise t.fail(key, 'is for via = "network"; via = "modem" takes device and baud')
-    return {
-        "via": via,
-        "device": t.path("device"),
-        "baud": t.integer("baud", 9600, lo=1, what="a baud rate"),
-        "number": tuple(numbers),
-    }
-
-
-def _mqtt(t: Table) -> dict[str, Any]:
-    return {
-        "url": t.text("url", pattern=r"mqtts?://\S+", what="an mqtt:// URL"),
-        "topic": t.text("topic", "sondalog/alarms", pattern=r"[^#+\s]+", what="a topic prefix"),
-        "discovery": t.flag("discovery", True),
-        "discovery_prefix": t.text("discovery_prefix", "homeassistant"),
-    }
-
-
-def _webhook(t: Table) -> dict[str, Any]:
-    return {
-        "url": t.text("url", pattern=_HTTP, what="an http:// or https:// URL"),
-        "secret": t.opt_text("secret"),
-        "timeout": t.number("timeout", 10.0, above=0),
-    }
-
-
-def _log(t: Table) -> dict[str, Any]:
-    return {"level": t.text("level", "warning", choices=("info", "warning", "error"))}
-
-
-_SETTINGS = {"email": _email, "sms": _sms, "mqtt": _mqtt, "webhook": _webhook, "log": _log}
-
-
-def _matches(pattern: str, text: str) -> bool:
-    return re.fullmatch(pattern, text) is not None

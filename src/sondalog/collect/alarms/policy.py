@@ -22,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import replace
 from datetime import UTC, tzinfo
+from typing import Any
 
 from .events import AlarmRecord, Transition
 from .outbox import Message, Outbox, What
@@ -40,7 +41,7 @@ class Policy:
         self.outbox = outbox
         self.zone = zone
 
-    def _destinations(self, rule: str) -> list[Notify]:
+    def _destinations(self, rule: str) -> list[Notify[Any]]:
         found = self.plan.rule(rule)
         if found is None:
             return []
@@ -90,7 +91,7 @@ class Policy:
 
     def _message(
         self,
-        dest: Notify,
+        dest: Notify[Any],
         what: What,
         event: str,
         source: Transition | AlarmRecord,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import fnmatch
 from dataclasses import dataclass, field
 from datetime import datetime, time, timedelta, tzinfo
-from typing import Literal
+from typing import Any, Generic, Literal, TypeVar
 
 #: The kinds of ``[[alarm]]`` (docs/alarms.md has one example of each).
 RULE_KINDS = ("no_contact", "threshold", "stuck", "step", "health", "collector")
@@ -27,7 +27,8 @@ HEALTH_MEASURES: dict[str, Literal["above", "below"]] = {
 }
 #: What a ``collector`` rule watches.
 COLLECTOR_WATCHES = ("sink", "buffer", "source")
-NOTIFY_KINDS = ("email", "sms", "mqtt", "webhook", "log")
+#: A destination kind's own settings (:mod:`.senders`: each kind parses its own).
+S = TypeVar("S")
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,15 +127,14 @@ class Quiet:
 
 
 @dataclass(frozen=True, slots=True)
-class Notify:
-    """One ``[[notify]]`` destination. ``settings`` holds what only its kind uses (e-mail:
-    ``smtp`` host and port, ``from``, ``to``; sms: ``via``, ``url`` or ``device``,
-    ``number``; mqtt: ``url``, ``topic``, ``discovery``; webhook: ``url``, ``secret``;
-    log: ``level``), already checked."""
+class Notify(Generic[S]):
+    """One ``[[notify]]`` destination: what every kind has, and ``settings``, what only its
+    kind uses, typed by the kind (``send_email.EmailSettings``...: the ``parse`` registered
+    with its sender, :func:`~.senders.register_sender`), already checked."""
 
     name: str
     kind: str
-    settings: dict[str, object] = field(default_factory=dict)
+    settings: S
     #: Re-notify a raised, unacknowledged alarm every this many seconds (``None``: never).
     repeat: float | None = None
     quiet: tuple[Quiet, ...] = ()
@@ -169,7 +169,7 @@ class AlarmPlan:
     """Every rule and destination of a collector's file."""
 
     rules: tuple[Rule, ...] = ()
-    notify: dict[str, Notify] = field(default_factory=dict)
+    notify: dict[str, Notify[Any]] = field(default_factory=dict)
 
     def rule(self, name: str) -> Rule | None:
         for rule in self.rules:

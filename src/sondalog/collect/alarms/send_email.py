@@ -23,33 +23,54 @@ from __future__ import annotations
 import asyncio
 import smtplib
 import ssl
+from dataclasses import dataclass
 from email.message import EmailMessage
 from email.utils import formatdate
-from typing import cast
 
-from sondalog.config import of
+from sondalog.config import Table
 
+from .durations import many_matching
 from .outbox import Message
 from .rules import Notify
-from .senders import DeliveryError, Sender, register_sender
+from .senders import COMMON_KEYS, DeliveryError, Sender, register_sender
 
 #: Seconds to wait for the SMTP server at each step.
 TIMEOUT = 30.0
+_EMAIL = r"[^@\s]+@[^@\s]+"
+
+
+@dataclass(frozen=True, slots=True)
+class EmailSettings:
+    """An ``email`` destination's own keys, checked."""
+
+    smtp: tuple[str, int]  # host, port
+    sender: str  # ``from``
+    to: tuple[str, ...]
+    user: str | None = None  # with ``password``: STARTTLS (when offered) and AUTH
+    password: str | None = None
+
+
+def parse(t: Table) -> EmailSettings:
+    """An ``email`` table's own keys (raises ``ConfigError``)."""
+    t.keys(COMMON_KEYS | {"smtp", "from", "to", "user", "password"})
+    return EmailSettings(
+        smtp=t.address("smtp"),
+        sender=t.text("from", pattern=_EMAIL, what="an e-mail address"),
+        to=many_matching(t, "to", _EMAIL, "e-mail addresses"),
+        user=t.opt_text("user"),
+        password=t.opt_text("password"),
+    )
 
 
 class EmailSender:
     """Sends each notification as one e-mail to ``to``."""
 
-    def __init__(self, notify: Notify) -> None:
-        t = of(notify.settings, where=f"notify.{notify.name}")
-        self.name = notify.name
-        # parse_notify checked them: ``smtp`` is (host, port) already, user/password None
-        # when not given
-        self.host, self.port = cast("tuple[str, int]", notify.settings["smtp"])
-        self.sender = t.text("from")
-        self.to = tuple(t.texts("to"))
-        self.user = cast("str | None", notify.settings.get("user"))
-        self.password = cast("str | None", notify.settings.get("password"))
+    def __init__(self, settings: EmailSettings) -> None:
+        self.host, self.port = settings.smtp
+        self.sender = settings.sender
+        self.to = settings.to
+        self.user = settings.user
+        self.password = settings.password
 
     def mail(self, message: Message) -> EmailMessage:
         mail = EmailMessage()
@@ -85,8 +106,8 @@ class EmailSender:
         return None
 
 
-def _factory(notify: Notify) -> Sender:
-    return EmailSender(notify)
+def _factory(notify: Notify[EmailSettings]) -> Sender:
+    return EmailSender(notify.settings)
 
 
-register_sender("email", _factory)
+register_sender("email", _factory, parse)

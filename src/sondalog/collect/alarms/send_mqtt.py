@@ -27,22 +27,44 @@ import asyncio
 import contextlib
 import json
 import ssl
+from dataclasses import dataclass
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
 import aiomqtt
 
 from sondalog.collect.ha_discovery import origin, safe_id
-from sondalog.config import of
+from sondalog.config import Table
 
 from .outbox import Message
 from .rules import Notify
 from .send_webhook import payload
-from .senders import DeliveryError, Sender, register_sender
+from .senders import COMMON_KEYS, DeliveryError, Sender, register_sender
 
 ON, OFF = "ON", "OFF"
 #: Seconds a connection or a publish may take.
 TIMEOUT = 10.0
+
+
+@dataclass(frozen=True, slots=True)
+class MqttSettings:
+    """An ``mqtt`` destination's own keys, checked."""
+
+    url: str  # mqtt:// or mqtts://, with user:password@ if the broker wants them
+    topic: str = "sondalog/alarms"
+    discovery: bool = True
+    discovery_prefix: str = "homeassistant"
+
+
+def parse(t: Table) -> MqttSettings:
+    """An ``mqtt`` table's own keys (raises ``ConfigError``)."""
+    t.keys(COMMON_KEYS | {"url", "topic", "discovery", "discovery_prefix"})
+    return MqttSettings(
+        url=t.text("url", pattern=r"mqtts?://\S+", what="an mqtt:// URL"),
+        topic=t.text("topic", "sondalog/alarms", pattern=r"[^#+\s]+", what="a topic prefix"),
+        discovery=t.flag("discovery", True),
+        discovery_prefix=t.text("discovery_prefix", "homeassistant"),
+    )
 
 
 class MqttAlarms:
@@ -181,15 +203,9 @@ class MqttAlarms:
         await self._drop()
 
 
-def create(notify: Notify) -> Sender:
-    t = of(notify.settings, where=f"notify.{notify.name}")
-    return MqttAlarms(
-        notify.name,
-        t.text("url"),
-        t.text("topic", "sondalog/alarms"),
-        t.flag("discovery", True),
-        t.text("discovery_prefix", "homeassistant"),
-    )
+def create(notify: Notify[MqttSettings]) -> Sender:
+    s = notify.settings
+    return MqttAlarms(notify.name, s.url, s.topic, s.discovery, s.discovery_prefix)
 
 
-register_sender("mqtt", create)
+register_sender("mqtt", create, parse)

@@ -18,20 +18,68 @@ import asyncio
 import contextlib
 import logging
 import time
+from dataclasses import dataclass
+from pathlib import Path
 
 from sondalog.client.phone import PhoneApi, PhoneApiError
-from sondalog.config import of
+from sondalog.config import Table
 from sondalog.io.serial_ports import serial_8n1
 
+from .durations import HTTP_URL, many_matching
 from .modem_sms import Conversation, ModemError, one_sms
 from .outbox import Message
 from .rules import Notify
-from .senders import DeliveryError, Sender, register_sender
+from .senders import COMMON_KEYS, DeliveryError, Sender, register_sender
 
 log = logging.getLogger(__name__)
 
 #: How long opening the serial line may take.
 OPEN_TIMEOUT = 5.0
+_PHONE = r"\+?[0-9]{3,20}"
+_NETWORK, _MODEM = {"url", "from"}, {"device", "baud"}
+
+
+@dataclass(frozen=True, slots=True)
+class NetworkSmsSettings:
+    """``via = "network"``: the network's HTTP API at ``url``, from the phone ``sender``."""
+
+    url: str
+    sender: str  # ``from``
+    numbers: tuple[str, ...]  # ``number``
+
+
+@dataclass(frozen=True, slots=True)
+class ModemSmsSettings:
+    """``via = "modem"``: the modem on the serial line ``device`` at ``baud``."""
+
+    device: Path
+    numbers: tuple[str, ...]  # ``number``
+    baud: int = 9600
+
+
+SmsSettings = NetworkSmsSettings | ModemSmsSettings
+
+
+def parse(t: Table) -> SmsSettings:
+    """An ``sms`` table's own keys (raises ``ConfigError``)."""
+    t.keys(COMMON_KEYS | {"via", "number"} | _NETWORK | _MODEM)
+    via = t.text("via", choices=("network", "modem"))
+    numbers = many_matching(t, "number", _PHONE, "phone numbers like +420700000001")
+    if via == "network":
+        if wrong := sorted(_MODEM & set(t)):
+            raise t.fail(wrong[0], 'is for via = "modem"; via = "network" takes url and from')
+        return NetworkSmsSettings(
+            url=t.text("url", pattern=HTTP_URL, what="an http:// URL"),
+            sender=t.text("from", pattern=_PHONE, what="the phone number the SMS come from"),
+            numbers=numbers,
+        )
+    if wrong := sorted(_NETWORK & set(t)):
+        raise t.fail(wrong[0], 'is for via = "network"; via = "modem" takes device and baud')
+    return ModemSmsSettings(
+        device=t.path("device"),
+        numbers=numbers,
+        baud=t.integer("baud", 9600, lo=1, what="a baud rate"),
+    )
 
 
 def sms_text(message: Message) -> str:
@@ -131,12 +179,11 @@ class ModemSms:
         return None
 
 
-def create(notify: Notify) -> Sender:
-    t = of(notify.settings, where=f"notify.{notify.name}")
-    numbers = tuple(t.texts("number"))
-    if t.text("via") == "network":
-        return NetworkSms(t.text("url"), t.text("from"), numbers)
-    return ModemSms(str(t.path("device")), t.integer("baud", 9600), numbers)
+def create(notify: Notify[SmsSettings]) -> Sender:
+    s = notify.settings
+    if isinstance(s, NetworkSmsSettings):
+        return NetworkSms(s.url, s.sender, s.numbers)
+    return ModemSms(str(s.device), s.baud, s.numbers)
 
 
-register_sender("sms", create)
+register_sender("sms", create, parse)

@@ -29,19 +29,40 @@ import hashlib
 import hmac
 import json
 import ssl
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 from urllib.parse import urlsplit
 
-from sondalog.config import of
+from sondalog.config import Table
 
+from .durations import HTTP_URL
 from .outbox import Message
 from .rules import Notify
-from .senders import DeliveryError, Sender, register_sender
+from .senders import COMMON_KEYS, DeliveryError, Sender, register_sender
 
 #: The most of an answer's status line and headers that is read.
 MAX_HEAD = 16 * 1024
 SIGNATURE = "X-Sondalog-Signature"
+
+
+@dataclass(frozen=True, slots=True)
+class WebhookSettings:
+    """A ``webhook`` destination's own keys, checked."""
+
+    url: str
+    secret: str | None = None  # signs the body (``X-Sondalog-Signature``)
+    timeout: float = 10.0  # seconds for the whole request
+
+
+def parse(t: Table) -> WebhookSettings:
+    """A ``webhook`` table's own keys (raises ``ConfigError``)."""
+    t.keys(COMMON_KEYS | {"url", "secret", "timeout"})
+    return WebhookSettings(
+        url=t.text("url", pattern=HTTP_URL, what="an http:// or https:// URL"),
+        secret=t.opt_text("secret"),
+        timeout=t.number("timeout", 10.0, above=0),
+    )
 
 
 def payload(message: Message) -> dict[str, Any]:
@@ -135,9 +156,9 @@ class Webhook:
         return None
 
 
-def create(notify: Notify) -> Sender:
-    t = of(notify.settings, where=f"notify.{notify.name}")
-    return Webhook(t.text("url"), t.opt_text("secret"), t.number("timeout", 10.0, above=0))
+def create(notify: Notify[WebhookSettings]) -> Sender:
+    s = notify.settings
+    return Webhook(s.url, s.secret, s.timeout)
 
 
-register_sender("webhook", create)
+register_sender("webhook", create, parse)

@@ -5,8 +5,9 @@ channels sampled) and makes ``--contacts`` contacts with the collector's own
 :class:`~sondalog.collect.sources.LoggerSource` (download, channel types, record status), with
 the configuration check off (``config_every = 0``) and on (every contact: read whole, hashed,
 compared with the stored one), interleaved. Prints the wall time per contact, best and median,
-the difference, the collector's CPU time per contact, and the bytes of the configuration's reads and answers (what they cost on a
-slow line: at 9600 baud at least the bytes sent x 10 bits / 9600).
+the difference, the collector's CPU time per contact, and the bytes of the configuration's
+reads and answers (what they cost on a slow line: at 9600 baud at least the bytes sent x 10
+bits / 9600).
 
 Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--contacts 30]``.
 """

@@ -84,7 +84,14 @@ class SimHardware:
 
     Tests change the world through its attributes (``analog[16].signal = ...``) or
     :meth:`set_signal`.
+
+    Its readings depend only on the time asked and on which outputs are on, and switching an
+    output does nothing else (``pure_readings``): the sampler may read many instants input
+    by input (:mod:`sondalog.ala1.series`, issue 24). Change the world between the core's
+    calls, not from inside a reading.
     """
+
+    pure_readings = True
 
     def __init__(
         self,
@@ -149,23 +156,34 @@ class SimHardware:
         return normalise(self.supply_signal(t) / SUPPLY_DIVIDER)
 
     def pulses(self, device: int, address: int, timer: bool, t0: float, t1: float) -> int:
-        return sum(
-            source.count(t0, t1)
-            for source in self.pulse_sources
-            if source.timer == timer and (timer or pin_of(source.address) == pin_of(address))
-        )
+        total = 0
+        for source in self.pulse_sources:
+            if source.timer == timer and (timer or pin_of(source.address) == pin_of(address)):
+                total += source.count(t0, t1)
+        return total
 
     def ds18b20(self, pin: int, rom: int, t: float) -> tuple[int, float] | None:
-        present = [s for s in self.thermometers if s.pin == pin and self.powered(s.power)]
+        outputs = self.outputs
+        sensor: Thermometer | None = None
         if rom == 0 or rom & 0xFF == 0:
-            if len(present) != 1:
-                return None  # nothing there, or several sensors answering at once
-            sensor = present[0]
+            for candidate in self.thermometers:  # the only powered sensor on the pin
+                power = candidate.power
+                if candidate.pin == pin and (power is None or outputs.get(power, False)):
+                    if sensor is not None:
+                        return None  # several sensors answering at once
+                    sensor = candidate
         else:
-            found = [s for s in present if s.rom == rom]
-            if not found:
-                return None
-            sensor = found[0]
+            for candidate in self.thermometers:
+                power = candidate.power
+                if (
+                    candidate.pin == pin
+                    and candidate.rom == rom
+                    and (power is None or outputs.get(power, False))
+                ):
+                    sensor = candidate
+                    break
+        if sensor is None:
+            return None
         celsius = min(125.0, max(-55.0, sensor.signal(t)))
         return sensor.rom, round(celsius * 16) / 16 / DS18B20_SCALE
 

@@ -15,17 +15,17 @@ channel's fault log.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.measure import TIMER_MAX_HZ, ChannelConfig, Input, Measurer
 from sondalog.protocol.tables import Curve, Surface, TableError
 
 Value = float | None
-#: One input's reading (after the device calibration) at a host time, over a window.
-Read = Callable[[float, int], Value]
 #: A channel's value from its inputs' readings (one or two).
 Calc = Callable[..., Value]
 
@@ -40,12 +40,39 @@ class Column:
 
 @dataclass(frozen=True, slots=True)
 class Source:
-    """One input of a channel as a column: ``key`` names what channels may share."""
+    """One input of a channel as a column: ``key`` names what channels may share.
+
+    ``read`` reads one host time (and window, for pulses); ``column`` reads many at once
+    where the hardware offers it (:class:`ColumnHardware`)."""
 
     key: Hashable
-    read: Read | None  # None: the input reads ``constant`` (device 0, unknown device)
+    read: Callable[..., Value] | None  # None: the input reads ``constant`` (device 0...)
     constant: Value = None
-    windowed: bool = False  # pulses: the reading depends on the window
+    windowed: bool = False  # pulses: ``read(t, window)``
+    column: Callable[[list[float]], list[Value]] | None = None
+    counts: Callable[[list[float], list[int]], list[Value]] | None = None  # pulses at once
+
+
+class ColumnHardware(Protocol):
+    """Hardware that reads an input at many host times at once, the outputs as they are
+    (the simulation): the very values of its one-time reads."""
+
+    def adc_column(self, device: int, address: int, times: list[float]) -> list[Value]: ...
+    def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[Value]: ...
+    def supply_column(self, times: list[float]) -> list[Value]: ...
+    def gsm_column(self, what: str, times: list[float]) -> list[Value]: ...
+    def pulses_column(
+        self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]
+    ) -> list[int]: ...
+
+
+def _calibrated(
+    raw: Callable[[list[float]], list[Value]], mult: float, add: float
+) -> Callable[[list[float]], list[Value]]:
+    def column(times: list[float]) -> list[Value]:
+        return [None if r is None else r * mult + add for r in raw(times)]
+
+    return column
 
 
 def mapped(fn: Callable[..., Value], *columns: Sequence[Value]) -> Column:
@@ -92,6 +119,7 @@ _MEMO = 16384
 def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> Source:
     """How :meth:`Measurer.reading` reads ``inp`` of channel ``cfg`` (input ``number``)."""
     hw: Hardware = measurer.hardware
+    many: ColumnHardware | None = hw if hasattr(hw, "adc_column") else None  # type: ignore[assignment]
     if inp.device == 0:
         return Source(("zero",), None, 0.0)
     kind, device_type = cfg.type, inp.device_type
@@ -100,30 +128,39 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
         if device_type == "MSP430ADC":
             adc, device, address = hw.adc, inp.device, inp.address
 
-            def analog(t: float, window: int) -> Value:
+            def analog(t: float) -> Value:
                 raw = adc(device, address, t)
                 return None if raw is None else raw * dm + da
 
-            return Source(("adc", device, address, dm, da), analog)
+            column = None
+            if many is not None:
+                column = _calibrated(functools.partial(many.adc_column, device, address), dm, da)
+            return Source(("adc", device, address, dm, da), analog, column=column)
         if device_type == "DS18B20":
             ds18b20, pin, rom = hw.ds18b20, inp.device_address, inp.address
 
-            def thermometer(t: float, window: int) -> Value:
+            def thermometer(t: float) -> Value:
                 found = ds18b20(pin, rom, t)
                 return None if found is None else found[1] * dm + da
 
-            return Source(("ds18b20", pin, rom, dm, da), thermometer)
+            column = None
+            if many is not None:
+                column = _calibrated(functools.partial(many.ds18b20_column, pin, rom), dm, da)
+            return Source(("ds18b20", pin, rom, dm, da), thermometer, column=column)
         return Source(("none",), None, None)
     if kind == 1:
         if device_type != "MSP430ADC":
             return Source(("none",), None, None)
         supply = hw.supply
 
-        def supplied(t: float, window: int) -> Value:
+        def supplied(t: float) -> Value:
             raw = supply(t)
             return None if raw is None else (raw * dm + da) * SUPPLY_DIVIDER
 
-        return Source(("supply", dm, da), supplied)
+        column = None
+        if many is not None:
+            column = _supplied(_calibrated(many.supply_column, dm, da))
+        return Source(("supply", dm, da), supplied, column=column)
     timer = device_type == "MSP430TA"  # types 2 and 6: pulses in the window
     if not timer and device_type != "MSP430ADC":
         return Source(("none",), None, None)
@@ -136,7 +173,26 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
         count = min(count, floor(limit * window))
         return count * dm + da if timer else float(count)
 
-    return Source(("pulses", cfg.number, number), counted, windowed=True)
+    counts = None
+    if many is not None:
+        many_pulses = many.pulses_column
+
+        def counts(times: list[float], windows: list[int]) -> list[Value]:
+            starts = [t - window for t, window in zip(times, windows, strict=True)]
+            got = many_pulses(device, address, timer, starts, times)
+            limited = [min(c, floor(limit * w)) for c, w in zip(got, windows, strict=True)]
+            return [c * dm + da for c in limited] if timer else [float(c) for c in limited]
+
+    return Source(("pulses", cfg.number, number), counted, windowed=True, counts=counts)
+
+
+def _supplied(
+    calibrated: Callable[[list[float]], list[Value]],
+) -> Callable[[list[float]], list[Value]]:
+    def column(times: list[float]) -> list[Value]:
+        return [None if r is None else r * SUPPLY_DIVIDER for r in calibrated(times)]
+
+    return column
 
 
 def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, ...], Calc]:
@@ -167,15 +223,19 @@ def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, 
         return table1(x, p) if isinstance(table1, Surface) else None
 
     if kind == 11 or kind == 12:
-        gsm, what = measurer.hardware.gsm, "credit" if kind == 11 else "signal"
+        hw = measurer.hardware
+        gsm, what = hw.gsm, "credit" if kind == 11 else "signal"
 
-        def network(t: float, window: int) -> Value:
+        def network(t: float) -> Value:
             return gsm(what, t)
+
+        many = getattr(hw, "gsm_column", None)
+        column = None if many is None else functools.partial(many, what)
 
         def gsm_value(x: Value) -> Value:
             return None if x is None else finish(first_table(x, None))
 
-        return (Source(("gsm", what), network),), gsm_value
+        return (Source(("gsm", what), network, column=column),), gsm_value
     first, second = cfg.inputs
     m1, a1 = first.cal2_mult, first.cal2_add
     one = source(measurer, cfg, first, 1)

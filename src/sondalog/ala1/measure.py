@@ -341,14 +341,16 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
     if value is None or not math.isfinite(value) or abs(value) >= _VALUE_LIMIT:
         return ""  # beyond what a reading can show: no valid value (docs/decisions.md)
     fmt = cfg.format
-    key = (value, fmt.width, fmt.decimals)
-    text = _RENDERED.get(key)
+    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
+    if rendered is None:
+        rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
+    text = rendered.get(value)
     if text is None:
         text = _render(repr(value), fmt.decimals)
         text = fmt.render(Decimal(repr(value))) if text is None else text.rjust(fmt.width)
-        if len(_RENDERED) >= _RENDERED_MAX:
-            _RENDERED.clear()
-        _RENDERED[key] = text
+        if len(rendered) >= _RENDERED_MAX:
+            rendered.clear()
+        rendered[value] = text
     return text
 
 
@@ -379,5 +381,5 @@ def _render(shown: str, decimals: int) -> str | None:
 #: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the
 #: decimal rendering costs more than the rest of a measurement. -0.0 and 0.0 share an
 #: entry: both render without a sign.
-_RENDERED: dict[tuple[float, int, int], str] = {}
+_RENDERED: dict[int, dict[float, str]] = {}  # by width * 16 + decimals
 _RENDERED_MAX = 8192

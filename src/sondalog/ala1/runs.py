@@ -124,7 +124,12 @@ def decide(run: ChannelRun, value: float | None) -> str | None:
             return None
         value = run.avg_sum / run.avg_n
         run.avg_sum, run.avg_n = 0.0, 0
-    text = format_value(cfg, value)
+    return record(run, format_value(cfg, value))
+
+
+def record(run: ChannelRun, text: str) -> str | None:
+    """§6.5.16: whether the value shown as ``text`` is written (its text, or None)."""
+    cfg = run.cfg
     run.since_write += 1
     write: str | None = None
     change = cfg.change

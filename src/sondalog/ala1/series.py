@@ -19,13 +19,15 @@ observer of instants without a series observer, or fewer than two instants befor
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from collections.abc import Callable, Hashable
 from typing import Protocol
 
 from sondalog.ala1.columns import Column, Source, Value, channel_plan, mapped
-from sondalog.ala1.measure import ChannelConfig, Measurer
-from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide
+from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
+from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide, record
 
 #: Instants of the most frequent channel in one stretch (bounds the memory of a stretch).
 CHUNK = 4096
@@ -200,10 +202,18 @@ def _read(
         if (cohort, src.key) not in columns:
             columns[cohort, src.key] = Column([src.constant] * len(times))
         return
-    windows = [window0] + [period] * (len(times) - 1)
     index = [k for k, t in enumerate(times) if members is None or t in members]
     hosts = [times[k] - offset for k in index]
-    got = mapped(read, hosts, [windows[k] for k in index])
+    windows = [window0 if k == 0 else period for k in index] if src.windowed else []
+    try:
+        if src.counts is not None:
+            got = Column(src.counts(hosts, windows))
+        elif src.column is not None:
+            got = Column(src.column(hosts))
+        else:
+            got = mapped(read, hosts, windows) if src.windowed else mapped(read, hosts)
+    except Exception:  # (a reading that raises: read one by one, it is that one's fault)
+        got = mapped(read, hosts, windows) if src.windowed else mapped(read, hosts)
     column = columns.get((cohort, src.key))
     if column is None:
         if members is None:
@@ -239,15 +249,19 @@ def _decide_all(
     """§6.5.15-§6.5.16 for every sample of ``run``: the texts written, by instant (as
     :meth:`Sampler._measure_due` does sample by sample)."""
     cfg = run.cfg
+    if cfg.average > 0:
+        return _averaged(sampler, run, times, values, offset)
     report = sampler.faults.report
-    average = cfg.average
     faults = values.faults
     written: dict[int, str] = {}
-    n, total = run.avg_n, run.avg_sum
     sample: Value = None
+    texts: list[str | None]
+    try:
+        texts = _texts(cfg, values.values)
+    except Exception:  # (decide meets it again below, sample by sample)
+        texts = [None] * len(values.values)
     for k, value in enumerate(values.values):
         sample = value
-        run.avg_n, run.avg_sum = n, total
         if faults and k in faults:
             # (Sampler._measure_due's except branch)
             report(cfg.number, faults[k], times[k] - offset)
@@ -255,13 +269,10 @@ def _decide_all(
                 text = decide(run, None)
             except Exception:
                 text = None
-        elif value is not None and n + 1 < average:
-            total += value
-            n += 1
-            continue
         else:
             try:
-                text = decide(run, value)
+                shown = texts[k]
+                text = decide(run, value) if shown is None else record(run, shown)
             except Exception as exc:
                 report(cfg.number, exc, times[k] - offset)
                 sample = None
@@ -269,9 +280,62 @@ def _decide_all(
                     text = decide(run, None)
                 except Exception:
                     text = None
-        n, total = run.avg_n, run.avg_sum
         if text is not None and cfg.number <= sampler.max_number:
             written[times[k]] = text
-    run.avg_n, run.avg_sum = n, total
+    run.sample, run.sampled = sample, True
+    return written
+
+
+def _texts(cfg: ChannelConfig, values: list[Value]) -> list[str | None]:
+    """``format_value`` of each value; repeated values (events, a steady signal) looked up."""
+    shown: dict[Value, str] = {}
+    return [
+        shown[value] if value in shown else shown.setdefault(value, format_value(cfg, value))
+        for value in values
+    ]
+
+
+def _averaged(
+    sampler: Sampler, run: ChannelRun, times: list[int], values: Column, offset: float
+) -> dict[int, str]:
+    """:func:`_decide_all` of an averaging channel (§6.5.15): a sample without a valid value
+    does not count, and :func:`decide` of one is a no-op; the samples of each average are
+    summed in order as the event-by-event path adds them, then :func:`decide` adds the last
+    one and decides on the average."""
+    cfg, report = run.cfg, sampler.faults.report
+    for k, exc in values.faults.items():
+        report(cfg.number, exc, times[k] - offset)
+    samples = values.values
+    if None in samples:
+        index = [k for k, value in enumerate(samples) if value is not None]
+        valid = [samples[k] for k in index]
+    else:
+        index, valid = list(range(len(samples))), samples
+    written: dict[int, str] = {}
+    last = len(samples) - 1
+    sample = samples[-1]
+    i = 0
+    while True:
+        need = cfg.average - run.avg_n
+        if i + need > len(valid):
+            break
+        run.avg_sum = functools.reduce(operator.add, valid[i : i + need - 1], run.avg_sum)
+        run.avg_n = cfg.average - 1
+        k = index[i + need - 1]
+        try:
+            text = decide(run, valid[i + need - 1])
+        except Exception as exc:
+            report(cfg.number, exc, times[k] - offset)
+            if k == last:
+                sample = None
+            try:
+                text = decide(run, None)
+            except Exception:
+                text = None
+        if text is not None and cfg.number <= sampler.max_number:
+            written[times[k]] = text
+        i += need
+    run.avg_sum = functools.reduce(operator.add, valid[i:], run.avg_sum)
+    run.avg_n += len(valid) - i
     run.sample, run.sampled = sample, True
     return written

@@ -160,8 +160,12 @@ class Messages:
             got = samples.get(message.config.channel)
             if crossing is not None and got is not None:
                 cfg, times, values = got
+                shown: dict[float | None, str] = {}
                 for t, value in zip(times, values, strict=True):
-                    if crossing.sample(format_value(cfg, value)) and (first is None or t < first):
+                    text = shown.get(value)
+                    if text is None:
+                        text = shown[value] = format_value(cfg, value)
+                    if crossing.sample(text) and (first is None or t < first):
                         first = t
             if first is not None:
                 self.trigger(number, first - offset)

@@ -269,3 +269,17 @@ def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, 
         return None if r is None else finish(first_table(r * m1 + a1, None))
 
     return (one,), remembered(tabled)
+
+
+def plain_column(cfg: ChannelConfig) -> Callable[[list[Value]], list[Value]] | None:
+    """The values of a one-input channel without tables (not GSM) from its readings, as one
+    list comprehension (``plain`` of :func:`channel_plan` without a call per value)."""
+    if cfg.type in (9, 11, 12) or cfg.table1 or cfg.table2:
+        return None
+    first = cfg.inputs[0]
+    m1, a1, mult, add = first.cal2_mult, first.cal2_add, cfg.mult, cfg.add
+
+    def column(readings: list[Value]) -> list[Value]:
+        return [None if r is None else (r * m1 + a1) * mult + add for r in readings]
+
+    return column

@@ -25,7 +25,7 @@ import operator
 from collections.abc import Callable, Hashable
 from typing import Protocol
 
-from sondalog.ala1.columns import Column, Source, Value, channel_plan, mapped
+from sondalog.ala1.columns import Column, Source, Value, channel_plan, mapped, plain_column
 from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
 from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide, record
 
@@ -171,7 +171,9 @@ def _sample_series(
         if not times:
             continue
         sources, calc = plans[run.cfg.number]
-        values = _values(sources, calc, [columns[key, src.key] for src in sources])
+        got = [columns[key, src.key] for src in sources]
+        many = plain_column(run.cfg)
+        values = _values(sources, calc, got) if many is None else _plain(many, calc, got[0])
         samples[run.cfg.number] = (run.cfg, times, values.values)
         written[run.cfg.number] = _decide_all(sampler, run, times, values, offset)
         run.last_t = times[-1]
@@ -224,6 +226,22 @@ def _read(
         column.values[k] = got.values[i]
         if i in got.faults:
             column.faults[k] = got.faults[i]
+
+
+def _plain(
+    many: Callable[[list[Value]], list[Value]], calc: Callable[..., Value], got: Column
+) -> Column:
+    """:func:`_values` of a one-input channel without tables, in one comprehension."""
+    try:
+        result = Column(many(got.values))
+    except Exception:  # (computed one by one: that value's fault)
+        result = mapped(calc, got.values)
+    for k, exc in got.faults.items():
+        result.faults[k] = exc
+        result.values[k] = None
+    for k in result.faults:
+        result.values[k] = None
+    return result
 
 
 def _values(sources: tuple[Source, ...], calc: Callable[..., Value], got: list[Column]) -> Column:

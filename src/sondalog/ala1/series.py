@@ -23,6 +23,7 @@ import functools
 import math
 import operator
 from collections.abc import Callable, Hashable
+from decimal import Decimal
 from typing import Protocol
 
 from sondalog.ala1.columns import Column, Source, Value, channel_plan, mapped, plain_column
@@ -278,8 +279,22 @@ def _decide_all(
         texts = _texts(cfg, values.values)
     except Exception:  # (decide meets it again below, sample by sample)
         texts = [None] * len(values.values)
+    quiet = _Quiet(cfg)
+    samples = cfg.samples
     for k, value in enumerate(values.values):
         sample = value
+        shown = texts[k]
+        if (
+            shown
+            and shown in quiet
+            and run.recorded is not None
+            and not run.event_active
+            and (cfg.type == 6 or shown == run.recorded)
+            and not (faults and k in faults)
+            and not (samples > 0 and run.since_write + 1 >= samples)
+        ):
+            run.since_write += 1  # runs.record of a value that writes nothing, without the call
+            continue
         if faults and k in faults:
             # (Sampler._measure_due's except branch)
             report(cfg.number, faults[k], times[k] - offset)
@@ -302,6 +317,29 @@ def _decide_all(
             written[times[k]] = text
     run.sample, run.sampled = sample, True
     return written
+
+
+class _Quiet:
+    """Texts for which :func:`runs.record` writes nothing by the change condition: for a
+    type 6 channel those below the change (while no event is active), for the others any
+    text equal to the last recorded one when the change is positive (§6.5.16.1)."""
+
+    def __init__(self, cfg: ChannelConfig) -> None:
+        self.cfg = cfg
+        change = cfg.change
+        self.events = cfg.type == 6 and change > 0
+        self.same = cfg.type != 6 and change > 0
+        self._below: dict[str, bool] = {}
+
+    def __contains__(self, text: object) -> bool:
+        if self.same:
+            return True  # (the caller compares with the recorded text)
+        if not self.events or not isinstance(text, str):
+            return False
+        below = self._below.get(text)
+        if below is None:
+            below = self._below[text] = Decimal(text) < self.cfg.change
+        return below
 
 
 def _texts(cfg: ChannelConfig, values: list[Value]) -> list[str | None]:

@@ -229,3 +229,27 @@ def test_the_random_worlds_take_the_series_path(monkeypatch: pytest.MonkeyPatch)
     }
     assert run(case, True, monkeypatch) == run(case, False, monkeypatch)
     assert taken.count(True) >= 2, taken
+
+
+def test_stretches_longer_than_a_chunk(monkeypatch: pytest.MonkeyPatch) -> None:
+    """One advance of many chunks (``series.CHUNK`` instants each): the stretches join as
+    the event-by-event path runs on, with switch-on delays running across their ends."""
+    monkeypatch.setattr(series, "CHUNK", 97)
+    base = {"average": 3, "change": "0.01", "samples": 3, "table1": "", "table2": "big"}
+    base |= {"format": "0.2", "mult": "1", "second_switch": 0}
+    channels = [
+        base | {"input": "powered", "period": 10, "start": 0, "switch": 2, "advance": 7},
+        base | {"input": "ds_only", "period": 15, "start": 3, "switch": 3, "advance": 12},
+        base | {"input": "pin", "period": 20, "start": 5, "switch": 0, "advance": 0},
+        base | {"input": "events", "period": 10, "start": 0, "switch": 0, "advance": 0},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 20_000), ("read", 2), ("advance", 7), ("advance", 15_000)],
+        "watch": 1,
+        "function": "down",
+        "threshold": "1",
+        "hysteresis": "0.2",
+        "of_record": True,
+    }
+    assert run(case, True, monkeypatch) == run(case, False, monkeypatch)

@@ -205,8 +205,12 @@ def _read(
         if (cohort, src.key) not in columns:
             columns[cohort, src.key] = Column([src.constant] * len(times))
         return
-    index = [k for k, t in enumerate(times) if members is None or t in members]
-    hosts = [times[k] - offset for k in index]
+    if members is None:
+        index: list[int] | range = range(len(times))
+        hosts = [t - offset for t in times]
+    else:
+        index = [k for k, t in enumerate(times) if t in members]
+        hosts = [times[k] - offset for k in index]
     windows = [window0 if k == 0 else period for k in index] if src.windowed else []
     try:
         if src.counts is not None:

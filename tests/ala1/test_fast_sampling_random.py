@@ -78,7 +78,7 @@ channel = st.fixed_dictionaries(
     {
         "input": st.sampled_from([*sorted(INPUTS), "pin", "powered", "ds_only"]),
         "period": st.sampled_from([10, 15, 20, 30, 60]),
-        "start": st.integers(0, 59),
+        "start": st.one_of(st.integers(0, 59), st.integers(600, 3600)),  # also later
         "switch": st.sampled_from([0, 0, 1, 2, 3]),
         "advance": st.sampled_from([0, 1, 3, 7, 40]),  # 40: longer than some periods
         "second_switch": st.sampled_from([0, 2, 3]),
@@ -135,7 +135,8 @@ def configure(m: Module, case: dict[str, Any]) -> None:
             f"convert 1 file name/{c['table1']}/",
             f"convert 2 file name/{c['table2']}/",
             f"sampling period 00{c['period'] // 60:02d}{c['period'] % 60:02d}",
-            f"sampling start 200701010000{c['start']:02d}",
+            f"sampling start 20070101{c['start'] // 3600:02d}{c['start'] // 60 % 60:02d}"
+            f"{c['start'] % 60:02d}",
         ]
         for part in parts:
             m.ok(f"write channel {ch} {part}")
@@ -251,5 +252,28 @@ def test_stretches_longer_than_a_chunk(monkeypatch: pytest.MonkeyPatch) -> None:
         "threshold": "1",
         "hysteresis": "0.2",
         "of_record": True,
+    }
+    assert run(case, True, monkeypatch) == run(case, False, monkeypatch)
+
+
+def test_a_stretch_ends_before_channels_that_start_later(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two switched channels whose delays overlap each other's samples leave no instant
+    without a delay running once both sample; the second starts half an hour later, so a
+    stretch ends before it starts and takes none of its instants."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.2", "mult": "1", "second_switch": 0, "period": 60, "advance": 40}
+    channels = [
+        base | {"input": "powered", "start": 0, "switch": 2},
+        base | {"input": "ds_only", "start": 1830, "switch": 3},
+        base | {"input": "analog", "start": 1800, "period": 10, "switch": 0, "advance": 0},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 7200)],
+        "watch": 1,
+        "function": "no",
+        "threshold": "1",
+        "hysteresis": "0",
+        "of_record": False,
     }
     assert run(case, True, monkeypatch) == run(case, False, monkeypatch)

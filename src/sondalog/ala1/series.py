@@ -118,7 +118,7 @@ def run_series(sampler: Sampler, t0: int, target: float, offset: float, sink: Ro
         return False
     stop = instants[last]
     for (start, period), times in cohorts.items():
-        del times[(stop - start) // period + 1 :]
+        del times[max(0, (stop - start) // period + 1) :]  # (a cohort may start after stop)
     _sample_series(sampler, runs, cohorts, instants[: last + 1], offset, sink)
     return True
 

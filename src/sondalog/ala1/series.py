@@ -131,6 +131,9 @@ def _sample_series(
     offset: float,
     sink: RowSink,
 ) -> None:
+    """Sample the cohorts' ``instants``: read the inputs with the outputs on as at each
+    instant, compute, decide, store the rows, tell the observer; the outputs end as after
+    the last sample (every switched one off)."""
     outputs = sampler.outputs
     switched = [run for run in runs if run.cfg.switches]
     # which outputs are on at each instant: instants grouped by it (one group without switches)

@@ -216,7 +216,8 @@ def bench_year(tmp: Path, runs: int) -> None:
 def bench_realistic(tmp: Path, runs: int, periods: tuple[str, ...] | None = None) -> None:
     figures = []
     for run in range(runs):
-        elapsed, cpu, engine, written, sent = realistic_year(tmp / f"real{run}.sqlite", periods)
+        db = tmp / f"real{run}{'' if periods is None else 'mixed'}.sqlite"  # a new logger each
+        elapsed, cpu, engine, written, sent = realistic_year(db, periods)
         figures.append((elapsed, cpu))
     per_day = sum(86400 // _seconds(p) for p in periods) if periods else 12 * 1440
     what = "1, 5 and 10 minutes" if periods else "every minute"

@@ -4,6 +4,7 @@ minute with averaging and record conditions, stored by the SQLite memory."""
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import pytest
@@ -11,10 +12,12 @@ from ala1_module import T0, Module
 
 from sondalog.ala1.measure import Measurer
 from sondalog.ala1.sampling import ChannelRun, RowSink, Sampler
+from sondalog.ala1.series import run_series
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware
 from sondalog.backends.sim.signals import RandomWalk, sine
 from sondalog.protocol.tables import build_files
 
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_sampling.py"
 ADDRESSES = (16, 17, 18, 19, 20, 24)
 DAYS = 7
 
@@ -78,7 +81,8 @@ def test_a_series_of_instants_is_sampled_as_instant_by_instant(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Channels that sample together and switch nothing run as a series of instants
-    (``Sampler._series``); event by event they log the same week."""
+    (``Sampler._series``, or channel by channel in ``series.run_series``); event by event
+    they log the same week."""
     series = logged_week(tmp_path / "series.sqlite", True, monkeypatch, switched=False)
 
     def one_instant(
@@ -87,6 +91,40 @@ def test_a_series_of_instants_is_sampled_as_instant_by_instant(
         sampler._sample(t, due, offset, sink)
 
     monkeypatch.setattr(Sampler, "_series", one_instant)
+    monkeypatch.setattr("sondalog.ala1.sampling.run_series", lambda *args: False)
     events = logged_week(tmp_path / "events.sqlite", True, monkeypatch, switched=False)
     assert len(events) > DAYS * 1440 // 2
     assert series == events
+
+
+def test_the_realistic_benchmark_logger_is_sampled_in_series_as_event_by_event(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """bench_sampling's realistic logger (issue 24: the site file's seven inputs, switched,
+    1-Wire, pulses, GSM, tables, averaging, a message on a threshold), three days: the
+    series path takes the instants, and the record, the samples and the SMS sent are those
+    of the interpreted event-by-event path."""
+    spec = importlib.util.spec_from_file_location("bench_sampling", BENCH)
+    assert spec is not None and spec.loader is not None
+    bench_sampling = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench_sampling)
+    taken: list[bool] = []
+    original = run_series
+
+    def spy(*args: object) -> bool:
+        result = original(*args)  # type: ignore[arg-type]
+        taken.append(result)
+        return result
+
+    monkeypatch.setattr("sondalog.ala1.sampling.run_series", spy)
+    monkeypatch.setattr(bench_sampling, "DAYS", 3)
+    got = []
+    for fast in (True, False):
+        monkeypatch.setattr(Measurer, "fast", fast)
+        _, _, engine, written, sent = bench_sampling.realistic_year(tmp_path / f"{fast}.sqlite")
+        line = engine.open_line()
+        samples = bench_sampling.ask(engine, line, "read channel sample", T0 + 3 * 86400)
+        got.append((engine.state.record.rows(), written, sent, samples))
+    assert got[0] == got[1]
+    assert got[0][1] > 1000 and samples.count(b",") == 11
+    assert taken.count(True) >= 3  # a stretch per simulated day at least

@@ -341,18 +341,45 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
     if value is None or not math.isfinite(value) or abs(value) >= _VALUE_LIMIT:
         return ""  # beyond what a reading can show: no valid value (docs/decisions.md)
     fmt = cfg.format
-    key = (value, fmt.width, fmt.decimals)
-    text = _RENDERED.get(key)
+    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
+    if rendered is None:
+        rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
+    text = rendered.get(value)
     if text is None:
-        text = fmt.render(Decimal(repr(value)))
-        if len(_RENDERED) >= _RENDERED_MAX:
-            _RENDERED.clear()
-        _RENDERED[key] = text
+        text = _render(repr(value), fmt.decimals)
+        text = fmt.render(Decimal(repr(value))) if text is None else text.rjust(fmt.width)
+        if len(rendered) >= _RENDERED_MAX:
+            rendered.clear()
+        rendered[value] = text
     return text
+
+
+def _render(shown: str, decimals: int) -> str | None:
+    """``NumberFormat.render(Decimal(shown))`` without the width, by the digits of the
+    float's repr (issue 24: averages rarely repeat, and the decimal context costs more than
+    the rest of a sample): round half away from zero, no ``-0``. None for an exponent."""
+    if "e" in shown:
+        return None
+    negative = shown[0] == "-"
+    whole, _, fraction = (shown[1:] if negative else shown).partition(".")
+    if len(fraction) <= decimals:
+        digits = whole + fraction + "0" * (decimals - len(fraction))
+        number = int(digits)
+    else:
+        number = int(whole + fraction[:decimals])
+        if fraction[decimals] >= "5":
+            number += 1
+        digits = str(number).rjust(decimals + 1, "0")
+    if number == 0:
+        negative = False
+    else:
+        digits = digits.lstrip("0").rjust(decimals + 1, "0")
+    text = f"{digits[:-decimals]}.{digits[-decimals:]}" if decimals else digits
+    return "-" + text if negative else text
 
 
 #: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the
 #: decimal rendering costs more than the rest of a measurement. -0.0 and 0.0 share an
 #: entry: both render without a sign.
-_RENDERED: dict[tuple[float, int, int], str] = {}
+_RENDERED: dict[int, dict[float, str]] = {}  # by width * 16 + decimals
 _RENDERED_MAX = 8192

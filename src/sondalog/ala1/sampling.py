@@ -9,115 +9,18 @@ switched off after it, unless an on-demand read holds it (``command channel swit
 
 from __future__ import annotations
 
-import logging
-import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from decimal import Decimal
 
-from sondalog.ala1.hardware import Hardware
-from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
-from sondalog.ala1.moduleclock import to_seconds
-from sondalog.ala1.tokens import parse_stamp
+from sondalog.ala1.measure import ChannelConfig, Measurer
+from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide
+from sondalog.ala1.series import SeriesObserver, run_series
 
-_ZERO = Decimal(0)
-_NEVER = Decimal(-1)
-
-
-@dataclass(slots=True)
-class ChannelRun:
-    """Sampling state of one channel (RAM, like the module's)."""
-
-    cfg: ChannelConfig
-    next_t: int | None = None
-    last_t: int | None = None
-    avg_sum: float = 0.0
-    avg_n: int = 0
-    since_write: int = 0
-    recorded: str | None = None  # last value written to the record (formatted)
-    event_active: bool = False  # type 6: the last sample met the condition
-    sample: float | None = None  # last scheduled sample (unformatted)
-    sampled: bool = False
-    #: ``Measurer.compiled(cfg)``, made at the first sample after a configuration.
-    measure: Callable[[float, float], float | None] | None = None
-
-    def schedule(self, now: int) -> None:
-        cfg = self.cfg
-        if cfg.period <= 0:
-            self.next_t = None
-            return
-        start = _stamp_seconds(cfg.start)
-        if now <= start:
-            self.next_t = start
-        else:
-            self.next_t = start + math.ceil((now - start) / cfg.period) * cfg.period
-
-
-def _stamp_seconds(stamp: str) -> int:
-    return int(to_seconds(parse_stamp(stamp)))
-
-
-@dataclass
-class Outputs:
-    """The seven outputs (§6.7): a written value, or automatic switching (``NO``)."""
-
-    hardware: Hardware
-    manual: dict[int, str] = field(default_factory=dict)  # output -> "0" | "1" | "NO"
-    usable: dict[int, bool] = field(default_factory=dict)  # device configured (§6.7.1)
-    scheduled: dict[int, set[int]] = field(default_factory=dict)  # output -> channels powering
-    held_until: dict[int, float] = field(default_factory=dict)  # module seconds
-    on_since: dict[int, float] = field(default_factory=dict)  # module seconds, when on
-    applied: dict[int, bool] = field(default_factory=dict)
-
-    def is_on(self, output: int) -> bool:
-        return self.applied.get(output, False)
-
-    def update(self, now: float, offset: float) -> None:
-        """Recompute every output's state at module time ``now`` and tell the hardware."""
-        usable, applied = self.usable, self.applied
-        for output in range(1, 8):
-            if not usable.get(output, False):
-                on = False
-            elif (manual := self.manual.get(output, "NO")) != "NO":
-                on = manual == "1"
-            else:
-                on = bool(self.scheduled.get(output)) or self.held_until.get(output, -1) > now
-            if on != applied.get(output, False):
-                self.applied[output] = on
-                if on:
-                    self.on_since[output] = now
-                else:
-                    self.on_since.pop(output, None)
-                self.hardware.set_output(output, on, now - offset)
+__all__ = ["ChannelRun", "FaultLog", "Outputs", "RowSink", "SampleObserver", "Sampler"]
 
 
 RowSink = Callable[[int, list[str]], None]
 #: Told of every sampling instant: its module second, the channels sampled, rows written?
 SampleObserver = Callable[[int, list["ChannelRun"], bool], None]
-
-log = logging.getLogger("sondalog.ala1.sampling")
-
-
-class FaultLog:
-    """Internal errors of channels, logged at most once a minute per channel and cause."""
-
-    INTERVAL = 60.0
-
-    def __init__(self) -> None:
-        self._last: dict[tuple[int, str], float] = {}
-
-    def report(self, channel: int, exc: Exception, host_t: float) -> None:
-        key = (channel, type(exc).__name__)
-        last = self._last.get(key)
-        if last is not None and 0 <= host_t - last < self.INTERVAL:
-            return
-        self._last[key] = host_t
-        log.error(
-            "channel %d: internal error while sampling (%s: %s); no valid value",
-            channel,
-            type(exc).__name__,
-            exc,
-        )
 
 
 class Sampler:
@@ -131,6 +34,9 @@ class Sampler:
         self.max_number = 1
         self._switching = False  # a channel's input is switched by an output (§6.5.13)
         self.observer: SampleObserver | None = None  # messages (§6.14.6, §6.14.7)
+        #: The observer's view of many instants at once (:mod:`sondalog.ala1.series`); a
+        #: sampler with an observer but without this one samples instant by instant.
+        self.series_observer: SeriesObserver | None = None
 
     def configure(self, configs: list[ChannelConfig], max_number: int, now: int) -> None:
         """New channel parameters; channels whose sampling changed restart their schedule."""
@@ -211,10 +117,14 @@ class Sampler:
             if sample is None or sample > target:
                 outputs.update(target, offset)
                 return
+            if hold is None and run_series(self, sample, target, offset, sink):
+                continue
             if hold is None and not self._switching and len(due) == len(self.runs):
                 self._series(sample, due, target, offset, sink)
             else:
                 self._sample(sample, due, offset, sink)
+
+    _decide = staticmethod(decide)
 
     def _power_on(self, t: int, offset: float) -> None:
         """§6.5.13: power the switches whose advance window opens at ``t``."""
@@ -304,46 +214,6 @@ class Sampler:
                     written = None
             if written is not None and cfg.number <= max_number:
                 fields[cfg.number] = written
-
-    @staticmethod
-    def _decide(run: ChannelRun, value: float | None) -> str | None:
-        """§6.5.15, §6.5.16: averaging, then the change and samples conditions."""
-        cfg = run.cfg
-        if cfg.average > 0:
-            if value is not None:
-                run.avg_sum += value
-                run.avg_n += 1
-            if run.avg_n < cfg.average:
-                return None
-            value = run.avg_sum / run.avg_n
-            run.avg_sum, run.avg_n = 0.0, 0
-        text = format_value(cfg, value)
-        run.since_write += 1
-        write: str | None = None
-        change = cfg.change
-        if change == _ZERO:
-            write = text
-        elif change != _NEVER:
-            if cfg.type == 6:
-                # §6.5.16.1: events per period; one 0 when the condition stops holding
-                if text and Decimal(text) >= change:
-                    write, run.event_active = text, True
-                elif run.event_active:
-                    write, run.event_active = format_value(cfg, 0.0), False
-            elif run.recorded is None or _changed(run.recorded, text, change):
-                write = text
-        if write is None and cfg.samples > 0 and run.since_write >= cfg.samples:
-            write = text
-        if write is not None:
-            run.recorded = write
-            run.since_write = 0
-        return write
-
-
-def _changed(old: str, new: str, change: Decimal) -> bool:
-    if not old or not new:
-        return old != new
-    return abs(Decimal(new) - Decimal(old)) >= change
 
 
 def _sampling_changed(old: ChannelConfig, new: ChannelConfig) -> bool:

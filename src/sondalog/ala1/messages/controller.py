@@ -28,6 +28,7 @@ from sondalog.ala1.messages.crossing import Crossing
 from sondalog.ala1.messages.schedule import next_due
 from sondalog.ala1.outbox import Outbox, Outgoing
 from sondalog.ala1.sampling import ChannelRun
+from sondalog.ala1.series import Samples
 from sondalog.ala1.state import ModuleState, NeedWait
 
 log = logging.getLogger(__name__)
@@ -79,6 +80,7 @@ class Messages:
         #: The messages a sampling instant concerns: of the record, or watching a channel.
         self._watching: list[tuple[int, _Message]] = []
         state.sampler.observer = self._sampled
+        state.sampler.series_observer = self._sampled_series
         self._refresh(host_now)
 
     # -- configuration -------------------------------------------------------------------------
@@ -144,6 +146,29 @@ class Messages:
                 and crossing.sample(format_value(run.cfg, run.sample))
             ):
                 self.trigger(number, host_t)
+
+    def _sampled_series(self, wrote: list[int], samples: Samples) -> None:
+        """The sampler's series observer: many instants at once, as :meth:`_sampled` instant
+        by instant (a waiting message keeps its first trigger; every sample of a watched
+        channel moves its crossing)."""
+        if not self._watching:
+            return
+        offset = self.state.clock_offset
+        for number, message in self._watching:
+            first = wrote[0] if wrote and message.config.of_record else None
+            crossing = message.crossing
+            got = samples.get(message.config.channel)
+            if crossing is not None and got is not None:
+                cfg, times, values = got
+                shown: dict[float | None, str] = {}
+                for t, value in zip(times, values, strict=True):
+                    text = shown.get(value)
+                    if text is None:
+                        text = shown[value] = format_value(cfg, value)
+                    if crossing.sample(text) and (first is None or t < first):
+                        first = t
+            if first is not None:
+                self.trigger(number, first - offset)
 
     # -- sending -------------------------------------------------------------------------------
     def blocked(self, local_ready: bool) -> bool:

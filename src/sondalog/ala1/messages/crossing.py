@@ -27,10 +27,15 @@ class Crossing:
         """A new sample (formatted; empty = no valid value); True when it triggers."""
         if not text:
             return False
-        try:
-            x = Decimal(text)
-        except ArithmeticError:
-            return False
+        x = _PARSED.get(text)
+        if x is None:
+            try:
+                x = Decimal(text)
+            except ArithmeticError:
+                return False
+            if len(_PARSED) >= 4096:
+                _PARSED.clear()
+            _PARSED[text] = x
         half = self.hysteresis / 2
         if self.above is None:
             self.above = x > self.value
@@ -42,3 +47,7 @@ class Crossing:
             self.above = False
             return self.function == "DOWN"
         return False
+
+
+#: Texts of samples parsed lately (issue 24: a watched channel's texts repeat).
+_PARSED: dict[str, Decimal] = {}

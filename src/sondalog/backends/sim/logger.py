@@ -60,6 +60,23 @@ class PulseSource:
         events = self._events
         return (bisect.bisect_left(events, t1) - bisect.bisect_left(events, t0)) * self.burst
 
+    def counts(self, starts: list[float], ends: list[float]) -> list[int]:
+        """:meth:`count` of each window ``[starts[i], ends[i])``."""
+        windows = zip(starts, ends, strict=True)
+        if self.rate:
+            origin, rate, floor = self.origin, self.rate, math.floor
+            return [
+                0 if t1 <= t0 else max(0, floor((t1 - origin) * rate) - floor((t0 - origin) * rate))
+                for t0, t1 in windows
+            ]
+        if not self.burst_rate or not ends:
+            return [0] * len(ends)
+        self._extend(max(ends))
+        events, burst, left = self._events, self.burst, bisect.bisect_left
+        return [
+            0 if t1 <= t0 else (left(events, t1) - left(events, t0)) * burst for t0, t1 in windows
+        ]
+
     def _extend(self, until: float) -> None:
         if self._rng is None:
             self._rng = random.Random(self.seed)
@@ -85,7 +102,14 @@ class SimHardware:
 
     Tests change the world through its attributes (``analog[16].signal = ...``) or
     :meth:`set_signal`.
+
+    Its readings depend only on the time asked and on which outputs are on, and switching an
+    output does nothing else (``pure_readings``): the sampler may read many instants input
+    by input (:mod:`sondalog.ala1.series`, issue 24). Change the world between the core's
+    calls, not from inside a reading.
     """
+
+    pure_readings = True
 
     def __init__(
         self,
@@ -150,31 +174,94 @@ class SimHardware:
         return normalise(self.supply_signal(t) / SUPPLY_DIVIDER)
 
     def pulses(self, device: int, address: int, timer: bool, t0: float, t1: float) -> int:
-        return sum(
-            source.count(t0, t1)
-            for source in self.pulse_sources
-            if source.timer == timer and (timer or pin_of(source.address) == pin_of(address))
-        )
+        total = 0
+        for source in self.pulse_sources:
+            if source.timer == timer and (timer or pin_of(source.address) == pin_of(address)):
+                total += source.count(t0, t1)
+        return total
 
     def ds18b20(self, pin: int, rom: int, t: float) -> tuple[int, float] | None:
-        present = [s for s in self.thermometers if s.pin == pin and self.powered(s.power)]
-        if rom == 0 or rom & 0xFF == 0:
-            if len(present) != 1:
-                return None  # nothing there, or several sensors answering at once
-            sensor = present[0]
-        else:
-            found = [s for s in present if s.rom == rom]
-            if not found:
-                return None
-            sensor = found[0]
-        if sensor.crc_error:
+        sensor = self._thermometer(pin, rom)
+        if sensor is None or sensor.crc_error:  # a bad CRC reads as no answer (control fault)
             return None
         celsius = min(125.0, max(-55.0, sensor.signal(t)))
         return sensor.rom, round(celsius * 16) / 16 / DS18B20_SCALE
 
+    def _thermometer(self, pin: int, rom: int) -> Thermometer | None:
+        """The sensor that answers ``rom`` on ``pin`` (None: none, or several at once)."""
+        outputs = self.outputs
+        sensor: Thermometer | None = None
+        if rom == 0 or rom & 0xFF == 0:
+            for candidate in self.thermometers:  # the only powered sensor on the pin
+                power = candidate.power
+                if candidate.pin == pin and (power is None or outputs.get(power, False)):
+                    if sensor is not None:
+                        return None  # several sensors answering at once
+                    sensor = candidate
+            return sensor
+        for candidate in self.thermometers:
+            power = candidate.power
+            if (
+                candidate.pin == pin
+                and candidate.rom == rom
+                and (power is None or outputs.get(power, False))
+            ):
+                return candidate
+        return None
+
     def gsm(self, what: str, t: float) -> float | None:
         signal = self.gsm_signals.get(what)
         return None if signal is None else signal(t)
+
+    # -- many instants at once (sondalog.ala1.columns.ColumnHardware, issue 24) ----------------
+    def adc_column(self, device: int, address: int, times: list[float]) -> list[float | None]:
+        """:meth:`adc` at each of ``times``, the outputs as they are."""
+        if address >= 32:
+            source, reference = self.analog.get(address - 16), self.external_reference
+        else:
+            source, reference = self.analog.get(address), INTERNAL_REFERENCE
+        if source is None or (source.power is not None and not self.outputs.get(source.power)):
+            return [None] * len(times)
+        signal, levels = source.signal, ADC_LEVELS
+        out: list[float | None] = []
+        for t in times:
+            fraction = signal(t) / reference
+            if fraction <= 0.0:
+                out.append(0.0)
+            else:
+                out.append(1.0 if fraction >= 1.0 else round(fraction * levels) / levels)
+        return out
+
+    def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[float | None]:
+        """The normalised reading of :meth:`ds18b20` at each of ``times``."""
+        sensor = self._thermometer(pin, rom)
+        if sensor is None or sensor.crc_error:
+            return [None] * len(times)
+        signal = sensor.signal
+        return [round(min(125.0, max(-55.0, signal(t))) * 16) / 16 / DS18B20_SCALE for t in times]
+
+    def supply_column(self, times: list[float]) -> list[float | None]:
+        """:meth:`supply` at each of ``times``."""
+        signal = self.supply_signal
+        if signal is None or not self.powered(self.supply_power):
+            return [None] * len(times)
+        return [normalise(signal(t) / SUPPLY_DIVIDER) for t in times]
+
+    def gsm_column(self, what: str, times: list[float]) -> list[float | None]:
+        """:meth:`gsm` at each of ``times``."""
+        signal = self.gsm_signals.get(what)
+        return [None] * len(times) if signal is None else [signal(t) for t in times]
+
+    def pulses_column(
+        self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]
+    ) -> list[int]:
+        """:meth:`pulses` of each window ``[starts[i], ends[i])``."""
+        totals = [0] * len(ends)
+        for source in self.pulse_sources:
+            if source.timer == timer and (timer or pin_of(source.address) == pin_of(address)):
+                counted = source.counts(starts, ends)
+                totals = [a + b for a, b in zip(totals, counted, strict=True)]
+        return totals
 
     def prepare(self, t: float) -> None:
         """Simulated inputs are there at once: nothing to acquire ahead."""

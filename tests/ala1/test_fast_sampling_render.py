@@ -1,0 +1,33 @@
+"""Values render by the digits of their repr (issue 24) exactly as through ``Decimal``:
+rounding half away from zero (§4.3.5), no ``-0``, any number of decimals."""
+
+from __future__ import annotations
+
+from decimal import Decimal
+
+from hypothesis import example, given
+from hypothesis import strategies as st
+
+from sondalog.ala1.measure import _render
+from sondalog.ala1.tokens import NumberFormat
+
+values = st.one_of(
+    st.floats(min_value=-1e15, max_value=1e15, allow_nan=False, exclude_min=True),
+    st.integers(-(10**6), 10**6).map(lambda n: n / 1000),  # halves at the last decimal
+    st.integers(-(10**6), 10**6).map(lambda n: n * 0.005),
+)
+
+
+@given(value=values, decimals=st.integers(0, 9))
+@example(value=0.05, decimals=1)
+@example(value=-0.05, decimals=1)
+@example(value=-0.04, decimals=1)
+@example(value=-0.0, decimals=2)
+@example(value=2.675, decimals=2)  # 2.67499999... as a float; its repr says 2.675
+@example(value=9.995, decimals=2)
+@example(value=-999.5, decimals=0)
+@example(value=1e-05, decimals=3)  # an exponent: the Decimal way
+def test_render_by_digits_is_the_decimal_rendering(value: float, decimals: int) -> None:
+    expected = NumberFormat(0, decimals).render(Decimal(repr(value)))
+    got = _render(repr(value), decimals)
+    assert got is None if "e" in repr(value) else got == expected, (value, got, expected)

@@ -36,6 +36,11 @@ REPLAY_PERIOD = 5.0
 SPREAD = 5.0
 
 
+def _cancelling() -> bool:
+    task = asyncio.current_task()
+    return task is not None and task.cancelling() > 0
+
+
 def describe(exc: BaseException) -> str:
     """``ConnectionRefusedError: [Errno 111] ...``: the error's type and message."""
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
@@ -173,8 +178,9 @@ class Collector:
                 wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
                 text = f"{describe(exc)}; retry in {wait:g} s"
                 log.warning("source %s offline: %s", cfg.name, text)
-                self.store.set_state(cfg.name, state="offline", last_error=describe(exc))
-                self.store.event(cfg.name, "error", text)
+                self.store.finish(
+                    cfg.name, "error", text, state="offline", last_error=describe(exc)
+                )
                 self.failing.add(cfg.name)
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=False, error=describe(exc))
@@ -183,13 +189,21 @@ class Collector:
                 self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))
                 log.info("source %s: %s", cfg.name, summary)
-                self.store.set_state(cfg.name, state="ok", last_error=None, last_contact=now_text())
-                self.store.event(cfg.name, "download", summary)
+                self.store.finish(
+                    cfg.name,
+                    "download",
+                    summary,
+                    state="ok",
+                    last_error=None,
+                    last_contact=now_text(),
+                )
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=True)
             self.contacts += 1
             if once:
                 return
+            if _cancelling():  # a cancel that a finished wait swallowed (asyncio.wait_for, 3.11)
+                raise asyncio.CancelledError
             await asyncio.sleep(wait)
 
     async def _replay(self) -> None:

@@ -164,3 +164,20 @@ def test_a_collector_contact_is_one_round_trip(
     stored = collector.store.db.execute("SELECT count(*) FROM readings").fetchone()[0]
     assert stored == 6, (logger.record(), collector.store.events())  # both rows, three channels
     collector.store.close_sync()
+
+
+@given(st.from_regex(r"\d{14}", fullmatch=True) | st.text("0123456789 +-٣", max_size=16))
+def test_a_stamp_is_read_as_strptime_reads_it(text: str) -> None:
+    from datetime import datetime
+
+    from sondalog.client.records import stamp
+
+    try:
+        expected: object = datetime.strptime(text, "%Y%m%d%H%M%S")
+    except ValueError:
+        expected = ValueError
+    try:
+        got: object = stamp(text)
+    except ValueError:
+        got = ValueError
+    assert got == expected

@@ -42,7 +42,15 @@ from sondalog.client.ala1_codec import (
     Request,
     Response,
 )
-from sondalog.client.records import Channel, Row, RowError, parse_key, parse_row, split_name
+from sondalog.client.records import (
+    Channel,
+    Row,
+    RowError,
+    parse_key,
+    parse_row,
+    split_name,
+    stamp,
+)
 
 #: Tries of one chunk before giving up (a mismatch, a broken or missing answer).
 ATTEMPTS = 4
@@ -198,7 +206,7 @@ class Download:
     ) -> LoggerInfo:
         try:
             snumber = _single(head[0])
-            logger_time = datetime.strptime(_single(head[1]), "%Y%m%d%H%M%S")
+            logger_time = stamp(_single(head[1]))
             channels = {n: split_name(_single(r)) for n, r in enumerate(names, start=1)}
         except ValueError as exc:
             raise DownloadError(f"the logger answers garbage: {exc}") from None
@@ -318,7 +326,7 @@ def _count(head: list[Response]) -> int:
     """The channel count of ``read channel max number``; :class:`DownloadError` for garbage."""
     try:
         _single(head[0])
-        datetime.strptime(_single(head[1]), "%Y%m%d%H%M%S")
+        stamp(_single(head[1]))
         count = int(_single(head[2]))
     except ValueError as exc:
         raise DownloadError(f"the logger answers garbage: {exc}") from None

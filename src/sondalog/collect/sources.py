@@ -20,6 +20,7 @@ from typing import Any
 from sondalog.client import Ala1Client, BusMaster
 from sondalog.client.ala1_codec import Response
 from sondalog.client.download import ClockReading, Download
+from sondalog.client.endpoints import Endpoint, parse_url
 from sondalog.client.records import UTC
 from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
 from sondalog.collect.delivery import GSM_TYPES, Deliver
@@ -49,11 +50,14 @@ class LoggerSource:
         self.store = store
         self._hint: str | None = None  # the last idle_hint logged
         self._count: int | None = None  # the channel count of the last contact
-        self._channels: object = None  # what set_channels last wrote for this source
+        self._channels: int | None = None  # the hash of what set_channels last wrote
+        self._endpoint: Endpoint | None = None
 
     async def poll(self, deliver: Deliver) -> str:
         cfg, store = self.config, self.store
-        client = await Ala1Client.connect(cfg.url, timeout=cfg.timeout)
+        if self._endpoint is None:
+            self._endpoint = parse_url(cfg.url)
+        client = await Ala1Client.connect(self._endpoint, timeout=cfg.timeout)
         state: dict[str, Any] = {}
         try:
             known = store.source(cfg.name) or {}
@@ -62,9 +66,10 @@ class LoggerSource:
             self._count = len(info.channels)
             types, formats = _channel_types(kinds, len(info.channels))
             rows_ = [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())]
-            if self._channels != (info.snumber, rows_, formats):
+            written = hash((info.snumber, tuple(rows_), tuple(sorted(formats.items()))))
+            if self._channels != written:  # a hash: 10,000 sources keep no copies
                 store.set_channels(info.snumber, rows_, formats)
-                self._channels = (info.snumber, rows_, formats)
+                self._channels = written
             gsm = {n: GSM_TYPES[t] for n, t in types.items() if t in GSM_TYPES}
             state = {
                 "logger": info.snumber,

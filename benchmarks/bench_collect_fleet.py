@@ -27,6 +27,8 @@ import argparse
 import asyncio
 import contextlib
 import os
+import random
+import select
 import signal
 import sqlite3
 import statistics
@@ -39,7 +41,7 @@ from datetime import datetime
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_fleet import configure, start  # the fleet's start and setup through the protocol
+from bench_fleet import configure  # the fleet's setup through the protocol
 from loadgen import process_cpu
 
 HERE = Path(__file__).resolve().parent.parent / "src"
@@ -65,6 +67,32 @@ class Run:
     @property
     def ms_per_contact(self) -> float:
         return self.cpu / max(self.contacts, 1) * 1000
+
+
+def start(count: int, work: Path) -> tuple[subprocess.Popen[bytes], list[int], float]:
+    """``sondalog serve`` with one ``[[loggers]]`` range on consecutive ports from a random
+    free-looking base (port 0 for 10,000 listeners at once is not reliable)."""
+    base = random.randrange(20_000, 60_000 - count)
+    site = work / "fleet.toml"
+    site.write_text(
+        f'[[loggers]]\ncount = {count}\nserial_number = "F{{n:05}}"\nlisten = "127.0.0.1:{base}"\n'
+    )
+    began = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(work / "state")],
+        stdout=subprocess.PIPE,
+        stderr=open(work / "serve.log", "wb"),  # noqa: SIM115 - closed with the process
+    )
+    assert proc.stdout is not None
+    ports: list[int] = []
+    while len(ports) < count:
+        ready, _, _ = select.select([proc.stdout], [], [], 180)
+        line = proc.stdout.readline().decode() if ready else ""
+        if not line.startswith("logger "):
+            proc.kill()
+            sys.exit(f"serve failed: {line!r}\n{(work / 'serve.log').read_text()[-2000:]}")
+        ports.append(int(line.rsplit(":", 1)[1]))
+    return proc, ports, time.perf_counter() - began
 
 
 def memory_mb(pid: int) -> tuple[float, float]:
@@ -185,7 +213,7 @@ def main() -> None:
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     trees = [("this tree", HERE)] + ([("compare", args.compare)] if args.compare else [])
     with tempfile.TemporaryDirectory() as tmp:
-        fleet, ports, started = start(args.loggers, Path(tmp), "auto")
+        fleet, ports, started = start(args.loggers, Path(tmp))
         try:
             asyncio.run(configure(ports, args.channels))
             offset = asyncio.run(logger_offset(ports[0]))

@@ -72,7 +72,8 @@ class Run:
 def start(count: int, work: Path) -> tuple[subprocess.Popen[bytes], list[int], float]:
     """``sondalog serve`` with one ``[[loggers]]`` range on consecutive ports from a random
     free-looking base (port 0 for 10,000 listeners at once is not reliable)."""
-    base = random.randrange(20_000, 60_000 - count)
+    low, _ = map(int, Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split())
+    base = random.randrange(10_000, max(10_001, low - count))  # below the ephemeral ports
     site = work / "fleet.toml"
     site.write_text(
         f'[[loggers]]\ncount = {count}\nserial_number = "F{{n:05}}"\nlisten = "127.0.0.1:{base}"\n'

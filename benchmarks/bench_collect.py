@@ -1,9 +1,11 @@
-"""Benchmark: readings ingested per second by the collector's sinks (goal >= 50,000/s).
+"""Benchmark: readings ingested per second by the collector's sinks (goal >= 50,000/s;
+PostgreSQL >= 250,000/s, issue 24).
 
 PostgreSQL: starts a throwaway server (Debian's ``postgresql``, as ``nobody`` on a loopback
 port, like the tests) and writes batches through :class:`~sondalog.collect.sink_postgres.
-PostgresSink` (COPY into a temporary table + ``INSERT ... ON CONFLICT DO NOTHING``): first new
-rows, then the same rows again (all duplicates, the cost of an idempotent replay).
+PostgresSink` (binary COPY; a batch with stored rows through a temporary table and
+``INSERT ... ON CONFLICT DO NOTHING``): first new rows, then the same rows again (all
+duplicates, the cost of an idempotent replay). ``--runs`` fresh databases; best and median.
 
 MQTT: the same readings, a tenth of them, as QoS 1 state messages to a local mosquitto
 (for information; the issue sets no goal for it).
@@ -13,7 +15,8 @@ SQLite: the collector's own store, when its sink module (``sondalog.collect.sink
 
 Not a test: it prints figures.
 
-    .venv/bin/python benchmarks/bench_collect.py [--readings 500000] [--batch 5000]
+    .venv/bin/python benchmarks/bench_collect.py [--readings 500000] [--batch 5000] [--runs 3]
+        [--only postgres]
 """
 
 from __future__ import annotations
@@ -21,7 +24,9 @@ from __future__ import annotations
 import argparse
 import asyncio
 import importlib
+import os
 import shutil
+import statistics
 import sys
 import tempfile
 import time
@@ -58,18 +63,28 @@ async def ingest(sink: Sink, batches: list[list[Reading]]) -> float:
     return time.perf_counter() - start
 
 
-def report(label: str, n: int, seconds: float) -> None:
-    rate = n / seconds
-    verdict = "ok" if rate >= 50_000 else "BELOW GOAL"
-    print(f"{label:<42} {n:>9,} readings in {seconds:6.2f} s = {rate:>10,.0f}/s  ({verdict})")
+def report(label: str, n: int, seconds: list[float], goal: int = 50_000) -> None:
+    rates = sorted((n / s for s in seconds), reverse=True)
+    verdict = "ok" if rates[0] >= goal else "BELOW GOAL"
+    print(
+        f"{label:<42} {n:>9,} readings: best {rates[0]:>9,.0f}/s, median "
+        f"{statistics.median(rates):>9,.0f}/s of {len(rates)}  ({verdict}, goal {goal:,})"
+    )
 
 
-async def bench_sink(label: str, sink: Sink, batches: list[list[Reading]]) -> None:
+async def bench_sink(
+    label: str, sinks: list[Sink], batches: list[list[Reading]], goal: int = 50_000
+) -> None:
+    """Each sink (a fresh store each) takes the batches as new rows, then again."""
     n = sum(len(b) for b in batches)
-    await sink.open()
-    report(f"{label}: new rows", n, await ingest(sink, batches))
-    report(f"{label}: same rows again (duplicates)", n, await ingest(sink, batches))
-    await sink.close()
+    new, again = [], []
+    for sink in sinks:
+        await sink.open()
+        new.append(await ingest(sink, batches))
+        again.append(await ingest(sink, batches))
+        await sink.close()
+    report(f"{label}: new rows", n, new, goal)
+    report(f"{label}: same rows again (duplicates)", n, again, goal)
 
 
 async def bench_mqtt(sink: Sink, batches: list[list[Reading]]) -> None:
@@ -88,12 +103,17 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--readings", type=int, default=500_000)
     ap.add_argument("--batch", type=int, default=5_000)
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--only", choices=("postgres", "mqtt", "sqlite"))
     args = ap.parse_args()
+    print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     batches = make_batches(args.readings, args.batch)
     print(f"{args.readings:,} readings in batches of {args.batch:,}")
 
     bindir = services._pg_bin()
-    if bindir is None:
+    if args.only not in (None, "postgres"):
+        pass
+    elif bindir is None:
         print("PostgreSQL: not installed; skipped")
     else:
         from sondalog.collect import sink_postgres
@@ -101,13 +121,15 @@ def main() -> None:
         server = services.PostgresServer(bindir)
         try:
             server.start()
-            sink = sink_postgres.create({"dsn": server.create_db()})
-            asyncio.run(bench_sink("PostgreSQL", sink, batches))
+            sinks = [sink_postgres.create({"dsn": server.create_db()}) for _ in range(args.runs)]
+            asyncio.run(bench_sink("PostgreSQL", sinks, batches, goal=250_000))
         finally:
             server.destroy()
 
     mqtt_bin = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
-    if not Path(mqtt_bin).exists():
+    if args.only not in (None, "mqtt"):
+        pass
+    elif not Path(mqtt_bin).exists():
         print("MQTT: mosquitto not installed; skipped")
     else:
         from sondalog.collect import sink_mqtt
@@ -120,14 +142,18 @@ def main() -> None:
         finally:
             broker.destroy()
 
+    if args.only not in (None, "sqlite"):
+        return
     try:
         sqlite_mod = importlib.import_module("sondalog.collect.sink_sqlite")
     except ImportError:
         print("SQLite: sondalog.collect.sink_sqlite is not there yet; skipped")
         return
     with tempfile.TemporaryDirectory() as d:
-        sink = sqlite_mod.create({"path": str(Path(d) / "store.sqlite")})
-        asyncio.run(bench_sink("SQLite", sink, batches))
+        sinks = [
+            sqlite_mod.create({"path": str(Path(d) / f"{i}.sqlite")}) for i in range(args.runs)
+        ]
+        asyncio.run(bench_sink("SQLite", sinks, batches))
 
 
 if __name__ == "__main__":

@@ -182,3 +182,44 @@ def test_unreachable_server_raises_unavailable() -> None:
         await sink.close()
 
     asyncio.run(run())
+
+
+def test_both_write_paths_store_the_same_columns(pg_dsn: str) -> None:
+    """New rows go by one COPY into ``readings``; a batch with a row already stored (or a key
+    twice) goes through the temporary table and ``ON CONFLICT``: the stored columns are the
+    same, each key once."""
+    from datetime import UTC, timedelta
+
+    def batch(logger: str) -> list[Reading]:
+        out = [
+            Reading(
+                r.logger,
+                r.channel,
+                r.time,
+                r.counter,
+                r.type,
+                r.value,
+                r.text,
+                r.name,
+                r.unit,
+                (r.time - timedelta(hours=1)).replace(tzinfo=UTC),
+            )
+            for r in rows(logger, 0, 30, channels=4)
+        ]
+        return [*out, text_row(logger, 5, "a\\b\tc\nd\x00é"), text_row(logger, 6, "")]
+
+    fast, slow = batch("FAST"), batch("SLOW")
+    sink = asyncio.run(write_all(pg_dsn, fast, slow[7:8], [*slow, slow[3]]))
+    assert sink.inserted == len(fast) + len(slow)
+    with psycopg.connect(pg_dsn) as c:
+        stored = {
+            logger: c.execute(
+                "SELECT channel, time, counter, type, value, text, name, unit, utc FROM readings"
+                " WHERE logger = %s ORDER BY time, counter, channel",
+                (logger,),
+            ).fetchall()
+            for logger in ("FAST", "SLOW")
+        }
+    assert len(stored["FAST"]) == len(fast)
+    assert stored["FAST"] == stored["SLOW"]
+    assert ("a\\b\tc\ndé", None) in {(row[5], row[4]) for row in stored["FAST"]}

@@ -7,7 +7,6 @@ failed, 2 a configuration error (``FILE:LINE: field: message``) or a store that 
 
 from __future__ import annotations
 
-import asyncio
 from pathlib import Path
 
 import click
@@ -19,6 +18,7 @@ from sondalog.collect.runner import Collector
 from sondalog.collect.sinks import build_sinks
 from sondalog.collect.store_sqlite import SqliteStore, StoreError
 from sondalog.config import ConfigError
+from sondalog.io.loop import run as run_loop
 from sondalog.io.loop import stop_on_signals
 
 
@@ -54,7 +54,7 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     except StoreError as exc:
         raise Refused(str(exc)) from None
     try:
-        asyncio.run(_run(collector, once))
+        run_loop(_run(collector, once))  # uvloop when installed (sondalog[fast])
     except WebUnavailable as exc:
         collector.store.close_sync()
         raise Refused(f"{config_file}: web.listen: {exc}") from None

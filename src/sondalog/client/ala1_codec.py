@@ -133,8 +133,17 @@ class Request:
     quiet: bool = False
 
     def line(self) -> str:
-        """The line to send (without its CR)."""
-        if any(c in self.text for c in "\r\n\x1b"):
+        """The line to send (without its CR); worked out once (a request is sent and its
+        answer matched against it)."""
+        done: str | None = self.__dict__.get("_line")
+        if done is None:
+            done = self._line()
+            object.__setattr__(self, "_line", done)
+        return done
+
+    def _line(self) -> str:
+        text = self.text
+        if "\r" in text or "\n" in text or "\x1b" in text:
             raise ValueError("a command line may not contain CR, LF or ESC")
         echo = self.text.startswith("+")
         body = self.text[1:] if echo else self.text

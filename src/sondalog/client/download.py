@@ -19,12 +19,17 @@ turnaround between chunks costs little).
 
 At every contact :meth:`Download.identify` reads ``i snumber``, ``date`` (§6.2) and the channel
 names (§6.5.3) and notes the logger's clock offset against the host's clock.
+:meth:`Download.contact` does the same together with the caller's other commands and the first
+chunk in one pipelined write (the module answers the lines in order, §7): one round trip a
+contact when the channel count is the one of the last contact, which a slow serial line or a
+GSM call pays in seconds. A pipelined answer that fails its checks falls back to the step by
+step path, so both store the same rows.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from zoneinfo import ZoneInfo
@@ -34,9 +39,18 @@ from sondalog.client.ala1_codec import (
     ChecksumError,
     IncompleteAnswer,
     NoAnswer,
+    Request,
     Response,
 )
-from sondalog.client.records import Channel, Row, RowError, parse_key, parse_row, split_name
+from sondalog.client.records import (
+    Channel,
+    Row,
+    RowError,
+    parse_key,
+    parse_row,
+    split_name,
+    stamp,
+)
 
 #: Tries of one chunk before giving up (a mismatch, a broken or missing answer).
 ATTEMPTS = 4
@@ -134,22 +148,68 @@ class Download:
     """The logger held no rows at all at the last chunk (cleared, or never written)."""
     _rate: float = field(default=0.0, repr=False)
     _row_bytes: float = field(default=100.0, repr=False)
+    #: The first chunk read by :meth:`contact`: (its command, answer, seconds of transfer).
+    _prefetched: tuple[str, Response, float] | None = field(default=None, repr=False)
 
     async def identify(self) -> LoggerInfo:
         """Read the serial number, the clock and the channel names (one round trip each)."""
         before = self.clock()
-        head = await self._ask(["read i snumber", "read date", "read channel max number"])
+        head = await self._ask(list(_HEAD))
         after = self.clock()
+        count = _count(head)
+        names = await self._ask(_names(count))
+        return self._identified(head, names, before, after)
+
+    async def contact(
+        self, extra: Sequence[str] = (), channels: int | None = None
+    ) -> tuple[LoggerInfo, list[Response]]:
+        """:meth:`identify`, the ``extra`` commands (their answers are returned, an error
+        response included) and the first chunk of :meth:`chunks`, in one pipelined write when
+        ``channels`` (the channel count of the last contact) is still right, else two.
+
+        A pipelined answer that is broken or fails its ``crcsum`` is not trusted: the contact
+        goes on step by step (:meth:`identify`, then ``extra``, then the chunks with their
+        re-reads), as if nothing had been pipelined. No answer to the first command is the
+        logger's silence and is raised as it is."""
+        guess = channels if channels is not None and 1 <= channels <= 99 else 0
+        first = self._command(self.rows_per_chunk)
+        requests: list[Request | str] = [*_HEAD, *_names(guess), *extra]
+        requests.append(Request(first, crcsum=True))
+        before = self.clock()
+        try:
+            answers = await self.client.pipeline(requests)
+        except (ChecksumError, IncompleteAnswer, NoAnswer) as exc:
+            if isinstance(exc, NoAnswer) and repr(_HEAD[0]) in str(exc):
+                raise
+            info = await self.identify()
+            return info, await self.client.pipeline(extra) if extra else []
+        after = self.clock()
+        head, rest = answers[:3], answers[3:]
+        for command, answer in zip(_HEAD, head, strict=True):
+            _refused(command, answer)
+        count = _count(head)
+        if count == guess:
+            names = rest[:guess]
+            for command, answer in zip(_names(guess), names, strict=True):
+                _refused(command, answer)
+        else:
+            names = await self._ask(_names(count))
+        chunk = rest[guess:][-1]
+        if chunk.error:
+            raise DownloadError(f"the logger refused {first!r}")
+        total = sum(len(a.raw) for a in answers) or 1
+        self._prefetched = (first, chunk, max(after - before, 1e-6) * len(chunk.raw) / total)
+        return self._identified(head, names, before, after), list(rest[guess:-1])
+
+    def _identified(
+        self, head: list[Response], names: list[Response], before: float, after: float
+    ) -> LoggerInfo:
         try:
             snumber = _single(head[0])
-            logger_time = datetime.strptime(_single(head[1]), "%Y%m%d%H%M%S")
-            count = int(_single(head[2]))
+            logger_time = stamp(_single(head[1]))
+            channels = {n: split_name(_single(r)) for n, r in enumerate(names, start=1)}
         except ValueError as exc:
             raise DownloadError(f"the logger answers garbage: {exc}") from None
-        if not 1 <= count <= 99:
-            raise DownloadError(f"the logger answers garbage: {count} channels")
-        names = await self._ask([f"read channel {n} name" for n in range(1, count + 1)])
-        channels = {n: split_name(_single(r)) for n, r in enumerate(names, start=1)}
         middle = (before + after) / 2
         host = datetime.fromtimestamp(middle, self.zone).replace(tzinfo=None)
         clock = ClockReading(logger_time, middle, (logger_time - host).total_seconds())
@@ -160,7 +220,13 @@ class Download:
         """Verified chunks until the logger has no more rows; ``after`` follows each chunk."""
         while True:
             wanted = self.rows_per_chunk
-            chunk, sent = await self._chunk(wanted)
+            prefetched, self._prefetched = self._prefetched, None
+            if prefetched is not None and prefetched[0] == self._command(wanted):
+                _, response, elapsed = prefetched  # read by contact() with the identification
+                chunk, sent = self._parse(response, wanted, 0)
+                self._adapt(chunk, elapsed)
+            else:
+                chunk, sent = await self._chunk(wanted)
             self.include_after = False
             if chunk.rows:
                 self.after = chunk.cursor
@@ -171,11 +237,7 @@ class Download:
 
     async def _chunk(self, wanted: int) -> tuple[Chunk, int]:
         """One verified chunk and the number of rows the logger sent for it."""
-        if self.after is None:
-            command = f"read record {wanted} from start"
-        else:
-            point = self.after[:14] if self.include_after else self.after
-            command = f"read record 1 from start read record {wanted} from date/{point}/"
+        command = self._command(wanted)
         expected = wanted * self._row_bytes / self._rate if self._rate > 0 else 0.0
         timeout = max(self.client.timeout, 5.0 + 3 * expected)
         rereads = 0
@@ -196,6 +258,14 @@ class Download:
             self._adapt(chunk, elapsed)
             return chunk, sent
         raise AssertionError("unreachable")
+
+    def _command(self, wanted: int) -> str:
+        """The command line of the next chunk of ``wanted`` rows (``crcsum`` added by the
+        request)."""
+        if self.after is None:
+            return f"read record {wanted} from start"
+        point = self.after[:14] if self.include_after else self.after
+        return f"read record 1 from start read record {wanted} from date/{point}/"
 
     def _parse(self, response: Response, wanted: int, rereads: int) -> tuple[Chunk, int]:
         lines = list(response.lines)
@@ -234,9 +304,35 @@ class Download:
         except (IncompleteAnswer, ChecksumError) as exc:
             raise DownloadError(f"the logger answers garbage: {exc}") from None
         for command, answer in zip(commands, answers, strict=True):
-            if answer.error:
-                raise DownloadError(f"the logger refused {command!r}: is it an ALA1?")
+            _refused(command, answer)
         return answers
+
+
+#: The identification's first commands (§6.2, §6.4, §6.5.1).
+_HEAD = ("read i snumber", "read date", "read channel max number")
+
+
+def _names(count: int) -> list[str]:
+    """The commands reading the names of channels 1..``count`` (§6.5.3)."""
+    return [f"read channel {n} name" for n in range(1, count + 1)]
+
+
+def _refused(command: str, answer: Response) -> None:
+    if answer.error:
+        raise DownloadError(f"the logger refused {command!r}: is it an ALA1?")
+
+
+def _count(head: list[Response]) -> int:
+    """The channel count of ``read channel max number``; :class:`DownloadError` for garbage."""
+    try:
+        _single(head[0])
+        stamp(_single(head[1]))
+        count = int(_single(head[2]))
+    except ValueError as exc:
+        raise DownloadError(f"the logger answers garbage: {exc}") from None
+    if not 1 <= count <= 99:
+        raise DownloadError(f"the logger answers garbage: {count} channels")
+    return count
 
 
 def _single(response: Response) -> str:

@@ -59,10 +59,26 @@ def parse_key(key: str) -> tuple[datetime, int]:
     if match is None:
         raise RowError(f"not a record point: {key!r}")
     try:
-        time = datetime.strptime(match.group(1), "%Y%m%d%H%M%S")
+        time = stamp(match.group(1))
     except ValueError:
         raise RowError(f"impossible date in {key!r}") from None
     return time, COUNTERS.index(match.group(2))
+
+
+def stamp(text: str) -> datetime:
+    """``20070301120000`` -> 2007-03-01 12:00:00, as ``strptime(text, "%Y%m%d%H%M%S")``
+    reads it (ValueError likewise); fourteen ASCII digits are sliced, without ``strptime``'s
+    cost (a row's stamp is read for every row downloaded)."""
+    if len(text) == 14 and text.isascii() and text.isdigit():
+        return datetime(
+            int(text[:4]),
+            int(text[4:6]),
+            int(text[6:8]),
+            int(text[8:10]),
+            int(text[10:12]),
+            int(text[12:]),
+        )
+    return datetime.strptime(text, "%Y%m%d%H%M%S")
 
 
 def make_key(time: datetime, counter: int) -> str:

@@ -1,8 +1,9 @@
 """The collector's loop: one asyncio task per source, batches to every sink, retry with backoff.
 
 - Each source is contacted every ``interval`` seconds (start to start; the first contacts are
-  spread over up to 5 s, or the shortest interval, so a thousand sources do not all dial at
-  once).
+  spread over 5 s, or over as many seconds as :data:`START_RATE` contacts a second need, at
+  most the shortest interval: ten thousand sources every minute start at an even 167 a
+  second instead of all within 5 s, which held thousands of connections open at once).
 - A failed contact (unreachable, no answer, garbage) sets the source's state to ``offline``
   with the error in the ``sources`` table, the log and the events table, and is retried after
   ``retry`` seconds, doubling up to ``retry_max`` (then every ``interval`` again once it works).
@@ -33,8 +34,16 @@ from sondalog.collect.store_sqlite import SqliteStore, now_text
 log = logging.getLogger(__name__)
 #: Seconds between replays of the buffered batches of sinks that were down.
 REPLAY_PERIOD = 5.0
-#: The first contacts are spread over at most this many seconds.
+#: The first contacts are spread over at least this many seconds (at most the shortest
+#: interval)...
 SPREAD = 5.0
+#: ... and over as many as it takes to start at most this many contacts a second.
+START_RATE = 100.0
+
+
+def _cancelling() -> bool:
+    task = asyncio.current_task()
+    return task is not None and task.cancelling() > 0
 
 
 def describe(exc: BaseException) -> str:
@@ -88,7 +97,8 @@ class Collector:
                 sink.stay_online = True  # cron runs: online between them (docs/decisions.md)
             await self._open_sink(sink)
         count = len(self.sources)
-        spread = 0.0 if once else min([SPREAD, *(s.config.interval for s in self.sources)])
+        shortest = min([*(s.config.interval for s in self.sources), 1e9])
+        spread = 0.0 if once else min(shortest, max(SPREAD, count / START_RATE))
         tasks = [
             asyncio.create_task(
                 self._loop(source, spread * i / count, once),
@@ -192,8 +202,9 @@ class Collector:
                 wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
                 text = f"{describe(exc)}; retry in {wait:g} s"
                 log.warning("source %s offline: %s", cfg.name, text)
-                self.store.set_state(cfg.name, state="offline", last_error=describe(exc))
-                self.store.event(cfg.name, "error", text)
+                self.store.finish(
+                    cfg.name, "error", text, state="offline", last_error=describe(exc)
+                )
                 self.failing.add(cfg.name)
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=False, error=describe(exc))
@@ -202,13 +213,21 @@ class Collector:
                 self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))
                 log.info("source %s: %s", cfg.name, summary)
-                self.store.set_state(cfg.name, state="ok", last_error=None, last_contact=now_text())
-                self.store.event(cfg.name, "download", summary)
+                self.store.finish(
+                    cfg.name,
+                    "download",
+                    summary,
+                    state="ok",
+                    last_error=None,
+                    last_contact=now_text(),
+                )
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=True)
             self.contacts += 1
             if once:
                 return
+            if _cancelling():  # a cancel that a finished wait swallowed (asyncio.wait_for, 3.11)
+                raise asyncio.CancelledError
             await asyncio.sleep(wait)
 
     async def _replay(self) -> None:

@@ -18,7 +18,9 @@ from datetime import datetime
 from typing import Any
 
 from sondalog.client import Ala1Client, BusMaster
+from sondalog.client.ala1_codec import Response
 from sondalog.client.download import ClockReading, Download
+from sondalog.client.endpoints import Endpoint, parse_url
 from sondalog.client.records import UTC
 from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
 from sondalog.collect.config_watch import ConfigWatch
@@ -33,7 +35,14 @@ log = logging.getLogger(__name__)
 
 
 class LoggerSource:
-    """An ALA1 logger: incremental download after the store's cursor (§6.6.1.1)."""
+    """An ALA1 logger: incremental download after the store's cursor (§6.6.1.1).
+
+    A contact is one pipelined write in the usual case (:meth:`Download.contact`: the
+    identification, ``read record status``, the channel types and formats and the first chunk
+    together), and at most three store transactions: the runner's ``contacting``, each chunk
+    with the source's state, and the runner's end of contact. The ``channels`` rows are
+    written when they change (and at the first contact of this process).
+    """
 
     kind = "logger"
 
@@ -42,23 +51,29 @@ class LoggerSource:
         self.store = store
         self._hint: str | None = None  # the last idle_hint logged
         self.watch = ConfigWatch(config, store)  # its configuration (issue 22)
+        self._count: int | None = None  # the channel count of the last contact
+        self._channels: int | None = None  # the hash of what set_channels last wrote
+        self._endpoint: Endpoint | None = None
 
     async def poll(self, deliver: Deliver) -> str:
         cfg, store = self.config, self.store
-        client = await Ala1Client.connect(cfg.url, timeout=cfg.timeout)
+        if self._endpoint is None:
+            self._endpoint = parse_url(cfg.url)
+        client = await Ala1Client.connect(self._endpoint, timeout=cfg.timeout)
+        state: dict[str, Any] = {}
         try:
             known = store.source(cfg.name) or {}
             download = Download(client, after=known.get("cursor"), zone=cfg.zone)
-            info = await download.identify()
-            status = await client.command("read record status")
-            types, formats = await _channel_types(client, len(info.channels))
-            store.set_channels(
-                info.snumber,
-                [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())],
-                formats,
-            )
+            info, (status, kinds) = await download.contact(_EXTRA, self._count)
+            self._count = len(info.channels)
+            types, formats = _channel_types(kinds, len(info.channels))
+            rows_ = [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())]
+            written = hash((info.snumber, tuple(rows_), tuple(sorted(formats.items()))))
+            if self._channels != written:  # a hash: 10,000 sources keep no copies
+                store.set_channels(info.snumber, rows_, formats)
+                self._channels = written
             gsm = {n: GSM_TYPES[t] for n, t in types.items() if t in GSM_TYPES}
-            state: dict[str, Any] = {
+            state = {
                 "logger": info.snumber,
                 "last_contact": now_text(),
                 "offset_s": info.clock.offset,
@@ -72,8 +87,8 @@ class LoggerSource:
                 log.warning("%s: %s", cfg.name, text)
                 store.event(cfg.name, "logger", text)
                 download.after = None
-                state["cursor"] = None
-            store.set_state(cfg.name, **state)
+                store.set_state(cfg.name, cursor=None)
+            record_fill = state["record_fill"]
             configured = await self.watch.check(client)
             rows = readings = 0
             first = last = None
@@ -83,23 +98,32 @@ class LoggerSource:
                     store.event(cfg.name, "gap", chunk.gap.describe())
                 batch = rows_to_readings(chunk.rows, info.snumber, info.channels, cfg.zone)
                 latest = {gsm[r.channel]: r.value for r in batch if r.channel in gsm}
-                await deliver(cfg.name, batch, chunk.cursor, **latest)
+                # the contact's state goes with the first chunk, in its transaction
+                await deliver(cfg.name, batch, chunk.cursor, **{**state, **latest})
+                state = {}
                 rows += len(chunk.rows)
                 readings += len(batch)
                 first = first or (chunk.rows[0].key if chunk.rows else None)
                 last = chunk.cursor or last
         finally:
             await client.close()
+            if state:  # no chunk took it (nothing new, or the download failed)
+                store.set_state(cfg.name, **state)
         span = f" ({first} .. {last})" if rows else ""
         summary = (
             f"logger {info.snumber}: {rows} new rows, {readings} readings{span}; "
             f"{info.clock.describe()}" + (f"; {configured}" if configured else "")
         )
-        hint = idle_hint(rows, state["record_fill"], info.clock)
+        hint = idle_hint(rows, record_fill, info.clock)
         if hint is not None and hint != self._hint:  # said once, not at every contact
             log.warning("source %s: %s", cfg.name, hint)
         self._hint = hint
         return summary if hint is None else f"{summary}; {hint}"
+
+
+#: What a contact asks beside the identification and the record (§6.6.5, §6.5.6, §6.5.7):
+#: both channel lists in one line.
+_EXTRA = ("read record status", "read channel type read channel format")
 
 
 #: A logger clock this far from the host's was never set (a fresh logger reads 2000-01-01).
@@ -123,10 +147,9 @@ def idle_hint(rows: int, record_fill: str | None, clock: ClockReading) -> str | 
     return "; ".join(says) or None
 
 
-async def _channel_types(client: Ala1Client, count: int) -> tuple[dict[int, int], dict[int, str]]:
-    """``read channel type read channel format`` in one line (one round trip): channel
-    number -> type, and -> value format (§6.5.7); {} for an answer that is not that."""
-    response = await client.command("read channel type read channel format")
+def _channel_types(response: Response, count: int) -> tuple[dict[int, int], dict[int, str]]:
+    """The answer of ``read channel type read channel format`` (one line): channel number ->
+    type, and -> value format (§6.5.7); {} for an answer that is not that."""
     lines = response.lines if response.ok else []
     fields = [line.split(",") for line in lines[:2]]
     types: dict[int, int] = {}

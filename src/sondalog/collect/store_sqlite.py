@@ -237,6 +237,15 @@ class SqliteStore:
         with self.db:
             self._update(name, state)
 
+    def finish(self, name: str, kind: str, text: str, **state: Any) -> None:
+        """The end of a contact: the source's state and its event in one transaction."""
+        with self.db:
+            self._update(name, state)
+            self.db.execute(
+                "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
+                (now_text(), name, kind, text),
+            )
+
     def _update(self, name: str, state: dict[str, Any]) -> None:
         if not state:
             return

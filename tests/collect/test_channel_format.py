@@ -38,7 +38,7 @@ def test_the_logger_s_format_is_stored_and_shown(tmp_path: Path) -> None:
     # a stored value that happens to be whole still shows the format's decimals
     conn.execute("UPDATE readings SET value = 12.0 WHERE channel = 1")
     conn.commit()
-    channels = {c.channel: c for c in web_store.channels(conn, snumber)}
+    channels = {c.channel: c for c in web_store.channels(web_store.of_file(conn), snumber)}
     assert channels[1].decimals == 2 and channels[2].decimals == 3
     assert _num(12.0, 4, channels[1].decimals) == "12.00"
 
@@ -55,7 +55,9 @@ def test_a_store_from_before_gains_the_format_column(tmp_path: Path) -> None:
     )
     conn.execute("INSERT INTO channels VALUES ('L1', 1, 'Air', 'C', 1)")
     conn.commit()
-    assert [c.decimals for c in web_store.channels(conn, "L1")] == [None]  # read as it is
+    assert [c.decimals for c in web_store.channels(web_store.of_file(conn), "L1")] == [
+        None
+    ]  # read as it is
     conn.close()
     store = SqliteStore(path).open_sync()
     store.set_channels("L1", [(1, "Air", "C", 1)], {1: "0.1"})

@@ -1,7 +1,9 @@
 """A fleet of virtual loggers served by one process (issue 11; docs/scaling.md).
 
 The wiring of :mod:`sondalog.app.fleet_site`'s ``[[loggers]]``: every logger has its own
-engine, :class:`~sondalog.io.host.DeviceHost` and TCP server on the one event loop, its own
+engine, :class:`~sondalog.io.host.DeviceHost` and TCP server on the one event loop, all on one
+deadline loop (:class:`~sondalog.io.timers.Timers`: loggers sampling on the same minute are
+run in slices, and input is answered between them, issue 24), its own
 state directory ``STATE/loggers/SERIAL`` (``identity.json``: protocol and serial number, as
 for ``sondalog logger serve``) and its memory under its serial number in the fleet's shared
 database ``STATE/loggers/fleet.sqlite`` (:mod:`sondalog.backends.store.ala1_nv`): the rows
@@ -31,6 +33,7 @@ from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import private_dir
 from sondalog.io.tcp import TcpServer, serve_tcp
+from sondalog.io.timers import Timers
 from sondalog.protocol.device import Effect, Event
 
 DATABASE_FILE = "fleet.sqlite"
@@ -155,6 +158,7 @@ async def start_fleet(
         loop.call_soon(callback)
 
     fleet = RunningFleet(NvDatabase(states / DATABASE_FILE, schedule))
+    timers = Timers(clock)  # one deadline loop for all, its due work in slices (issue 24)
     root = sensor_root()
     try:
         for plan in loggers:
@@ -169,7 +173,7 @@ async def start_fleet(
                 raise ConfigError(path, f"{plan.where}.protocol", str(exc)) from exc
             store = fleet.database.store(plan.serial_number)
             engine = Engine(identity, store, now, hardware, line_time_scale=clock.speed)
-            host = DeviceHost(NamedDevice(engine, plan.serial_number), clock)
+            host = DeviceHost(NamedDevice(engine, plan.serial_number), clock, timers)
             server = await serve_tcp(host, *plan.listen)
             host.start()
             fleet.members.append(FleetMember(plan.serial_number, engine, host, server))

@@ -83,13 +83,9 @@ class NvStore(Protocol):
 
 @functools.cache
 def fixed_defaults(version: Version) -> dict[str, str]:
-    """The factory values that depend on nothing else, by key: one table for every module
-    of ``version`` (a fleet's loggers read most of their settings from it, issue 24)."""
-    return {
-        key: info.leaf.default
-        for key, info in storage_keys(version).items()
-        if isinstance(info.leaf.default, str)
-    }
+    """Factory values that depend on nothing else: shared by every module (issue 24)."""
+    keys = storage_keys(version).items()
+    return {key: i.leaf.default for key, i in keys if isinstance(i.leaf.default, str)}
 
 
 class NeedWait(Exception):
@@ -190,16 +186,12 @@ class ModuleState:
 
     # -- parameters --------------------------------------------------------------------------
     def get(self, key: str) -> str:
-        """A committed value (outside any line): the value written, else its factory value
-        (a fixed one from the table every module of the version shares, issue 24; one that
-        depends on other values cached until a commit changes values)."""
-        value = self.values.get(key)
-        if value is None:
-            value = self._fixed.get(key)
+        """A committed value (outside any line); a factory value that depends on others is
+        cached until a commit changes values, a fixed one is shared (issue 24)."""
+        if (value := self.values.get(key)) is None and (value := self._fixed.get(key)) is None:
+            value = self._settings.get(key)
             if value is None:
-                value = self._settings.get(key)
-                if value is None:
-                    value = self._settings[key] = Transaction(self, 0.0).default(key)
+                value = self._settings[key] = Transaction(self, 0.0).default(key)
         return value
 
     def command_names(self) -> dict[str, int]:

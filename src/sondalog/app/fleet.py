@@ -19,6 +19,7 @@ import contextvars
 import logging
 import resource
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,6 +38,8 @@ from sondalog.io.timers import Timers
 from sondalog.protocol.device import Effect, Event
 
 DATABASE_FILE = "fleet.sqlite"
+#: Threads that read or write the loggers' identity files at start.
+IDENTITY_THREADS = 16
 
 #: The serial number of the logger whose engine is running (for log lines).
 _CURRENT: contextvars.ContextVar[str | None] = contextvars.ContextVar(
@@ -139,6 +142,26 @@ def _raise_open_files(needed: int) -> None:
         resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
 
 
+def _identities(loggers: Sequence[FleetLogger], states: Path, path: Path | None) -> list[Identity]:
+    """Every logger's identity, read or (a new logger) written durably; in threads, so that
+    a new fleet's thousands of fsyncs overlap (issue 24: ten times faster than in turn)."""
+
+    def one(plan: FleetLogger) -> Identity:
+        version = Version(plan.protocol) if plan.protocol else None
+        return load_identity(states / plan.serial_number, version, plan.serial_number)
+
+    with ThreadPoolExecutor(max_workers=IDENTITY_THREADS) as pool:
+        pending = [(plan, pool.submit(one, plan)) for plan in loggers]
+        identities = []
+        for plan, future in pending:
+            try:
+                identities.append(future.result())
+            except IdentityConflict as exc:
+                pool.shutdown(cancel_futures=True)
+                raise ConfigError(path, f"{plan.where}.protocol", str(exc)) from exc
+        return identities
+
+
 async def start_fleet(
     loggers: Sequence[FleetLogger],
     state: Path,
@@ -161,16 +184,10 @@ async def start_fleet(
     timers = Timers(clock)  # one deadline loop for all, its due work in slices (issue 24)
     root = sensor_root()
     try:
-        for plan in loggers:
+        identities = _identities(loggers, states, path)
+        for plan, identity in zip(loggers, identities, strict=True):
             now = clock.now()
             hardware = plan.hardware.build(now, root, clock.speed)  # its own, from the plan
-            version = Version(plan.protocol) if plan.protocol else None
-            try:
-                identity: Identity = load_identity(
-                    states / plan.serial_number, version, plan.serial_number
-                )
-            except IdentityConflict as exc:
-                raise ConfigError(path, f"{plan.where}.protocol", str(exc)) from exc
             store = fleet.database.store(plan.serial_number)
             engine = Engine(identity, store, now, hardware, line_time_scale=clock.speed)
             host = DeviceHost(NamedDevice(engine, plan.serial_number), clock, timers)

@@ -6,6 +6,8 @@ import sqlite3
 import stat
 from pathlib import Path
 
+import pytest
+
 from sondalog.ala1 import Engine, Identity
 from sondalog.ala1.record import RecordChanges
 from sondalog.ala1.state import ModuleState
@@ -131,4 +133,31 @@ def test_a_fleet_defers_sampled_rows_to_one_flush(tmp_path: Path) -> None:
     database.flush()
     assert a.load_record()[0] == ["a0"] and b.load_record()[0] == ["b0"]
     assert database.transactions == 1
+    database.close()
+
+
+def test_a_batch_is_one_transaction_durable_at_its_end(tmp_path: Path) -> None:
+    """A fleet starting (issue 24): every new logger's first commit (its factory clock) is
+    in one transaction, visible to nobody before the batch ends; a failure stores none."""
+    path = tmp_path / "fleet.sqlite"
+    database = NvDatabase(path)
+    reader = sqlite3.connect(path)
+
+    def offsets() -> int:
+        query = "SELECT count(*) FROM meta WHERE key = 'clock_offset'"
+        return int(reader.execute(query).fetchone()[0])
+
+    before = database.transactions
+    with database.batch():
+        for n in range(50):
+            ModuleState(Identity(serial_number=f"B{n}"), database.store(f"B{n}"), T0)
+        assert offsets() == 0
+    assert offsets() == 50 and database.transactions == before + 1
+    with pytest.raises(RuntimeError), database.batch():
+        ModuleState(Identity(serial_number="X"), database.store("X"), T0)
+        raise RuntimeError("the fleet failed to start")
+    assert offsets() == 50
+    # after a batch, a commit is durable at once again
+    ModuleState(Identity(serial_number="Y"), database.store("Y"), T0)
+    assert offsets() == 51
     database.close()

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextvars
+import gc
 import logging
 import resource
 from collections.abc import Callable, Sequence
@@ -40,6 +41,8 @@ from sondalog.protocol.device import Effect, Event
 DATABASE_FILE = "fleet.sqlite"
 #: Threads that read or write the loggers' identity files at start.
 IDENTITY_THREADS = 16
+#: Seconds between two freezes of what the fleet holds (:meth:`RunningFleet.freeze`).
+FREEZE_EVERY = 60.0
 
 #: The serial number of the logger whose engine is running (for log lines).
 _CURRENT: contextvars.ContextVar[str | None] = contextvars.ContextVar(
@@ -126,12 +129,28 @@ class RunningFleet:
 
     database: NvDatabase
     members: list[FleetMember] = field(default_factory=list)
+    freezer: asyncio.TimerHandle | None = None
 
     async def close(self) -> None:
+        if self.freezer is not None:
+            self.freezer.cancel()
+            gc.unfreeze()  # what the fleet held can be collected again
         for member in self.members:
             await member.server.close()
             await member.host.stop()
         self.database.close()
+
+    def freeze(self) -> None:
+        """Keep the fleet's long-lived objects out of the garbage collector's sight.
+
+        Ten thousand loggers are millions of objects that live as long as the process: a full
+        collection over them stopped the process for a second now and then (issue 24). They
+        are frozen (``gc.freeze``) after start, and every :data:`FREEZE_EVERY` seconds what
+        came since (configurations written), after the young garbage is collected."""
+        gc.collect(1)
+        gc.freeze()
+        loop = asyncio.get_running_loop()
+        self.freezer = loop.call_later(FREEZE_EVERY, self.freeze)
 
 
 def _raise_open_files(needed: int) -> None:
@@ -185,11 +204,14 @@ async def start_fleet(
     root = sensor_root()
     try:
         identities = _identities(loggers, states, path)
-        for plan, identity in zip(loggers, identities, strict=True):
-            now = clock.now()
-            hardware = plan.hardware.build(now, root, clock.speed)  # its own, from the plan
-            store = fleet.database.store(plan.serial_number)
-            engine = Engine(identity, store, now, hardware, line_time_scale=clock.speed)
+        engines = []
+        with fleet.database.batch():  # a new fleet's first commits: one transaction
+            for plan, identity in zip(loggers, identities, strict=True):
+                now = clock.now()
+                hardware = plan.hardware.build(now, root, clock.speed)  # its own, from the plan
+                store = fleet.database.store(plan.serial_number)
+                engines.append(Engine(identity, store, now, hardware, line_time_scale=clock.speed))
+        for plan, engine in zip(loggers, engines, strict=True):
             host = DeviceHost(NamedDevice(engine, plan.serial_number), clock, timers)
             server = await serve_tcp(host, *plan.listen)
             host.start()
@@ -198,4 +220,5 @@ async def start_fleet(
     except BaseException:
         await fleet.close()
         raise
+    fleet.freeze()
     return fleet

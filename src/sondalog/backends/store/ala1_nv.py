@@ -24,8 +24,9 @@ migrated on open, in one transaction, its rows under the key :data:`SINGLE`.
 
 from __future__ import annotations
 
+import contextlib
 import sqlite3
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
@@ -125,6 +126,7 @@ class NvDatabase:
             raise
         self._schedule = schedule_flush
         self._waiting: list[tuple[str, _Commit]] = []
+        self._in_batch = False  # inside batch(): its transaction is open
         self.transactions = 0  # transactions written (for benchmarks and tests)
 
     def store(self, logger: str = SINGLE) -> LoggerNvStore:
@@ -144,8 +146,32 @@ class NvDatabase:
         """Write every waiting commit in one transaction."""
         self.write([])
 
+    @contextlib.contextmanager
+    def batch(self) -> Iterator[None]:
+        """Every commit inside is one transaction, durable when the block ends (a fleet's
+        loggers starting: nothing they commit is answered before that, issue 24)."""
+        self.flush()
+        self.conn.execute("BEGIN IMMEDIATE")
+        self._in_batch = True
+        try:
+            yield
+            self._in_batch = False
+            batch, self._waiting = self._waiting, []
+            for logger, commit in batch:
+                _apply(self.conn, logger, *commit)
+        except BaseException:
+            self._in_batch = False
+            self.conn.execute("ROLLBACK")
+            raise
+        self.conn.execute("COMMIT")
+        self.transactions += 1
+
     def write(self, commits: list[tuple[str, _Commit]]) -> None:
         """Write what waits and ``commits`` in one durable transaction."""
+        if self._in_batch:  # within the batch's own transaction
+            for logger, commit in commits:
+                _apply(self.conn, logger, *commit)
+            return
         batch, self._waiting = [*self._waiting, *commits], []
         if not batch:
             return

@@ -34,11 +34,11 @@ from __future__ import annotations
 import argparse
 import asyncio
 import os
-import select
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,13 +78,17 @@ def start(count: int, work: Path, loop: str) -> tuple[subprocess.Popen[bytes], l
     )
     assert proc.stdout is not None
     ports: list[int] = []
-    while len(ports) < count:
-        ready, _, _ = select.select([proc.stdout], [], [], 300)
-        line = proc.stdout.readline().decode() if ready else ""
-        if not line.startswith("logger "):
-            proc.kill()
-            sys.exit(f"serve failed: {line!r}\n{(work / 'serve.log').read_text()[-2000:]}")
-        ports.append(int(line.rsplit(":", 1)[1]))
+    watchdog = threading.Timer(600, proc.kill)  # (the lines come in bursts: no select)
+    watchdog.start()
+    try:
+        while len(ports) < count:
+            line = proc.stdout.readline().decode()
+            if not line.startswith("logger "):
+                proc.kill()
+                sys.exit(f"serve failed: {line!r}\n{(work / 'serve.log').read_text()[-2000:]}")
+            ports.append(int(line.rsplit(":", 1)[1]))
+    finally:
+        watchdog.cancel()
     return proc, ports, time.perf_counter() - began
 
 

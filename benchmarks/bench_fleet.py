@@ -46,6 +46,8 @@ from pathlib import Path
 HOST = "127.0.0.1"
 TICK = os.sysconf("SC_CLK_TCK")
 POLL = b"read i version\r"
+#: The client's own lateness of its last window (set by :func:`poll`).
+LAGS: list[float] = []
 
 
 def cpu_seconds(pid: int) -> float:
@@ -187,7 +189,13 @@ async def poll(ports: list[int], seconds: float) -> list[tuple[float, float]]:
     for tick in range(ticks):
         for i, poller in enumerate(pollers):
             loop.call_at(began + tick + i * step, poller.send)
-    await asyncio.sleep(began + ticks + 1.0 - loop.time())
+    lags: list[float] = []  # how late this process's own 10 ms ticks ran (its starvation)
+    tick_at = loop.time()
+    while tick_at < began + ticks + 1.0:
+        tick_at += 0.01
+        await asyncio.sleep(tick_at - loop.time())
+        lags.append(loop.time() - tick_at)
+    LAGS[:] = lags
     for poller in pollers:
         assert poller.transport is not None
         poller.transport.close()
@@ -221,6 +229,15 @@ def measure(proc: subprocess.Popen[bytes], ports: list[int], args: argparse.Name
     latencies = [latency * 1000 for _, latency in answers]
     # every logger samples in the first second or two of a wall-clock minute (configure)
     sampling = [latency * 1000 for wall, latency in answers if int(wall) % 60 < 3]
+    slow: dict[int, int] = {}
+    for wall, latency in answers:
+        if latency > 0.1:
+            slow[int(wall) % 60] = slow.get(int(wall) % 60, 0) + 1
+    print(f"  answers over 100 ms by second of the minute: {dict(sorted(slow.items()))}")
+    print(
+        f"  the client's own lateness: max {max(LAGS) * 1000:.0f} ms, "
+        f"{sum(lag > 0.05 for lag in LAGS)} ticks over 50 ms"
+    )
     return Run(
         start=0.0,
         cpu=(cpu1 - cpu0) / (t1 - t0) * 100,

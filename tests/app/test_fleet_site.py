@@ -4,12 +4,12 @@ range, errors that name file, line and field; a served fleet with group commit."
 from __future__ import annotations
 
 import logging
-import select
 import signal
 import socket
 import sqlite3
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -189,14 +189,16 @@ def test_served_fleet_answers_and_keeps_its_memory(tmp_path: Path) -> None:
 
     def read_ports(proc: subprocess.Popen[bytes], ports: dict[str, int]) -> None:
         assert proc.stdout is not None
-        while len(ports) < 3:
-            ready, _, _ = select.select([proc.stdout], [], [], 60)
-            if not ready:
-                proc.kill()
-                raise AssertionError(f"serve printed nothing: {proc.communicate()[1]!r}")
-            words = proc.stdout.readline().decode().split()
-            assert words[:1] == ["logger"], words
-            ports[words[1]] = int(words[-1].rsplit(":", 1)[1])
+        # (no select: the lines may arrive in one burst, already in the pipe's buffer)
+        watchdog = threading.Timer(60, proc.kill)
+        watchdog.start()
+        try:
+            while len(ports) < 3:
+                words = proc.stdout.readline().decode().split()
+                assert words[:1] == ["logger"], (words, proc.poll())
+                ports[words[1]] = int(words[-1].rsplit(":", 1)[1])
+        finally:
+            watchdog.cancel()
 
     def ask(port: int, line: bytes) -> bytes:
         with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:

@@ -41,6 +41,8 @@ from sondalog.protocol.device import Effect, Event
 DATABASE_FILE = "fleet.sqlite"
 #: Threads that read or write the loggers' identity files at start.
 IDENTITY_THREADS = 16
+#: Seconds between two checkpoints of the fleet's database, in a thread (issue 24).
+CHECKPOINT_EVERY = 5.0
 #: Seconds between two freezes of what the fleet holds (:meth:`RunningFleet.freeze`).
 FREEZE_EVERY = 60.0
 
@@ -199,7 +201,8 @@ async def start_fleet(
     def schedule(callback: Callable[[], None]) -> None:
         loop.call_soon(callback)
 
-    fleet = RunningFleet(NvDatabase(states / DATABASE_FILE, schedule))
+    database = NvDatabase(states / DATABASE_FILE, schedule, checkpoint_every=CHECKPOINT_EVERY)
+    fleet = RunningFleet(database)
     timers = Timers(clock)  # one deadline loop for all, its due work in slices (issue 24)
     root = sensor_root()
     try:

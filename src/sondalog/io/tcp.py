@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import errno
+import functools
 import ipaddress
 import logging
 import random
@@ -147,6 +148,7 @@ async def serve_tcp(host: DeviceHost, address: str, port: int, *, paced: bool = 
 _next_port: list[int] = []
 
 
+@functools.cache
 def _port_range() -> tuple[int, int]:
     """The kernel's ephemeral ports (where it looks for port 0 itself)."""
     try:

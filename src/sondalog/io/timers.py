@@ -28,7 +28,7 @@ from typing import Protocol
 from sondalog.io.clock import Clock
 
 #: The most seconds of due work run before the loop serves input again.
-SLICE = 0.005
+SLICE = 0.002
 
 
 class Due(Protocol):

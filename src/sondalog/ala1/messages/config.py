@@ -60,11 +60,14 @@ _NAMES = (
 #: at their factory values, share one object for each (issue 24). Bounded.
 _SHARED: dict[tuple[str, ...], MessageConfig] = {}
 _SHARED_MAX = 4096
+_KEYS: dict[int, tuple[str, ...]] = {}  # message number -> its parameters' keys
 
 
 def load(settings: Settings, number: int) -> MessageConfig:
-    prefix = f"message {number} "
-    raw = (str(number), *(settings.get(prefix + name) for name in _NAMES))
+    keys = _KEYS.get(number)
+    if keys is None:  # made once: their hashes are kept, a fleet reads them all at start
+        keys = _KEYS[number] = tuple(f"message {number} {name}" for name in _NAMES)
+    raw = (str(number), *map(settings.get, keys))
     config = _SHARED.get(raw)
     if config is None:
         config = _parse(number, *raw[1:])

@@ -25,12 +25,16 @@ migrated on open, in one transaction, its rows under the key :data:`SINGLE`.
 from __future__ import annotations
 
 import contextlib
+import logging
 import sqlite3
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
 from sondalog.io.private import connect_private
+
+log = logging.getLogger(__name__)
 
 #: The key of a logger alone in its file (``ala1.sqlite``).
 SINGLE = ""
@@ -113,10 +117,14 @@ class NvDatabase:
         self,
         path: Path | str,
         schedule_flush: Callable[[Callable[[], None]], None] | None = None,
+        *,
+        checkpoint_every: float | None = None,
     ) -> None:
         """``schedule_flush(callback)``: call ``callback`` once at the end of this turn
         (``loop.call_soon`` in a fleet's wiring; tests may collect it). None: no group
-        commit, sampled rows are written at once."""
+        commit, sampled rows are written at once. ``checkpoint_every``: seconds between
+        two checkpoints of the WAL by a thread of its own (a fleet, issue 24); None: SQLite
+        checkpoints in the commit that fills the WAL (1,000 pages), in the caller's thread."""
         self.path = path
         self.conn = open_database(path)
         try:
@@ -124,6 +132,11 @@ class NvDatabase:
         except BaseException:
             self.conn.close()
             raise
+        self._checkpointer: _Checkpointer | None = None
+        if checkpoint_every is not None and str(path) != ":memory:":
+            self.conn.execute("PRAGMA wal_autocheckpoint=0")
+            self._checkpointer = _Checkpointer(path, checkpoint_every)
+            self._checkpointer.start()
         self._schedule = schedule_flush
         self._waiting: list[tuple[str, _Commit]] = []
         self._in_batch = False  # inside batch(): its transaction is open
@@ -187,8 +200,38 @@ class NvDatabase:
         self.transactions += 1
 
     def close(self) -> None:
+        if self._checkpointer is not None:
+            self._checkpointer.finish()
         self.flush()
-        self.conn.close()
+        self.conn.close()  # (the last connection: SQLite checkpoints the WAL)
+
+
+class _Checkpointer(threading.Thread):
+    """Copies the WAL back into the database file every ``every`` seconds, with its own
+    connection in its own thread: a commit of the fleet never waits for a checkpoint's
+    writes and fsync (SQLite releases the GIL while it works; a PASSIVE checkpoint never
+    blocks the writer)."""
+
+    def __init__(self, path: Path | str, every: float) -> None:
+        super().__init__(name="sondalog-wal-checkpoint", daemon=True)
+        self.path = path
+        self.every = every
+        self._stop_event = threading.Event()
+
+    def run(self) -> None:
+        conn = open_database(self.path)
+        try:
+            while not self._stop_event.wait(self.every):
+                try:
+                    conn.execute("PRAGMA wal_checkpoint(PASSIVE)")
+                except sqlite3.Error as exc:  # tried again next time; the WAL keeps all
+                    log.warning("checkpoint of %s failed: %s", self.path, exc)
+        finally:
+            conn.close()
+
+    def finish(self) -> None:
+        self._stop_event.set()
+        self.join()
 
 
 def _apply(

@@ -201,7 +201,9 @@ async def start_fleet(
     def schedule(callback: Callable[[], None]) -> None:
         loop.call_soon(callback)
 
-    database = NvDatabase(states / DATABASE_FILE, schedule, checkpoint_every=CHECKPOINT_EVERY)
+    database = NvDatabase(
+        states / DATABASE_FILE, schedule, checkpoint_every=CHECKPOINT_EVERY, background=True
+    )
     fleet = RunningFleet(database)
     timers = Timers(clock)  # one deadline loop for all, its due work in slices (issue 24)
     root = sensor_root()

@@ -29,6 +29,7 @@ import logging
 import sqlite3
 import threading
 from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
@@ -119,12 +120,15 @@ class NvDatabase:
         schedule_flush: Callable[[Callable[[], None]], None] | None = None,
         *,
         checkpoint_every: float | None = None,
+        background: bool = False,
     ) -> None:
         """``schedule_flush(callback)``: call ``callback`` once at the end of this turn
         (``loop.call_soon`` in a fleet's wiring; tests may collect it). None: no group
         commit, sampled rows are written at once. ``checkpoint_every``: seconds between
         two checkpoints of the WAL by a thread of its own (a fleet, issue 24); None: SQLite
-        checkpoints in the commit that fills the WAL (1,000 pages), in the caller's thread."""
+        checkpoints in the commit that fills the WAL (1,000 pages), in the caller's thread.
+        ``background``: a group commit is written by a thread of its own (the event loop
+        never waits for its fsync, issue 24); anything else first waits for it."""
         self.path = path
         self.conn = open_database(path)
         try:
@@ -139,6 +143,9 @@ class NvDatabase:
             self._checkpointer.start()
         self._schedule = schedule_flush
         self._waiting: list[tuple[str, _Commit]] = []
+        self._lock = threading.Lock()  # guards _waiting against the writer thread
+        self._writer = ThreadPoolExecutor(1, "sondalog-nv-writer") if background else None
+        self._written: Future[None] | None = None  # the last group commit handed over
         self._in_batch = False  # inside batch(): its transaction is open
         self.transactions = 0  # transactions written (for benchmarks and tests)
 
@@ -151,19 +158,40 @@ class NvDatabase:
         if self._schedule is None:
             self.write([(logger, commit)])
             return
-        if not self._waiting:
-            self._schedule(self.flush)
-        self._waiting.append((logger, commit))
+        with self._lock:
+            if not self._waiting:
+                self._schedule(self.flush)
+            self._waiting.append((logger, commit))
 
     def flush(self) -> None:
-        """Write every waiting commit in one transaction."""
-        self.write([])
+        """Write every waiting commit in one transaction (by the writer thread if any)."""
+        if self._writer is None:
+            self.write([])
+        else:
+            self._written = self._writer.submit(self._write_waiting)
+
+    def _write_waiting(self) -> None:
+        """The writer thread: what waits, in one transaction; a failure loses that group
+        (logged), as a failed group commit in the loop did."""
+        with self._lock:
+            batch, self._waiting = self._waiting, []
+        try:
+            self._transaction(batch)
+        except Exception:
+            log.exception("group commit of %d loggers' rows failed", len(batch))
+
+    def settle(self) -> None:
+        """Wait until the writer thread has written every group handed to it: the
+        connection is ours alone again (before any other transaction or read)."""
+        if self._written is not None:
+            self._written.result()
+            self._written = None
 
     @contextlib.contextmanager
     def batch(self) -> Iterator[None]:
         """Every commit inside is one transaction, durable when the block ends (a fleet's
         loggers starting: nothing they commit is answered before that, issue 24)."""
-        self.flush()
+        self.write([])
         self.conn.execute("BEGIN IMMEDIATE")
         self._in_batch = True
         try:
@@ -185,7 +213,12 @@ class NvDatabase:
             for logger, commit in commits:
                 _apply(self.conn, logger, *commit)
             return
-        batch, self._waiting = [*self._waiting, *commits], []
+        self.settle()
+        with self._lock:
+            batch, self._waiting = [*self._waiting, *commits], []
+        self._transaction(batch)
+
+    def _transaction(self, batch: list[tuple[str, _Commit]]) -> None:
         if not batch:
             return
         conn = self.conn
@@ -202,7 +235,9 @@ class NvDatabase:
     def close(self) -> None:
         if self._checkpointer is not None:
             self._checkpointer.finish()
-        self.flush()
+        self.write([])
+        if self._writer is not None:
+            self._writer.shutdown()
         self.conn.close()  # (the last connection: SQLite checkpoints the WAL)
 
 
@@ -276,6 +311,8 @@ class LoggerNvStore:
 
     @property
     def conn(self) -> sqlite3.Connection:
+        """The connection, once no group commit is being written (reads, file areas)."""
+        self.database.settle()
         return self.database.conn
 
     def _meta(self, key: str) -> str | None:
@@ -322,7 +359,7 @@ class LoggerNvStore:
 
     def write_file(self, area: str, data: bytes) -> None:
         """Replace a file area (``list``, ``data``) durably (§6.16), after what waits."""
-        self.database.flush()
+        self.database.write([])  # what waits first
         self.conn.execute(  # autocommit: its own durable transaction
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?) "
             "ON CONFLICT(logger, area) DO UPDATE SET data = excluded.data",

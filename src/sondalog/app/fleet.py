@@ -45,6 +45,8 @@ IDENTITY_THREADS = 16
 CHECKPOINT_EVERY = 5.0
 #: Seconds between two freezes of what the fleet holds (:meth:`RunningFleet.freeze`).
 FREEZE_EVERY = 60.0
+#: Collections of the middle generation before the collector itself collects all (10).
+FULL_COLLECTIONS_AFTER = 100_000
 
 #: The serial number of the logger whose engine is running (for log lines).
 _CURRENT: contextvars.ContextVar[str | None] = contextvars.ContextVar(
@@ -132,11 +134,13 @@ class RunningFleet:
     database: NvDatabase
     members: list[FleetMember] = field(default_factory=list)
     freezer: asyncio.TimerHandle | None = None
+    thresholds: tuple[int, int, int] = (700, 10, 10)  # the collector's, before the fleet
 
     async def close(self) -> None:
         if self.freezer is not None:
             self.freezer.cancel()
             gc.unfreeze()  # what the fleet held can be collected again
+            gc.set_threshold(*self.thresholds)
         for member in self.members:
             await member.server.close()
             await member.host.stop()
@@ -147,11 +151,19 @@ class RunningFleet:
 
         Ten thousand loggers are millions of objects that live as long as the process: a full
         collection over them stopped the process for a second now and then (issue 24). They
-        are frozen (``gc.freeze``) after start, and every :data:`FREEZE_EVERY` seconds what
-        came since (configurations written), after the young garbage is collected."""
-        gc.collect(1)
-        gc.freeze()
+        are frozen (``gc.freeze``) after start; every :data:`FREEZE_EVERY` seconds a full
+        collection (over what came since: configurations written, connections) runs and
+        what survives is frozen too. The collector's own full collections wait for that
+        (its third threshold raised): one of them, over what a fleet's reconfiguration
+        made, stopped the process for 0.4 s at any moment."""
         loop = asyncio.get_running_loop()
+        if self.freezer is None:
+            self.thresholds = gc.get_threshold()
+            gc.set_threshold(self.thresholds[0], self.thresholds[1], FULL_COLLECTIONS_AFTER)
+            gc.collect(1)
+        else:
+            gc.collect()
+        gc.freeze()
         self.freezer = loop.call_later(FREEZE_EVERY, self.freeze)
 
 

@@ -47,6 +47,8 @@ CHECKPOINT_EVERY = 5.0
 FREEZE_EVERY = 60.0
 #: Collections of the middle generation before the collector itself collects all (10).
 FULL_COLLECTIONS_AFTER = 100_000
+#: Freezes between two full collections of the fleet (hourly).
+FULL_EVERY = 60
 
 #: The serial number of the logger whose engine is running (for log lines).
 _CURRENT: contextvars.ContextVar[str | None] = contextvars.ContextVar(
@@ -135,6 +137,7 @@ class RunningFleet:
     members: list[FleetMember] = field(default_factory=list)
     freezer: asyncio.TimerHandle | None = None
     thresholds: tuple[int, int, int] = (700, 10, 10)  # the collector's, before the fleet
+    rounds: int = 0  # freezes so far
 
     async def close(self) -> None:
         if self.freezer is not None:
@@ -151,18 +154,21 @@ class RunningFleet:
 
         Ten thousand loggers are millions of objects that live as long as the process: a full
         collection over them stopped the process for a second now and then (issue 24). They
-        are frozen (``gc.freeze``) after start; every :data:`FREEZE_EVERY` seconds a full
-        collection (over what came since: configurations written, connections) runs and
-        what survives is frozen too. The collector's own full collections wait for that
-        (its third threshold raised): one of them, over what a fleet's reconfiguration
-        made, stopped the process for 0.4 s at any moment."""
+        are frozen (``gc.freeze``) after start, and every :data:`FREEZE_EVERY` seconds what
+        survived the young generations' collection since. Even a minute's survivors of
+        10,000 loggers sampling take 0.3 s to collect in full, so the collector's own full
+        collections wait (its third threshold raised), and the fleet's full collection
+        (thawed: cycles frozen meanwhile are freed) runs once per :data:`FULL_EVERY` rounds."""
         loop = asyncio.get_running_loop()
         if self.freezer is None:
             self.thresholds = gc.get_threshold()
             gc.set_threshold(self.thresholds[0], self.thresholds[1], FULL_COLLECTIONS_AFTER)
-            gc.collect(1)
-        else:
+        self.rounds += 1
+        if self.rounds % FULL_EVERY == 0:
+            gc.unfreeze()
             gc.collect()
+        else:
+            gc.collect(1)
         gc.freeze()
         self.freezer = loop.call_later(FREEZE_EVERY, self.freeze)
 

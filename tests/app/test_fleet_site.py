@@ -4,13 +4,15 @@ range, errors that name file, line and field; a served fleet with group commit."
 from __future__ import annotations
 
 import logging
-import select
 import signal
 import socket
 import sqlite3
 import subprocess
 import sys
+import threading
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -189,14 +191,16 @@ def test_served_fleet_answers_and_keeps_its_memory(tmp_path: Path) -> None:
 
     def read_ports(proc: subprocess.Popen[bytes], ports: dict[str, int]) -> None:
         assert proc.stdout is not None
-        while len(ports) < 3:
-            ready, _, _ = select.select([proc.stdout], [], [], 60)
-            if not ready:
-                proc.kill()
-                raise AssertionError(f"serve printed nothing: {proc.communicate()[1]!r}")
-            words = proc.stdout.readline().decode().split()
-            assert words[:1] == ["logger"], words
-            ports[words[1]] = int(words[-1].rsplit(":", 1)[1])
+        # (no select: the lines may arrive in one burst, already in the pipe's buffer)
+        watchdog = threading.Timer(60, proc.kill)
+        watchdog.start()
+        try:
+            while len(ports) < 3:
+                words = proc.stdout.readline().decode().split()
+                assert words[:1] == ["logger"], (words, proc.poll())
+                ports[words[1]] = int(words[-1].rsplit(":", 1)[1])
+        finally:
+            watchdog.cancel()
 
     def ask(port: int, line: bytes) -> bytes:
         with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:
@@ -243,4 +247,41 @@ def test_log_lines_name_the_logger(tmp_path: Path, caplog: pytest.LogCaptureFixt
     messages = [record.getMessage() for record in caplog.records]
     assert messages[0].startswith("[logger F7] event "), messages
     assert messages[1] == "outside any logger"
+    database.close()
+
+
+class _Threads(NvDatabase):
+    """Records the thread each transaction ran in."""
+
+    threads: list[str]
+
+    def _transaction(self, batch: list[Any]) -> None:
+        self.__dict__.setdefault("threads", []).append(threading.current_thread().name)
+        super()._transaction(batch)
+
+
+def test_a_group_commit_is_written_by_a_thread_and_a_command_waits_for_it(tmp_path: Path) -> None:
+    """Issue 24: the fleet's loop hands the rows of a turn to a writer thread (it never
+    waits for their fsync); a command line's commit waits for them, then goes after them."""
+    flushes: list[Callable[[], None]] = []
+    database = _Threads(tmp_path / "fleet.sqlite", flushes.append, background=True)
+    engines = [_engine(database, f"F{n}") for n in range(5)]
+    reader = sqlite3.connect(tmp_path / "fleet.sqlite")
+    for flush in flushes:
+        flush()
+    database.settle()
+    baseline = int(reader.execute("SELECT count(*) FROM record").fetchone()[0])
+    database.threads.clear()
+    deadline = engines[0].next_deadline()
+    assert deadline is not None
+    for engine in engines:
+        engine.advance(deadline)
+    flushes[-1]()  # the end of the turn: handed over
+    line = engines[0].open_line()
+    assert engines[0].receive(line, b"write channel 1 name/abc/\r", deadline + 1)
+    assert database.threads == ["sondalog-nv-writer_0", threading.current_thread().name]
+    rows = reader.execute("SELECT logger, seq FROM record ORDER BY rowid").fetchall()
+    assert len(rows) == baseline + 5
+    stored = reader.execute("SELECT value FROM param WHERE key = 'channel 1 name'").fetchall()
+    assert stored == [("abc",)]
     database.close()

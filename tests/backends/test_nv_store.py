@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import sqlite3
 import stat
+import threading
+import time
 from pathlib import Path
+
+import pytest
 
 from sondalog.ala1 import Engine, Identity
 from sondalog.ala1.record import RecordChanges
@@ -132,3 +136,51 @@ def test_a_fleet_defers_sampled_rows_to_one_flush(tmp_path: Path) -> None:
     assert a.load_record()[0] == ["a0"] and b.load_record()[0] == ["b0"]
     assert database.transactions == 1
     database.close()
+
+
+def test_a_batch_is_one_transaction_durable_at_its_end(tmp_path: Path) -> None:
+    """A fleet starting (issue 24): every new logger's first commit (its factory clock) is
+    in one transaction, visible to nobody before the batch ends; a failure stores none."""
+    path = tmp_path / "fleet.sqlite"
+    database = NvDatabase(path)
+    reader = sqlite3.connect(path)
+
+    def offsets() -> int:
+        query = "SELECT count(*) FROM meta WHERE key = 'clock_offset'"
+        return int(reader.execute(query).fetchone()[0])
+
+    before = database.transactions
+    with database.batch():
+        for n in range(50):
+            ModuleState(Identity(serial_number=f"B{n}"), database.store(f"B{n}"), T0)
+        assert offsets() == 0
+    assert offsets() == 50 and database.transactions == before + 1
+    with pytest.raises(RuntimeError), database.batch():
+        ModuleState(Identity(serial_number="X"), database.store("X"), T0)
+        raise RuntimeError("the fleet failed to start")
+    assert offsets() == 50
+    # after a batch, a commit is durable at once again
+    ModuleState(Identity(serial_number="Y"), database.store("Y"), T0)
+    assert offsets() == 51
+    database.close()
+
+
+def test_a_fleet_database_checkpoints_in_a_thread_of_its_own(tmp_path: Path) -> None:
+    """Issue 24: the fleet's commits never checkpoint the WAL themselves (a checkpoint's
+    writes and fsync stopped the event loop); a thread copies it into the file."""
+    path = tmp_path / "fleet.sqlite"
+    database = NvDatabase(path, checkpoint_every=0.05)
+    assert database.conn.execute("PRAGMA wal_autocheckpoint").fetchone()[0] == 0
+    empty = path.stat().st_size
+    for n in range(200):
+        ModuleState(Identity(serial_number=f"C{n}"), database.store(f"C{n}"), T0)
+    deadline = time.monotonic() + 10
+    while path.stat().st_size <= empty and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert path.stat().st_size > empty  # the rows reached the file, not only the WAL
+    database.close()
+    assert not any(t.name == "sondalog-wal-checkpoint" for t in threading.enumerate())
+    reader = sqlite3.connect(path)
+    assert (
+        reader.execute("SELECT count(*) FROM meta WHERE key = 'clock_offset'").fetchone()[0] == 200
+    )

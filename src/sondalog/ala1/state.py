@@ -10,6 +10,7 @@ store transaction before the answer is released.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from datetime import datetime
@@ -17,7 +18,7 @@ from typing import Protocol
 
 from sondalog.ala1.hardware import Hardware, NoHardware
 from sondalog.ala1.measure import ChannelConfig, Measurer, channel_config, format_value
-from sondalog.ala1.model import CommandError, Identity
+from sondalog.ala1.model import CommandError, Identity, Version
 from sondalog.ala1.moduleclock import (
     CLOCK_MAX,
     CLOCK_MIN,
@@ -80,6 +81,13 @@ class NvStore(Protocol):
         ...
 
 
+@functools.cache
+def fixed_defaults(version: Version) -> dict[str, str]:
+    """Factory values that depend on nothing else: shared by every module (issue 24)."""
+    keys = storage_keys(version).items()
+    return {key: i.leaf.default for key, i in keys if isinstance(i.leaf.default, str)}
+
+
 class NeedWait(Exception):
     """The line must wait: a measurement needs its switch advance or a DS18B20 conversion
     first (§6.5.13: module time), or a ``pause`` header asks for it (§8.5.1: line time)."""
@@ -104,6 +112,7 @@ class ModuleState:
         self.store = store
         self.hardware: Hardware = hardware or NoHardware()
         self.keys: dict[str, KeyInfo] = storage_keys(identity.version)
+        self._fixed = fixed_defaults(identity.version)
         values, offset = store.load()
         self.values = {k: v for k, v in values.items() if k in self.keys}
         if offset is None:
@@ -177,13 +186,12 @@ class ModuleState:
 
     # -- parameters --------------------------------------------------------------------------
     def get(self, key: str) -> str:
-        """A committed value (outside any line); cached until a commit changes values."""
-        value = self._settings.get(key)
-        if value is None:
-            value = self.values.get(key)
+        """A committed value (outside any line); a factory value that depends on others is
+        cached until a commit changes values, a fixed one is shared (issue 24)."""
+        if (value := self.values.get(key)) is None and (value := self._fixed.get(key)) is None:
+            value = self._settings.get(key)
             if value is None:
-                value = Transaction(self, 0.0).default(key)
-            self._settings[key] = value
+                value = self._settings[key] = Transaction(self, 0.0).default(key)
         return value
 
     def command_names(self) -> dict[str, int]:

@@ -3,9 +3,10 @@
 A :class:`DeviceHost` owns a :class:`~sondalog.protocol.device.Device` (the ALA1 engine, the
 RS-485 bus with its modules, ...) and a :class:`~sondalog.io.clock.Clock`. It passes
 ``clock.now()`` with every call, routes each :class:`~sondalog.protocol.device.LineSend` to
-the sink of its line and every other effect to the handler registered for its type, and runs
-the one timer task: it sleeps until :meth:`Device.next_deadline` and then calls
-:meth:`Device.advance`. The timer is re-armed whenever input changes the next deadline.
+the sink of its line and every other effect to the handler registered for its type, and keeps
+its device's :meth:`Device.next_deadline` in the one deadline loop (:mod:`sondalog.io.timers`,
+its own or a fleet's shared one), which calls :meth:`Device.advance` when it comes. The
+deadline is updated whenever input changes it.
 
 Transports (:mod:`sondalog.io.tcp`, :mod:`~sondalog.io.pty`, :mod:`~sondalog.io.serial_line`,
 an in-process :class:`LocalLink`) attach lines to a host. Input is served fairly: one command
@@ -23,13 +24,13 @@ from __future__ import annotations
 
 import asyncio
 import collections
-import contextlib
 import logging
 import re
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from sondalog.io.clock import Clock
+from sondalog.io.timers import Timers
 from sondalog.protocol.device import Device, Effect, Event, LineSend
 
 log = logging.getLogger(__name__)
@@ -73,16 +74,17 @@ _ONE_LINE = re.compile(rb"[^\r\n]*[\r\n]")
 class DeviceHost:
     """One device core, its clock, its timers, and the sinks of its attached lines."""
 
-    def __init__(self, device: Device, clock: Clock) -> None:
+    def __init__(self, device: Device, clock: Clock, timers: Timers | None = None) -> None:
+        """``timers``: the deadline loop shared with other hosts (a fleet's, issue 24);
+        without it the host has one of its own."""
         self.device = device
         self.clock = clock
         self._handlers: dict[type[Effect], EffectHandler] = {}
         # Every attached line has one sink: bytes only (transports), or each LineSend.
         self._byte_sinks: dict[int, Sink] = {}
         self._output_sinks: dict[int, OutputSink] = {}
-        self._armed: float | None = None
-        self._rearm = asyncio.Event()
-        self._timer: asyncio.Task[None] | None = None
+        self._timers = timers if timers is not None else Timers(clock)
+        self._started = False
         self._pending: dict[int, bytearray] = {}  # line -> input not yet run
         self._ready: collections.deque[int] = collections.deque()  # lines with input, in turn
         self._flows: dict[int, FlowControl] = {}
@@ -92,17 +94,16 @@ class DeviceHost:
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
-        """Start the timer task (needs a running event loop)."""
-        if self._timer is None:
-            self._timer = asyncio.get_running_loop().create_task(self._run_timers())
+        """Run the device at its deadlines from now on (needs a running event loop)."""
+        if not self._started:
+            self._started = True
+            self._timers.add(self, self._next_deadline())
 
     async def stop(self) -> None:
-        """Stop the timer task and detach every line."""
-        if self._timer is not None:
-            self._timer.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._timer
-            self._timer = None
+        """Stop running the device at its deadlines and detach every line."""
+        if self._started:
+            self._started = False
+            await self._timers.remove(self)
         for line_id in [*self._byte_sinks, *self._output_sinks]:
             self.detach(line_id)
 
@@ -302,47 +303,29 @@ class DeviceHost:
                 log.exception("cannot send %r to line %d", output.data, output.line)
 
     def _check_deadline(self) -> None:
-        """Wake the timer task when the engine's next deadline moved."""
+        """Tell the timers when the device's next deadline moved."""
         if self._held:
             self._wake_held()
-        if self.device.next_deadline() != self._armed:
-            self._rearm.set()
+        if self._started:
+            self._timers.set(self, self._next_deadline())
 
-    async def _run_timers(self) -> None:
-        while True:
-            self._rearm.clear()
-            try:
-                deadline = self.device.next_deadline()
-            except Exception:
-                log.exception("internal error computing the next deadline")
-                deadline = None
-            self._armed = deadline
-            if deadline is None:
-                await self._rearm.wait()
-                continue
-            if self.clock.now() < deadline:
-                await self._sleep_or_rearm(deadline)
-            now = self.clock.now()
-            if now >= deadline:
-                try:
-                    outputs = self.device.advance(now)
-                except Exception:
-                    log.exception("internal error running timers at %r", now)
-                    outputs = []
-                    await asyncio.sleep(1.0)  # never spin on a timer that keeps failing
-                self._dispatch(outputs)
-                if self._held:
-                    self._wake_held()
-
-    async def _sleep_or_rearm(self, deadline: float) -> None:
-        sleeper = asyncio.ensure_future(self.clock.sleep_until(deadline))
-        waker = asyncio.ensure_future(self._rearm.wait())
+    def _next_deadline(self) -> float | None:
         try:
-            await asyncio.wait({sleeper, waker}, return_when=asyncio.FIRST_COMPLETED)
-        finally:
-            for task in (sleeper, waker):
-                task.cancel()
-            await asyncio.gather(sleeper, waker, return_exceptions=True)
+            return self.device.next_deadline()
+        except Exception:
+            log.exception("internal error computing the next deadline")
+            return self.clock.now() + 1.0  # try again in a while, never spin
+
+    def run_due(self, now: float) -> None:
+        """The deadline came (the timers call this): run what is due at ``now``."""
+        try:
+            outputs = self.device.advance(now)
+        except Exception:
+            log.exception("internal error running timers at %r", now)
+            self._timers.set(self, now + 1.0)  # never spin on a timer that keeps failing
+            return
+        self._dispatch(outputs)
+        self._check_deadline()
 
 
 class LocalLink:

@@ -51,23 +51,54 @@ class MessageConfig:
         return self.channel_function, self.channel, self.value, self.hysteresis
 
 
+#: The parameters of a message that make its configuration, in :class:`MessageConfig` order.
+_NAMES = (
+    "address", "command", "period", "start", "of record function", "of channel function",
+    "of channel number", "of channel value", "of channel hysteresis",
+)  # fmt: skip
+#: Configurations by their number and values: a fleet's loggers, whose messages are mostly
+#: at their factory values, share one object for each (issue 24). Bounded.
+_SHARED: dict[tuple[str, ...], MessageConfig] = {}
+_SHARED_MAX = 4096
+_KEYS: dict[int, tuple[str, ...]] = {}  # message number -> its parameters' keys
+
+
 def load(settings: Settings, number: int) -> MessageConfig:
-    prefix = f"message {number} "
+    keys = _KEYS.get(number)
+    if keys is None:  # made once: their hashes are kept, a fleet reads them all at start
+        keys = _KEYS[number] = tuple(f"message {number} {name}" for name in _NAMES)
+    raw = (str(number), *map(settings.get, keys))
+    config = _SHARED.get(raw)
+    if config is None:
+        config = _parse(number, *raw[1:])
+        if len(_SHARED) < _SHARED_MAX:
+            _SHARED[raw] = config  # (frozen: sharing it is safe)
+    return config
 
-    def get(name: str) -> str:
-        return settings.get(prefix + name)
 
+def _parse(
+    number: int,
+    address: str,
+    command: str,
+    period: str,
+    start: str,
+    of_record: str,
+    function: str,
+    channel: str,
+    value: str,
+    hysteresis: str,
+) -> MessageConfig:
     return MessageConfig(
         number=number,
-        addresses=tuple(int(a) for a in get("address").split(",") if a),
-        command=int(get("command")),
-        period=get("period"),
-        start=to_seconds(parse_stamp(get("start"))),
-        of_record=get("of record function") == "YES",
-        channel_function=get("of channel function"),
-        channel=int(get("of channel number")),
-        value=Decimal(get("of channel value")),
-        hysteresis=Decimal(get("of channel hysteresis")),
+        addresses=tuple(int(a) for a in address.split(",") if a),
+        command=int(command),
+        period=period,
+        start=to_seconds(parse_stamp(start)),
+        of_record=of_record == "YES",
+        channel_function=function,
+        channel=int(channel),
+        value=Decimal(value),
+        hysteresis=Decimal(hysteresis),
     )
 
 

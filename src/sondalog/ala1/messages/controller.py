@@ -34,7 +34,7 @@ from sondalog.ala1.state import ModuleState, NeedWait
 log = logging.getLogger(__name__)
 
 
-@dataclass
+@dataclass(slots=True)  # one per message and module: a fleet holds 40 a logger (issue 24)
 class _Message:
     """One message's configuration and its RAM state."""
 

@@ -24,12 +24,18 @@ migrated on open, in one transaction, its rows under the key :data:`SINGLE`.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import sqlite3
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
 from sondalog.io.private import connect_private
+
+log = logging.getLogger(__name__)
 
 #: The key of a logger alone in its file (``ala1.sqlite``).
 SINGLE = ""
@@ -112,10 +118,17 @@ class NvDatabase:
         self,
         path: Path | str,
         schedule_flush: Callable[[Callable[[], None]], None] | None = None,
+        *,
+        checkpoint_every: float | None = None,
+        background: bool = False,
     ) -> None:
         """``schedule_flush(callback)``: call ``callback`` once at the end of this turn
         (``loop.call_soon`` in a fleet's wiring; tests may collect it). None: no group
-        commit, sampled rows are written at once."""
+        commit, sampled rows are written at once. ``checkpoint_every``: seconds between
+        two checkpoints of the WAL by a thread of its own (a fleet, issue 24); None: SQLite
+        checkpoints in the commit that fills the WAL (1,000 pages), in the caller's thread.
+        ``background``: a group commit is written by a thread of its own (the event loop
+        never waits for its fsync, issue 24); anything else first waits for it."""
         self.path = path
         self.conn = open_database(path)
         try:
@@ -123,8 +136,17 @@ class NvDatabase:
         except BaseException:
             self.conn.close()
             raise
+        self._checkpointer: _Checkpointer | None = None
+        if checkpoint_every is not None and str(path) != ":memory:":
+            self.conn.execute("PRAGMA wal_autocheckpoint=0")
+            self._checkpointer = _Checkpointer(path, checkpoint_every)
+            self._checkpointer.start()
         self._schedule = schedule_flush
         self._waiting: list[tuple[str, _Commit]] = []
+        self._lock = threading.Lock()  # guards _waiting against the writer thread
+        self._writer = ThreadPoolExecutor(1, "sondalog-nv-writer") if background else None
+        self._written: Future[None] | None = None  # the last group commit handed over
+        self._in_batch = False  # inside batch(): its transaction is open
         self.transactions = 0  # transactions written (for benchmarks and tests)
 
     def store(self, logger: str = SINGLE) -> LoggerNvStore:
@@ -136,17 +158,67 @@ class NvDatabase:
         if self._schedule is None:
             self.write([(logger, commit)])
             return
-        if not self._waiting:
-            self._schedule(self.flush)
-        self._waiting.append((logger, commit))
+        with self._lock:
+            if not self._waiting:
+                self._schedule(self.flush)
+            self._waiting.append((logger, commit))
 
     def flush(self) -> None:
-        """Write every waiting commit in one transaction."""
+        """Write every waiting commit in one transaction (by the writer thread if any)."""
+        if self._writer is None:
+            self.write([])
+        else:
+            self._written = self._writer.submit(self._write_waiting)
+
+    def _write_waiting(self) -> None:
+        """The writer thread: what waits, in one transaction; a failure loses that group
+        (logged), as a failed group commit in the loop did."""
+        with self._lock:
+            batch, self._waiting = self._waiting, []
+        try:
+            self._transaction(batch)
+        except Exception:
+            log.exception("group commit of %d loggers' rows failed", len(batch))
+
+    def settle(self) -> None:
+        """Wait until the writer thread has written every group handed to it: the
+        connection is ours alone again (before any other transaction or read)."""
+        if self._written is not None:
+            self._written.result()
+            self._written = None
+
+    @contextlib.contextmanager
+    def batch(self) -> Iterator[None]:
+        """Every commit inside is one transaction, durable when the block ends (a fleet's
+        loggers starting: nothing they commit is answered before that, issue 24)."""
         self.write([])
+        self.conn.execute("BEGIN IMMEDIATE")
+        self._in_batch = True
+        try:
+            yield
+            self._in_batch = False
+            batch, self._waiting = self._waiting, []
+            for logger, commit in batch:
+                _apply(self.conn, logger, *commit)
+        except BaseException:
+            self._in_batch = False
+            self.conn.execute("ROLLBACK")
+            raise
+        self.conn.execute("COMMIT")
+        self.transactions += 1
 
     def write(self, commits: list[tuple[str, _Commit]]) -> None:
         """Write what waits and ``commits`` in one durable transaction."""
-        batch, self._waiting = [*self._waiting, *commits], []
+        if self._in_batch:  # within the batch's own transaction
+            for logger, commit in commits:
+                _apply(self.conn, logger, *commit)
+            return
+        self.settle()
+        with self._lock:
+            batch, self._waiting = [*self._waiting, *commits], []
+        self._transaction(batch)
+
+    def _transaction(self, batch: list[tuple[str, _Commit]]) -> None:
         if not batch:
             return
         conn = self.conn
@@ -161,8 +233,40 @@ class NvDatabase:
         self.transactions += 1
 
     def close(self) -> None:
-        self.flush()
-        self.conn.close()
+        if self._checkpointer is not None:
+            self._checkpointer.finish()
+        self.write([])
+        if self._writer is not None:
+            self._writer.shutdown()
+        self.conn.close()  # (the last connection: SQLite checkpoints the WAL)
+
+
+class _Checkpointer(threading.Thread):
+    """Copies the WAL back into the database file every ``every`` seconds, with its own
+    connection in its own thread: a commit of the fleet never waits for a checkpoint's
+    writes and fsync (SQLite releases the GIL while it works; a PASSIVE checkpoint never
+    blocks the writer)."""
+
+    def __init__(self, path: Path | str, every: float) -> None:
+        super().__init__(name="sondalog-wal-checkpoint", daemon=True)
+        self.path = path
+        self.every = every
+        self._stop_event = threading.Event()
+
+    def run(self) -> None:
+        conn = open_database(self.path)
+        try:
+            while not self._stop_event.wait(self.every):
+                try:
+                    conn.execute("PRAGMA wal_checkpoint(PASSIVE)")
+                except sqlite3.Error as exc:  # tried again next time; the WAL keeps all
+                    log.warning("checkpoint of %s failed: %s", self.path, exc)
+        finally:
+            conn.close()
+
+    def finish(self) -> None:
+        self._stop_event.set()
+        self.join()
 
 
 def _apply(
@@ -207,6 +311,8 @@ class LoggerNvStore:
 
     @property
     def conn(self) -> sqlite3.Connection:
+        """The connection, once no group commit is being written (reads, file areas)."""
+        self.database.settle()
         return self.database.conn
 
     def _meta(self, key: str) -> str | None:
@@ -253,7 +359,7 @@ class LoggerNvStore:
 
     def write_file(self, area: str, data: bytes) -> None:
         """Replace a file area (``list``, ``data``) durably (§6.16), after what waits."""
-        self.database.flush()
+        self.database.write([])  # what waits first
         self.conn.execute(  # autocommit: its own durable transaction
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?) "
             "ON CONFLICT(logger, area) DO UPDATE SET data = excluded.data",

@@ -112,11 +112,12 @@ class DeviceHost:
         behind its line faults, or restarted after a power loss, issue 23)."""
         self.device = device
         self._room = getattr(device, "input_room", None)
-        self._rearm.set()
+        self.wake()
 
     def wake(self) -> None:
         """The device changed from outside (its clock jumped): look at its deadline again."""
-        self._rearm.set()
+        self._check_deadline()
+        self._timers.wake()
 
     # -- lines -------------------------------------------------------------------------------
     def attach(self, sink: Sink, *, paced: bool = False, flow: FlowControl | None = None) -> int:

@@ -90,6 +90,10 @@ class Timers:
         if first is None or deadline < first:
             self._wake.set()
 
+    def wake(self) -> None:
+        """Look at the earliest deadline again now (a clock that jumped, a device replaced)."""
+        self._wake.set()
+
     def deadline(self, host: Due) -> float | None:
         """The deadline ``host`` is armed for."""
         return self._deadlines.get(host)

@@ -100,9 +100,13 @@ class AlarmTablesMissing(LookupError):
     """A store opened to read (the dashboard) has no alarm tables: no alarms (yet)."""
 
 
-def _by_alarm(rows: Iterable[Sequence[Any]], at: int = 0) -> list[Sequence[Any]]:
-    """Rows in one order (the alarm id): two collectors lock them alike, no deadlock."""
-    return sorted(rows, key=lambda r: str(r[at]))
+def _by_alarm(rows: Iterable[Sequence[Any]]) -> list[Sequence[Any]]:
+    """Rows in one order (the alarm id, a text, first): two collectors lock them alike, no
+    deadlock."""
+    return sorted(rows, key=_first)
+
+
+_first = itemgetter(0)
 
 
 class SqlAlarmStore:

@@ -12,7 +12,8 @@ when both start from states a previous run exported.
 from __future__ import annotations
 
 import math
-from dataclasses import fields
+import tempfile
+from dataclasses import fields, replace
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -261,3 +262,58 @@ def test_quiet_readings_answer_as_reading(
     for source, readings in first:
         before.readings(Sample.of(source, r) for r in readings)
     run(plan, then, before.export())
+
+
+def run_stored(
+    plan: AlarmPlan, feed: list[tuple[str, list[Reading]]], then: list[tuple[str, list[Reading]]]
+) -> None:
+    """Both paths saving into a real store of their own after every chunk (the slow one
+    whole rows, ``save_states``; the fast one ``save_changes``: progress only, equal progress
+    grouped into one statement), then both restarted from their stores: the stores hold the
+    same rows after every chunk (NaN is stored as NULL by both alike), and the transitions
+    are the same before and after the restart."""
+    with tempfile.TemporaryDirectory() as tmp:
+        slow_path, fast_path = Path(tmp) / "slow.sqlite", Path(tmp) / "fast.sqlite"
+        for part in (feed, then):
+            with AlarmStore(slow_path) as slow_store, AlarmStore(fast_path) as fast_store:
+                slow = Alarms(plan, slow_store.load_states())
+                fast = Alarms(plan, fast_store.load_states())
+                for source, readings in part:
+                    expected = slow.readings(Sample.of(source, r) for r in readings)
+                    assert repr(fast.ingest(source, readings)) == repr(expected)
+                    slow_store.save_states(slow.changed())
+                    with fast_store.transaction():
+                        fast_store.save_changes(fast.changes())
+                    got = fast_store.load_states()
+                    assert repr(got) == repr(slow_store.load_states())
+                    assert got == sorted(map(_as_stored, fast.export()), key=_alarm)  # -0.0 is 0
+
+
+def _as_stored(record: AlarmRecord) -> AlarmRecord:
+    """A record as SQLite gives it back: NaN is NULL (and -0.0 is 0)."""
+    nan = [f.name for f in fields(AlarmRecord) if _is_nan(getattr(record, f.name))]
+    return replace(record, **dict.fromkeys(nan))
+
+
+def _is_nan(value: object) -> bool:
+    return isinstance(value, float) and math.isnan(value)
+
+
+@settings(max_examples=80, deadline=None)
+@given(rules(("threshold", "threshold", "stuck", "step")), calm_chunks(), calm_chunks())
+def test_the_stored_progress_is_the_slow_paths_across_a_restart(
+    plan: AlarmPlan,
+    first: list[tuple[str, list[Reading]]],
+    then: list[tuple[str, list[Reading]]],
+) -> None:
+    run_stored(plan, first, then)
+
+
+@settings(max_examples=80, deadline=None)
+@given(rules(), chunks(), chunks())
+def test_the_stored_progress_is_the_slow_paths_on_random_readings(
+    plan: AlarmPlan,
+    first: list[tuple[str, list[Reading]]],
+    then: list[tuple[str, list[Reading]]],
+) -> None:
+    run_stored(plan, first, then)

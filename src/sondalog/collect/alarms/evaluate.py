@@ -76,7 +76,9 @@ class Alarms:
         self._timers: dict[str, tuple[Track, float]] = {}
         self._reading_rules = plan.of_kind(*READINGS)
         self._matches: dict[tuple[str, str, int, str | None], list[tuple[Rule, Track]]] = {}
-        self._ingest = Ingest(self._reading_rules, self._reading_track, self._apply, self._progress)
+        self._ingest = Ingest(
+            self._reading_rules, self._tracks, self._reading_track, self._apply, self._progress
+        )
         for record in records:
             rule = self._rules.get(record.rule)
             if rule is None or rule.kind != record.kind:

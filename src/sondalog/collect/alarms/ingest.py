@@ -85,11 +85,14 @@ class _Rules:
     thresholds: bool
     lo: float
     hi: float
+    #: The rules' names (an alarm is found by (rule name, subject)).
+    names: tuple[str, ...]
 
     @classmethod
     def of(cls, rules: tuple[Rule, ...]) -> _Rules:
         return cls(
             rules,
+            names=tuple(r.name for r in rules),
             thresholds=bool(rules) and all(r.kind == "threshold" and r.count >= 1 for r in rules),
             lo=max((r.limit for r in rules if r.direction == "below"), default=-inf),
             hi=min((r.limit for r in rules if r.direction == "above"), default=inf),
@@ -105,18 +108,21 @@ class _RuleSet:
 
 
 class Ingest:
-    """The fast path of one :class:`~.evaluate.Alarms`: ``track(rule, subject)`` gives an
-    alarm (new ones marked changed), ``apply`` makes a verdict a transition, ``progress`` is
-    where an alarm whose rule's progress changed is marked."""
+    """The fast path of one :class:`~.evaluate.Alarms`: ``tracks`` are its alarms by (rule
+    name, subject), ``track(rule, subject)`` gives one (new ones made and marked changed),
+    ``apply`` makes a verdict a transition, ``progress`` is where an alarm whose rule's
+    progress changed is marked."""
 
     def __init__(
         self,
         rules: list[Rule],
+        tracks: dict[tuple[str, str], Track],
         track: Callable[[Rule, str], Track],
         apply: Apply,
         progress: dict[str, Track],
     ) -> None:
         self._rules = rules
+        self._tracks = tracks
         self._track = track
         self._apply = apply
         self._progress = progress
@@ -187,15 +193,20 @@ class Ingest:
         return out
 
     def _channel(self, source: str, logger: str, channel: int, name: str | None) -> Channel:
+        """The channel's state, made when it is first read (after a restart: from the
+        alarms the store gave back, found by name: no hash computed)."""
         key = (source, logger, channel, name)
         found = self._channels.get(key)
         if found is not None:
             return found
         rules = self._rules_of(source, logger, channel, name)
         subject = f"{logger}/{channel}"
-        alarm_of = self._track
-        tracks = tuple([alarm_of(r, subject) for r in rules.rules])
-        found = Channel(name, rules.rules, tracks, rules.thresholds, rules.lo, rules.hi)
+        known, make = self._tracks.get, self._track
+        tracks: list[Track] = []
+        for rule, rule_name in zip(rules.rules, rules.names, strict=True):
+            track = known((rule_name, subject))
+            tracks.append(make(rule, subject) if track is None else track)  # None: a new alarm
+        found = Channel(name, rules.rules, tuple(tracks), rules.thresholds, rules.lo, rules.hi)
         self._channels[key] = found
         other = self._subjects.setdefault(subject, found)
         if other is not found:  # renamed, or read by two sources: the alarms are shared

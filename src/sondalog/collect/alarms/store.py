@@ -34,6 +34,7 @@ class AlarmStore(SqlAlarmStore):
 
     dialect = SQLITE
     errors = (sqlite3.Error,)
+    group_counters = True  # BEGIN IMMEDIATE: the whole file is this transaction's
 
     def __init__(self, path: Path | str, *, read_only: bool = False) -> None:
         super().__init__()

@@ -68,6 +68,14 @@ _counter_values = itemgetter(*(STATE_COLUMNS.index(c) for c in (*_COUNTERS, "ala
 SAVE_COUNTERS = (
     f"UPDATE alarm_states SET {', '.join(f'{c} = ?' for c in _COUNTERS)} WHERE alarm = ?"
 )
+#: The same progress for several alarms, one statement (``{ids}``: their markers): the
+#: alarms of a channel whose readings were all within their limits took the same readings.
+SAVE_SAME_COUNTERS = (
+    f"UPDATE alarm_states SET {', '.join(f'{c} = ?' for c in _COUNTERS)} WHERE alarm IN ({{ids}})"
+)
+#: The most alarms one grouped statement names; a group is padded (its last id repeated) to
+#: a power of two, so few statement texts are prepared.
+GROUP = 256
 ADD_EVENT = (
     "INSERT INTO alarm_events (event, what, alarm, rule, subject, time, value, text) "
     "VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (event, what) DO NOTHING"
@@ -92,9 +100,13 @@ class AlarmTablesMissing(LookupError):
     """A store opened to read (the dashboard) has no alarm tables: no alarms (yet)."""
 
 
-def _by_alarm(rows: Iterable[Sequence[Any]], at: int = 0) -> list[Sequence[Any]]:
-    """Rows in one order (the alarm id): two collectors lock them alike, no deadlock."""
-    return sorted(rows, key=lambda r: str(r[at]))
+def _by_alarm(rows: Iterable[Sequence[Any]]) -> list[Sequence[Any]]:
+    """Rows in one order (the alarm id, a text, first): two collectors lock them alike, no
+    deadlock."""
+    return sorted(rows, key=_first)
+
+
+_first = itemgetter(0)
 
 
 class SqlAlarmStore:
@@ -105,6 +117,11 @@ class SqlAlarmStore:
     #: The driver's errors (the server went away, a lock waited too long): what a caller
     #: that goes on without the store (the dashboard) catches.
     errors: ClassVar[tuple[type[Exception], ...]]
+    #: Whether alarms with the same progress are written by one statement each group
+    #: (:meth:`save_changes`): only where a transaction holds the whole store (SQLite's
+    #: ``BEGIN IMMEDIATE``); on a server that locks rows one by one, rows are written in
+    #: the order of their alarm id (two collectors lock them alike: no deadlock).
+    group_counters: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self._db: Conn | None = None
@@ -224,11 +241,36 @@ class SqlAlarmStore:
             if changes.counters:
                 whole = _by_alarm(changes.counters)
                 rows = [_counter_values(row) for row in whole]
-                if self._many(db, SAVE_COUNTERS, rows) < len(rows):
+                if self._save_counters(db, rows) < len(rows):
                     update = self._sql(SAVE_COUNTERS)  # which rows are not there?
                     pairs = zip(whole, rows, strict=True)
                     missing = [w for w, r in pairs if not _hit(db, update, r)]
                     self._many(db, SAVE_STATE, missing)
+
+    def _save_counters(self, db: Conn, rows: list[tuple[Any, ...]]) -> int:
+        """The progress ``rows`` (their columns, then the alarm) written; how many alarms
+        were found. With :attr:`group_counters`, the alarms of equal progress by one
+        statement per group (a quiet channel's alarms all took its newest reading)."""
+        if not self.group_counters or len(rows) < 2:
+            return self._many(db, SAVE_COUNTERS, rows)
+        groups: dict[tuple[Any, ...], list[Any]] = {}
+        for row in rows:
+            groups.setdefault(row[:-1], []).append(row[-1])
+        single = []
+        found = 0
+        for values, alarms in groups.items():
+            if len(alarms) == 1:
+                single.append((*values, alarms[0]))
+                continue
+            for at in range(0, len(alarms), GROUP):
+                ids = alarms[at : at + GROUP]
+                size = 1 << (len(ids) - 1).bit_length()
+                ids += [ids[-1]] * (size - len(ids))
+                text = self._sql(SAVE_SAME_COUNTERS.replace("{ids}", ", ".join("?" * size)))
+                found += int(db.execute(text, (*values, *ids)).rowcount)
+        if single:
+            found += self._many(db, SAVE_COUNTERS, single)
+        return found
 
     def record(self, transitions: Iterable[Transition]) -> None:
         """Add ``transitions`` to the history (each (event, what) once)."""

@@ -118,7 +118,11 @@ def test_demo_runs_the_whole_system_and_stops_on_ctrl_c(tmp_path: Path) -> None:
             assert time.monotonic() < deadline, inbox
             time.sleep(1)
         ask = subprocess.run(
-            [*sondalog, "bus", "ask", bus, "T1", "PV"], capture_output=True, text=True, timeout=30
+            # a reply's wait from the baud rate is a quarter second: too short for a loaded CI
+            [*sondalog, "bus", "ask", bus, "T1", "PV", "--timeout", "2"],
+            capture_output=True,
+            text=True,
+            timeout=30,
         )
         assert ask.returncode == 0 and re.search(r"\d", ask.stdout), ask.stdout + ask.stderr
 

@@ -27,14 +27,9 @@ token the API listens on loopback only; with ``--allow-remote`` it needs one
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import hmac
 import json
-import socket
-from collections.abc import Iterator
 
-import uvicorn
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
@@ -48,6 +43,7 @@ from sondalog.app.control_actions import parse_action, parse_time
 from sondalog.app.control_logger import Refusal
 from sondalog.app.control_openapi import openapi
 from sondalog.app.gsm_api import MAX_DEPTH, BodyLimit, error_response
+from sondalog.app.http_api import HttpApi
 from sondalog.app.serve import RunningSite
 from sondalog.config import ConfigError, Table, of
 from sondalog.io.clock import Clock
@@ -188,12 +184,6 @@ def build_app(control: Controller, token: str | None = None) -> Starlette:
     return Starlette(routes=routes, middleware=middleware, exception_handlers=handlers)
 
 
-class _Server(uvicorn.Server):
-    @contextlib.contextmanager
-    def capture_signals(self) -> Iterator[None]:
-        yield  # the serve loop owns SIGINT and SIGTERM
-
-
 async def start_control(
     site: RunningSite | Controller, clock: Clock, host: str, port: int, token: str | None = None
 ) -> ControlServer:
@@ -205,45 +195,15 @@ async def start_control(
     return server
 
 
-class ControlServer:
-    """uvicorn serving :func:`build_app` on a socket bound here (errors raise OSError)."""
+class ControlServer(HttpApi):
+    """The control API (:func:`build_app`) on a socket bound here (errors raise OSError)."""
+
+    what = "the control API"
 
     def __init__(self, control: Controller, host: str, port: int, token: str | None = None) -> None:
         self.control = control
-        family = socket.AF_INET6 if ":" in host else socket.AF_INET
-        # IPPROTO_TCP named: asyncio sets TCP_NODELAY only on sockets that say so, and
-        # without it an answer written in two parts waits 40 ms for a delayed ACK
-        self.sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self.sock.bind((host, port))
-        except OSError:
-            self.sock.close()
-            raise
-        self.sock.listen(128)
-        config = uvicorn.Config(
-            build_app(control, token), log_level="warning", lifespan="off", access_log=False
-        )
-        self.server = _Server(config)
-        self.task: asyncio.Task[None] | None = None
-
-    @property
-    def address(self) -> tuple[str, int]:
-        name = self.sock.getsockname()
-        return str(name[0]), int(name[1])
-
-    async def start(self) -> None:
-        self.task = asyncio.get_running_loop().create_task(self.server.serve([self.sock]))
-        while not self.server.started:
-            if self.task.done():
-                self.task.result()
-                raise OSError("the control API did not start")
-            await asyncio.sleep(0.01)
+        super().__init__(build_app(control, token), host, port)
 
     async def stop(self) -> None:
-        self.server.should_exit = True
-        if self.task is not None:
-            with contextlib.suppress(Exception):
-                await self.task
-        self.sock.close()
+        await super().stop()
         await self.control.close()

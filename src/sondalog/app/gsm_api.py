@@ -34,16 +34,11 @@ network gave in its output.
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import json
 import re
-import socket
-from collections.abc import Iterator
 from datetime import UTC, datetime
 from typing import Any
 
-import uvicorn
 from starlette.applications import Starlette
 from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException
@@ -54,6 +49,7 @@ from starlette.routing import Route
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from sondalog.app.gsm import GsmRuntime
+from sondalog.app.http_api import HttpApi
 from sondalog.client.phone import MAX_BODY  # one limit: the client checks it before sending
 from sondalog.config import ConfigError, Table, of
 from sondalog.gsm.network import MODEM, PHONE
@@ -337,48 +333,9 @@ def build_app(runtime: GsmRuntime) -> Starlette:
     return Starlette(routes=routes, middleware=[Middleware(BodyLimit)], exception_handlers=handlers)
 
 
-class _Server(uvicorn.Server):
-    @contextlib.contextmanager
-    def capture_signals(self) -> Iterator[None]:
-        yield  # the serve loop owns SIGINT and SIGTERM
-
-
-class ApiServer:
-    """uvicorn serving :func:`build_app` on a socket bound here (errors raise OSError)."""
+class ApiServer(HttpApi):
+    """The GSM network's HTTP API (:func:`build_app`) on a socket bound here (errors raise
+    OSError)."""
 
     def __init__(self, runtime: GsmRuntime, host: str, port: int) -> None:
-        # IPPROTO_TCP named: asyncio sets TCP_NODELAY only on sockets that say so, and without
-        # it a keep-alive client waits 40 ms for a delayed ACK on every answer sent in parts
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM, socket.IPPROTO_TCP)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self.sock.bind((host, port))
-        except OSError:
-            self.sock.close()
-            raise
-        self.sock.listen(128)
-        config = uvicorn.Config(
-            build_app(runtime), log_level="warning", lifespan="off", access_log=False
-        )
-        self.server = _Server(config)
-        self.task: asyncio.Task[None] | None = None
-
-    @property
-    def address(self) -> tuple[str, int]:
-        name = self.sock.getsockname()
-        return str(name[0]), int(name[1])
-
-    async def start(self) -> None:
-        self.task = asyncio.get_running_loop().create_task(self.server.serve([self.sock]))
-        while not self.server.started:
-            if self.task.done():
-                self.task.result()
-                raise OSError("the HTTP API did not start")
-            await asyncio.sleep(0.01)
-
-    async def stop(self) -> None:
-        self.server.should_exit = True
-        if self.task is not None:
-            with contextlib.suppress(Exception):
-                await self.task
-        self.sock.close()
+        super().__init__(build_app(runtime), host, port)

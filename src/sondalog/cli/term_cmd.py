@@ -200,17 +200,20 @@ async def _session(
 async def _silent_peer(url: str) -> str:
     """What to say when ``url`` answered nothing at all: an ALA1 logger answers every line, so
     it may be an HCTMPS1 bus (the reverse of ``bus scan`` at a logger): one ``HELLO``
-    broadcast (hctmps1.md §2) tells."""
+    broadcast (hctmps1.md §2) tells; three rounds, since two modules that pick the same reply
+    slot collide and neither is heard in that round."""
     from sondalog.client.bus import BusMaster
     from sondalog.client.bus_errors import BusError
 
-    modules: list[str] = []
+    heard: set[str] = set()
     with contextlib.suppress(ValueError, OSError, BusError):
         master = await BusMaster.open(url)
         try:
-            modules = sorted({frame.src for frame in await master.broadcast("HELLO")})
+            for _ in range(HELLO_ROUNDS):
+                heard |= {frame.src for frame in await master.broadcast("HELLO")}
         finally:
             await master.close()
+    modules = sorted(heard)
     if modules:
         return (
             f"{url} is an HCTMPS1 bus, not an ALA1 logger: {_modules(modules)} answered "
@@ -222,6 +225,9 @@ async def _silent_peer(url: str) -> str:
 def _modules(ids: list[str]) -> str:
     return f"module {ids[0]}" if len(ids) == 1 else f"modules {', '.join(ids)}"
 
+
+#: HELLO broadcasts asked of a silent peer (replies in random slots can collide).
+HELLO_ROUNDS = 3
 
 #: The hint when a peer stays silent (interactive mode, or no bus module answered HELLO).
 _SILENT = (

@@ -107,6 +107,9 @@ class ProcessRunner:
             stdout=subprocess.PIPE,
             stderr=self._log,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
+            # unbuffered: select() below sees the pipe, and a line read ahead into a buffer
+            # would be invisible to it (serve prints its addresses in one burst)
+            bufsize=0,
         )
         try:
             urls = self._read_urls(expected)

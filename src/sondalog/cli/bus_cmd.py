@@ -7,7 +7,6 @@ code 2, a bus that does not answer with 1.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import functools
 import logging
@@ -21,6 +20,7 @@ import click
 from sondalog.app.bus import DEFAULT_PORT, BusServer, rs485_settings, start_bus_server
 from sondalog.app.bus_explain import upper_case_hint, why_no_reply
 from sondalog.cli.bus_config_cmd import config_group
+from sondalog.cli.bus_master import run_master
 from sondalog.cli.common import (
     Refused,
     allow_remote_option,
@@ -36,7 +36,7 @@ from sondalog.client.bus_actions import (
     format_data,
     watch_modules,
 )
-from sondalog.client.bus_errors import BusError, ForeignPeer, NoReply
+from sondalog.client.bus_errors import NoReply
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.config import ConfigError
 from sondalog.io import loop as serve_loop
@@ -185,23 +185,13 @@ def _master_options(func: Callable[..., None]) -> Callable[..., None]:
 def _run_master(
     url: str, host_id: str, timeout: float | None, work: Callable[[BusMaster], Awaitable[T]]
 ) -> T:
-    async def go() -> T:
-        master = await BusMaster.open(url, host_id, timeout=timeout)
-        try:
-            return await work(master)
-        finally:
-            await master.close()
-
-    try:
-        return asyncio.run(go())
-    except ForeignPeer as exc:
-        raise click.ClickException(
-            f"{url}: {exc}. Is this an ALA1 logger? Talk to it with: sondalog term {url}"
-        ) from exc
-    except BusError as exc:
-        raise click.ClickException(str(exc)) from exc
-    except OSError as exc:
-        raise click.ClickException(f"cannot reach the bus at {url}: {exc}") from exc
+    return run_master(
+        url,
+        host_id,
+        timeout,
+        work,
+        lambda exc: f"{url}: {exc}. Is this an ALA1 logger? Talk to it with: sondalog term {url}",
+    )
 
 
 @bus.command()

@@ -10,7 +10,6 @@ when a module was not applied.
 
 from __future__ import annotations
 
-import asyncio
 import os
 import sys
 import tempfile
@@ -20,11 +19,11 @@ from typing import TypeVar
 
 import click
 
+from sondalog.cli.bus_master import run_master
 from sondalog.cli.common import Refused
 from sondalog.client.bus import DEFAULT_HOST_ID, BusMaster
 from sondalog.client.bus_config import SettingsFile, load_settings, render
 from sondalog.client.bus_config_run import ModulePlan, ModuleReport, apply, plan, pull
-from sondalog.client.bus_errors import BusError, ForeignPeer
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
 from sondalog.config import ConfigError
 from sondalog.protocol.hctmps1_frames import is_valid_id
@@ -107,21 +106,7 @@ def _options(func: Callable[..., None]) -> Callable[..., None]:
 def _run(
     url: str, host_id: str, timeout: float | None, work: Callable[[BusMaster], Awaitable[T]]
 ) -> T:
-    async def go() -> T:
-        master = await BusMaster.open(url, host_id, timeout=timeout)
-        try:
-            return await work(master)
-        finally:
-            await master.close()
-
-    try:
-        return asyncio.run(go())
-    except ForeignPeer as exc:
-        raise click.ClickException(f"{url}: {exc}: not an HCTMPS1 bus") from exc
-    except BusError as exc:
-        raise click.ClickException(str(exc)) from exc
-    except OSError as exc:
-        raise click.ClickException(f"cannot reach the bus at {url}: {exc}") from exc
+    return run_master(url, host_id, timeout, work, lambda exc: f"{url}: {exc}: not an HCTMPS1 bus")
 
 
 def _load(path: Path) -> SettingsFile:

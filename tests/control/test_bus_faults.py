@@ -10,24 +10,9 @@ from pathlib import Path
 from control_site import served
 
 from sondalog.client.bus import BlockingBusMaster, BusMaster
+from sondalog.testing.sites import BUS_SITE
 
-SITE = """
-[bus]
-baud = 9600
-
-[[bus.modules]]
-id = "T1"
-kind = "temp"
-signal = { model = "constant", value = 21.0 }
-
-[[bus.modules]]
-id = "H1"
-kind = "hum"
-signal = { model = "constant", value = 45.0 }
-
-[bus.serve]
-listen = "127.0.0.1:0"
-"""
+SITE = BUS_SITE  # the plugin's own site: the same world
 
 
 def test_bus_modules_disconnected_stuck_set_and_cleared(tmp_path: Path) -> None:

@@ -9,32 +9,9 @@ from pathlib import Path
 
 from control_site import http, served
 
-SITE = """
-[logger]
-supply = { model = "constant", value = 12.6 }
+from sondalog.testing.sites import GSM_SITE
 
-[logger.gsm]
-signal = { model = "constant", value = 18 }
-credit = { model = "constant", value = 250.0 }
-
-[logger.serve]
-listen = "127.0.0.1:0"
-modem = "+420600000001"
-
-[gsm]
-smsc = "+420603052000"
-logger_modem = "+420600000001"
-
-[gsm.serve]
-api = "127.0.0.1:0"
-
-[[gsm.modem]]
-number = "+420600000001"
-credit = 250.0
-
-[[gsm.phone]]
-number = "+420700000001"
-"""
+SITE = GSM_SITE  # the plugin's own site: the same world
 
 
 def test_a_logger_driving_a_modem_restarts_and_drives_it_again(tmp_path: Path) -> None:

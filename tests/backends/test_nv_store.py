@@ -184,3 +184,51 @@ def test_a_fleet_database_checkpoints_in_a_thread_of_its_own(tmp_path: Path) -> 
     assert (
         reader.execute("SELECT count(*) FROM meta WHERE key = 'clock_offset'").fetchone()[0] == 200
     )
+
+
+def test_record_pages_take_rows_after_a_gap_and_over_earlier_ones() -> None:
+    """A commit's rows go onto the end of their page; rows after a gap (a cyclic record
+    dropped every row on disk before they reached it) restart the page; rows over rows of
+    the page replace those, the rows after them stay."""
+    database = NvDatabase(":memory:")
+    store = database.store("L1")
+
+    def commit(head: int, *rows: tuple[int, str]) -> list[tuple[int, str]]:
+        store.commit({}, None, RecordChanges(list(rows), head, True, False))
+        return database.conn.execute(
+            "SELECT seq, row FROM record WHERE logger = 'L1' ORDER BY seq"
+        ).fetchall()
+
+    assert commit(3, (3, "a"), (4, "b"), (5, "c")) == [(3, "a"), (4, "b"), (5, "c")]
+    assert commit(3, (6, "d")) == [(3, "a"), (4, "b"), (5, "c"), (6, "d")]
+    assert commit(9, (9, "x"), (10, "y")) == [(9, "x"), (10, "y")]  # 3..8 dropped
+    page = database.conn.execute("SELECT first, count FROM record_page").fetchall()
+    assert page == [(9, 2)]
+    assert commit(9, (10, "Y")) == [(9, "x"), (10, "Y")]
+    assert commit(8, (8, "w")) == [(8, "w"), (9, "x"), (10, "Y")]
+    assert store.load_record() == (["w", "x", "Y"], 8, True, False)
+    database.close()
+
+
+def test_a_record_of_a_row_a_database_row_is_moved_into_pages(tmp_path: Path) -> None:
+    """A file of before issue 23 (``record`` a table of keyed rows) opens with the same
+    record for each logger, in pages; the ``record`` view reads as the table did."""
+    path = tmp_path / "fleet.sqlite"
+    conn = sqlite3.connect(path, isolation_level=None)
+    conn.execute(
+        "CREATE TABLE record (logger TEXT NOT NULL, seq INTEGER NOT NULL, row TEXT NOT NULL, "
+        "PRIMARY KEY (logger, seq))"
+    )
+    conn.execute("CREATE TABLE meta (logger TEXT, key TEXT, value TEXT, PRIMARY KEY (logger, key))")
+    old = [("F1", seq, f"F1 row {seq}") for seq in range(50, 250)] + [("F2", 0, "F2 row")]
+    conn.executemany("INSERT INTO record VALUES (?, ?, ?)", old)
+    conn.executemany("INSERT INTO meta VALUES (?, 'record_head', ?)", [("F1", "50"), ("F2", "0")])
+    conn.close()
+    database = NvDatabase(path)
+    assert database.store("F1").load_record()[:2] == ([r for _, _, r in old[:-1]], 50)
+    assert database.store("F2").load_record()[:2] == (["F2 row"], 0)
+    view = database.conn.execute("SELECT logger, seq, row FROM record ORDER BY 1, 2").fetchall()
+    assert view == old
+    kinds = dict(database.conn.execute("SELECT name, type FROM sqlite_master"))
+    assert kinds["record"] == "view" and kinds["record_page"] == "table"
+    database.close()

@@ -13,6 +13,7 @@ from sondalog.ala1.record import RecordMemory
 from sondalog.app.control_api import DEVICE_ACTIONS, TIME_ACTIONS
 from sondalog.app.control_snapshot import read_state, write_state
 from sondalog.backends.store.ala1_nv import NvDatabase
+from sondalog.backends.store.record_pages import write_record
 
 
 def test_restore_puts_back_memory_record_and_inputs(tmp_path: Path) -> None:
@@ -60,11 +61,7 @@ def test_write_state_after_a_branch_writes_the_rows_that_differ(tmp_path: Path) 
 
     def record(*rows: str, first: int = 1) -> RecordMemory:
         """The rows on disk and the engine's copy of them."""
-        conn.execute("DELETE FROM record WHERE logger = 'L1'")
-        conn.executemany(
-            "INSERT INTO record (logger, seq, row) VALUES ('L1', ?, ?)",
-            list(enumerate(rows, first)),
-        )
+        write_record(conn, "L1", first, rows)
         return RecordMemory(list(rows), first, 10**6, True)
 
     def on_disk() -> list[tuple[int, str]]:

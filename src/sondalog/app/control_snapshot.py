@@ -9,26 +9,25 @@ snapshot and restore use them; the engine is then restarted on the restored memo
 
 The record can be a megabyte of rows, so both work from the engine's own copy of it (its
 rows in RAM, the same as on disk once the store has flushed) and a restore writes only the
-rows that differ: the rows added since the snapshot go, the rows dropped since (a cyclic
-record that wrapped, a ``clear``) come back. Resetting a logger between tests is then a few
-hundred rows, not a whole record.
+pages of rows that differ (:func:`sondalog.backends.store.record_pages.write_record`): the
+rows added since the snapshot go, the rows dropped since (a cyclic record that wrapped, a
+``clear``) come back. Resetting a logger between tests is a dozen pages; putting back a whole
+record that was rewritten since, some 600 pages, not 40,000 rows.
 """
 
 from __future__ import annotations
 
-import json
-import sqlite3
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.backends.store.ala1_nv import LoggerNvStore
+from sondalog.backends.store.record_pages import write_record
 
 
 @dataclass(frozen=True, slots=True)
 class StoredState:
     """One logger's memory: ``param`` and ``meta`` rows, files, the record from its first
-    sequence number."""
+    sequence number (``record_head`` in ``meta``)."""
 
     params: tuple[tuple[str, str], ...]
     meta: tuple[tuple[str, str], ...]
@@ -41,17 +40,9 @@ class StoredState:
         return len(self.record)
 
 
-def first_seq(store: LoggerNvStore) -> int:
-    """The sequence number of the oldest record row on disk (of the next one when empty)."""
-    row = store.conn.execute(
-        "SELECT min(seq) FROM record WHERE logger = ?", (store.logger,)
-    ).fetchone()
-    if row is not None and row[0] is not None:
-        return int(row[0])
-    head = store.conn.execute(
-        "SELECT value FROM meta WHERE logger = ? AND key = 'record_head'", (store.logger,)
-    ).fetchone()
-    return int(head[0]) if head is not None else 0
+def first_seq(record: RecordMemory) -> int:
+    """The sequence number of the oldest row in ``record`` (of the next one when empty)."""
+    return record.next_seq - len(record)
 
 
 def read_state(store: LoggerNvStore, record: RecordMemory) -> StoredState:
@@ -59,13 +50,14 @@ def read_state(store: LoggerNvStore, record: RecordMemory) -> StoredState:
     store.database.flush()  # (what waits for the group commit is on disk, as in RAM)
     conn, key = store.conn, store.logger
     params = conn.execute("SELECT key, value FROM param WHERE logger = ?", (key,)).fetchall()
-    meta = conn.execute("SELECT key, value FROM meta WHERE logger = ?", (key,)).fetchall()
+    meta = dict(conn.execute("SELECT key, value FROM meta WHERE logger = ?", (key,)).fetchall())
+    meta["record_head"] = str(first_seq(record))  # (the engine's, written or not)
     files = conn.execute("SELECT area, data FROM file WHERE logger = ?", (key,)).fetchall()
     return StoredState(
         tuple(params),
-        tuple(meta),
+        tuple(meta.items()),
         tuple((a, bytes(d)) for a, d in files),
-        first_seq(store),
+        first_seq(record),
         tuple(record.rows()),
     )
 
@@ -75,7 +67,6 @@ def write_state(store: LoggerNvStore, state: StoredState, record: RecordMemory) 
     ``record`` is the engine's record, the same rows as on disk."""
     store.database.flush()
     conn, key = store.conn, store.logger
-    now_first, now_rows = first_seq(store), record.rows()
     conn.execute("BEGIN IMMEDIATE")
     try:
         for table, rows in (("param", state.params), ("meta", state.meta)):
@@ -91,59 +82,11 @@ def write_state(store: LoggerNvStore, state: StoredState, record: RecordMemory) 
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?)",
             [(key, a, d) for a, d in state.files],
         )
-        _write_record(conn, key, now_first, now_rows, state)
+        write_record(conn, key, state.first_seq, state.record, first_seq(record), record.rows())
     except BaseException:
         conn.execute("ROLLBACK")
         raise
     conn.execute("COMMIT")
-
-
-def _write_record(
-    conn: sqlite3.Connection, key: str, now_first: int, now: list[str], state: StoredState
-) -> None:
-    """The record rows on disk (``now`` from ``now_first``) become the state's: the rows
-    beyond its range go, the rows that differ or are missing are written."""
-    want, first = state.record, state.first_seq
-    last = first + len(want) - 1
-    if not want:
-        conn.execute("DELETE FROM record WHERE logger = ?", (key,))
-        return
-    # two ranges of the primary key (one condition with OR would scan every row)
-    conn.execute("DELETE FROM record WHERE logger = ? AND seq < ?", (key, first))
-    conn.execute("DELETE FROM record WHERE logger = ? AND seq > ?", (key, last))
-    low, high = max(first, now_first), min(last, now_first + len(now) - 1)
-    writes: list[tuple[str, int, str]] = []
-    if low <= high:  # both hold rows low..high: write those that differ (a list compare)
-        mine = now[low - now_first : high - now_first + 1]
-        kept = want[low - first : high - first + 1]
-        if mine != list(kept):
-            writes += [
-                (key, seq, row)
-                for seq, (old, row) in enumerate(zip(mine, kept, strict=True), low)
-                if old != row
-            ]
-        _write_run(conn, key, first, want[: low - first])
-        _write_run(conn, key, high + 1, want[high + 1 - first :])
-    else:
-        _write_run(conn, key, first, want)
-    conn.executemany("INSERT OR REPLACE INTO record (logger, seq, row) VALUES (?, ?, ?)", writes)
-
-
-def _write_run(conn: sqlite3.Connection, key: str, first: int, rows: Sequence[str]) -> None:
-    """Rows ``first``, ``first + 1``, ... in one statement: SQLite reads them from one JSON
-    array (``json_each``), about three times faster than a statement per row, which is
-    most of a restore that rewrites a whole record (docs/control.md "Figures")."""
-    if len(rows) < 64:
-        conn.executemany(
-            "INSERT OR REPLACE INTO record (logger, seq, row) VALUES (?, ?, ?)",
-            [(key, first + i, row) for i, row in enumerate(rows)],
-        )
-        return
-    conn.execute(
-        "INSERT OR REPLACE INTO record (logger, seq, row) "
-        "SELECT ?, ? + CAST(key AS INTEGER), value FROM json_each(?)",
-        (key, first, json.dumps(list(rows), ensure_ascii=True, separators=(",", ":"))),
-    )
 
 
 class Preloaded:

@@ -18,8 +18,10 @@ Group commit is a capability of the database, reached through the engine's
   transaction together with whatever waits, so it is durable before the line's ``OK`` and
   never overtakes earlier rows.
 
+The record is kept in pages of rows (:mod:`sondalog.backends.store.record_pages`, issue 23).
 A file made before issue 25 by the single logger (tables without the ``logger`` column) is
-migrated on open, in one transaction, its rows under the key :data:`SINGLE`.
+migrated on open, in one transaction, its rows under the key :data:`SINGLE`; so is a file
+whose record is a row a database row (before issue 23).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges
+from sondalog.backends.store import record_pages
 from sondalog.io.private import connect_private
 
 log = logging.getLogger(__name__)
@@ -45,8 +48,7 @@ _TABLES = (
     "value TEXT NOT NULL, PRIMARY KEY (logger, key))",
     "CREATE TABLE IF NOT EXISTS meta (logger TEXT NOT NULL, key TEXT NOT NULL, "
     "value TEXT NOT NULL, PRIMARY KEY (logger, key))",
-    "CREATE TABLE IF NOT EXISTS record (logger TEXT NOT NULL, seq INTEGER NOT NULL, "
-    "row TEXT NOT NULL, PRIMARY KEY (logger, seq))",
+    record_pages.TABLE,
     "CREATE TABLE IF NOT EXISTS file (logger TEXT NOT NULL, area TEXT NOT NULL, "
     "data BLOB NOT NULL, PRIMARY KEY (logger, area))",
 )
@@ -82,8 +84,9 @@ def open_database(path: Path | str) -> sqlite3.Connection:
 
 
 def _prepare_schema(conn: sqlite3.Connection) -> None:
-    """Create the keyed tables, migrating a single-logger file of the old schema, in one
-    transaction (a kill -9 leaves the old file or the migrated one)."""
+    """Create the keyed tables, migrating a single-logger file of the old schema and a
+    record of a row a database row into pages, in one transaction (a kill -9 leaves the
+    old file or the migrated one)."""
     conn.execute("BEGIN IMMEDIATE")
     try:
         tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
@@ -98,12 +101,19 @@ def _prepare_schema(conn: sqlite3.Connection) -> None:
         for statement in _TABLES:
             conn.execute(statement)
         for table in old:
-            columns = _OLD_COLUMNS[table]
-            conn.execute(
-                f"INSERT INTO {table} (logger, {columns}) SELECT ?, {columns} FROM old_{table}",
-                (SINGLE,),
-            )
+            if table == "record":
+                record_pages.migrate_rows(conn, "old_record", SINGLE)
+            else:
+                columns = _OLD_COLUMNS[table]
+                conn.execute(
+                    f"INSERT INTO {table} (logger, {columns}) SELECT ?, {columns} FROM old_{table}",
+                    (SINGLE,),
+                )
             conn.execute(f"DROP TABLE old_{table}")
+        if "record" in tables and "record" not in old:  # keyed rows, before issue 23
+            record_pages.migrate_rows(conn, "record")
+            conn.execute("DROP TABLE record")
+        conn.execute(record_pages.VIEW)
     except BaseException:
         conn.execute("ROLLBACK")
         raise
@@ -291,11 +301,8 @@ def _apply(
     if seen is not None:
         conn.execute(_UPSERT_META, (logger, "host_seen", repr(seen)))
     if record is not None:
-        conn.execute("DELETE FROM record WHERE logger = ? AND seq < ?", (logger, record.head_seq))
-        conn.executemany(
-            "INSERT OR REPLACE INTO record (logger, seq, row) VALUES (?, ?, ?)",
-            [(logger, seq, row) for seq, row in record.rows],
-        )
+        record_pages.drop_below(conn, logger, record.head_seq)
+        record_pages.append_rows(conn, logger, record.rows)
         conn.execute(_UPSERT_META, (logger, "record_head", str(record.head_seq)))
         conn.execute(_UPSERT_META, (logger, "record_wrapped", "1" if record.wrapped else "0"))
         conn.execute(_UPSERT_META, (logger, "record_refused", "1" if record.refused else "0"))
@@ -337,13 +344,12 @@ class LoggerNvStore:
 
     def load_record(self) -> tuple[list[str], int, bool, bool]:
         """Rows oldest first, the sequence number of the first, and the wrapped/refused flags."""
-        rows = self.conn.execute(
-            "SELECT seq, row FROM record WHERE logger = ? ORDER BY seq", (self.logger,)
-        ).fetchall()
         head = self._meta("record_head")
-        first = rows[0][0] if rows else int(head or 0)
+        rows, first = record_pages.load_rows(
+            self.conn, self.logger, None if head is None else int(head)
+        )
         return (
-            [r[1] for r in rows],
+            rows,
             first,
             self._meta("record_wrapped") == "1",
             self._meta("record_refused") == "1",

@@ -1,0 +1,210 @@
+"""The record on disk in pages (issue 23): :data:`PAGE_ROWS` rows a database row.
+
+A logger's record is up to 40,000 rows (``ala1.md`` §6.6: a megabyte of memory). Kept a row
+a database row, a restore that puts back a whole record (a cyclic record that wrapped since
+the snapshot) deleted and inserted 40,000 rows of two b-trees, 80-200 ms of SQLite's own
+work. Kept in pages it is a few hundred rows (docs/control.md "Figures"):
+
+- ``record_page (logger, page, first, count, rows)``: the rows with sequence numbers
+  ``first`` .. ``first + count - 1``, all in ``page`` (``seq // PAGE_ROWS``), as a JSON
+  array (``rows``); a logger's pages follow each other without gaps;
+- the ``meta`` row ``record_head`` is the sequence number of the oldest row in the record:
+  rows below it are gone (a cyclic record dropped them, a ``clear`` erased them) even where
+  a page still holds them. Whole pages below it are deleted with each commit; the page the
+  head is in is left as it is (rewriting it with every sampled row would cost more than
+  the few rows it keeps);
+- a sampled row is appended to its page by SQLite itself (:func:`append_rows`: one
+  ``UPDATE`` that joins the JSON arrays), so a commit writes about one database page;
+- :func:`write_record` replaces a logger's record, writing only the pages that differ from
+  the rows on disk now (a restore after a test: a dozen pages).
+
+The view ``record (logger, seq, row)`` shows the rows in the record as the table of that
+name did before (for readers: tests, ``sqlite3`` at a prompt); a file with that table is
+converted when it is opened (:func:`migrate_rows`, inside the opening transaction).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import sqlite3
+from collections.abc import Iterable, Sequence
+from itertools import groupby
+
+log = logging.getLogger(__name__)
+
+#: Rows a page holds: 64 sampled rows of a few channels fit in one 4 KiB database page.
+PAGE_ROWS = 64
+
+TABLE = (
+    "CREATE TABLE IF NOT EXISTS record_page (logger TEXT NOT NULL, page INTEGER NOT NULL, "
+    "first INTEGER NOT NULL, count INTEGER NOT NULL, rows TEXT NOT NULL, "
+    "PRIMARY KEY (logger, page))"
+)
+VIEW = (
+    "CREATE VIEW IF NOT EXISTS record (logger, seq, row) AS "
+    "SELECT p.logger, p.first + j.key, j.value FROM record_page AS p, json_each(p.rows) AS j "
+    "WHERE p.first + j.key >= coalesce((SELECT CAST(m.value AS INTEGER) FROM meta AS m "
+    "WHERE m.logger = p.logger AND m.key = 'record_head'), 0)"
+)
+
+_APPEND = (
+    "UPDATE record_page SET rows = substr(rows, 1, length(rows) - 1) || ',' || substr(?, 2), "
+    "count = count + ? WHERE logger = ? AND page = ? AND first + count = ?"
+)
+_PUT = (
+    "INSERT OR REPLACE INTO record_page (logger, page, first, count, rows) VALUES (?, ?, ?, ?, ?)"
+)
+_UPSERT_HEAD = (
+    "INSERT INTO meta (logger, key, value) VALUES (?, 'record_head', ?) "
+    "ON CONFLICT(logger, key) DO UPDATE SET value = excluded.value"
+)
+
+
+#: The characters a row may hold to go into JSON as it is: printable ASCII but ``"`` and ``\\``.
+_PLAIN = bytes(c for c in range(0x20, 0x7F) if c not in b'"\\')
+
+
+def plain(rows: Sequence[str]) -> bool:
+    """Whether every row is plain text (:data:`_PLAIN`), as a record's rows are: written
+    into JSON as they are, ten times faster than :func:`json.dumps`."""
+    text = "".join(rows)
+    return text.isascii() and not text.encode("ascii").translate(None, _PLAIN)
+
+
+def _json(rows: Sequence[str]) -> str:
+    """``rows`` as a JSON array of ASCII."""
+    if plain(rows):
+        return '["' + '","'.join(rows) + '"]' if rows else "[]"
+    return json.dumps(list(rows), ensure_ascii=True, separators=(",", ":"))
+
+
+def _runs(rows: Iterable[tuple[int, str]]) -> Iterable[tuple[int, list[str]]]:
+    """Rows (sequence number, row) cut into runs of consecutive numbers within one page:
+    (the first's number, the rows)."""
+    first, run = 0, list[str]()
+    for seq, row in rows:
+        if run and (seq != first + len(run) or seq % PAGE_ROWS == 0):
+            yield first, run
+            run = []
+        if not run:
+            first = seq
+        run.append(row)
+    if run:
+        yield first, run
+
+
+def append_rows(conn: sqlite3.Connection, logger: str, rows: Iterable[tuple[int, str]]) -> None:
+    """Rows (sequence number, row) the engine added, in the caller's transaction: each
+    run goes onto the end of its page when the page ends just before it (one ``UPDATE``);
+    otherwise the page is merged in Python (:func:`_merge`)."""
+    for first, run in _runs(rows):
+        page, text = first // PAGE_ROWS, _json(run)
+        if conn.execute(_APPEND, (text, len(run), logger, page, first)).rowcount == 0:
+            _merge(conn, logger, page, first, run)
+
+
+def _merge(conn: sqlite3.Connection, logger: str, page: int, first: int, run: list[str]) -> None:
+    """A run that does not follow its page's rows: a new page; rows over some of the
+    page's (they replace them, rows after them stay); or rows after a gap (the rows before
+    the gap are below the record's head, a cyclic record dropped them: the page restarts)."""
+    found = conn.execute(
+        "SELECT first, rows FROM record_page WHERE logger = ? AND page = ?", (logger, page)
+    ).fetchone()
+    if found is not None:
+        old_first, old = int(found[0]), json.loads(found[1])
+        if old_first <= first <= old_first + len(old):
+            at = first - old_first
+            run = old[:at] + run + old[at + len(run) :]
+            first = old_first
+        elif first < old_first <= first + len(run):
+            run = run + old[first + len(run) - old_first :]
+    conn.execute(_PUT, (logger, page, first, len(run), _json(run)))
+
+
+def drop_below(conn: sqlite3.Connection, logger: str, head: int) -> None:
+    """The pages wholly below the record's head ``head`` go (the caller writes the head)."""
+    conn.execute(
+        "DELETE FROM record_page WHERE logger = ? AND page < ?", (logger, head // PAGE_ROWS)
+    )
+
+
+def load_rows(conn: sqlite3.Connection, logger: str, head: int | None) -> tuple[list[str], int]:
+    """The rows in ``logger``'s record, oldest first, and the first one's sequence number
+    (``head``: the ``record_head`` meta, None if never written)."""
+    rows: list[str] = []
+    start: int | None = None
+    for first, text in conn.execute(
+        "SELECT first, rows FROM record_page WHERE logger = ? ORDER BY page", (logger,)
+    ):
+        if start is not None and first != start + len(rows):
+            log.warning(
+                "record of %r: a gap before row %d, the rows before it dropped", logger, first
+            )
+            rows, start = [], None
+        if start is None:
+            start = int(first)
+        rows += json.loads(text)
+    if start is None:
+        return [], head or 0
+    if head is not None and head > start:
+        del rows[: head - start]
+        start = head
+    return rows, start
+
+
+def write_record(
+    conn: sqlite3.Connection,
+    logger: str,
+    first: int,
+    rows: Sequence[str],
+    now_first: int | None = None,
+    now: Sequence[str] = (),
+) -> None:
+    """In the caller's transaction, ``logger``'s record becomes ``rows`` from sequence
+    number ``first`` (``record_head`` included). ``now`` (from ``now_first``): the rows in
+    its record now, the same as on disk; the pages where they are the same as ``rows`` are
+    left as they are. Without ``now_first`` every page is written."""
+    conn.execute(_UPSERT_HEAD, (logger, str(first)))
+    if not rows:
+        conn.execute("DELETE FROM record_page WHERE logger = ?", (logger,))
+        return
+    rows, now = list(rows), list(now)  # (slices compared: a tuple never equals a list)
+    last = first + len(rows) - 1
+    low, high = first // PAGE_ROWS, last // PAGE_ROWS
+    # two ranges of the primary key (one condition with OR would scan every row)
+    conn.execute("DELETE FROM record_page WHERE logger = ? AND page < ?", (logger, low))
+    conn.execute("DELETE FROM record_page WHERE logger = ? AND page > ?", (logger, high))
+    writes = []
+    for page in range(low, high + 1):
+        begin = max(first, page * PAGE_ROWS)
+        end = min(last + 1, (page + 1) * PAGE_ROWS)
+        want = rows[begin - first : end - first]
+        if now_first is None or not _on_disk(page, begin, end, want, now_first, now):
+            writes.append((logger, page, begin, len(want), _json(want)))
+    conn.executemany(_PUT, writes)
+
+
+def _on_disk(
+    page: int, begin: int, end: int, want: Sequence[str], now_first: int, now: Sequence[str]
+) -> bool:
+    """Whether ``page`` on disk holds ``want`` (rows ``begin`` .. ``end - 1``) as it is,
+    the disk holding the record ``now`` (from ``now_first``): the same rows, and none after
+    ``end`` in the page. (Rows before ``begin`` may stay: ``begin`` is past the page's
+    start only as the record's new head, the rows before it are gone.)"""
+    now_end = now_first + len(now)
+    if now_first > begin or min(now_end, (page + 1) * PAGE_ROWS) != end:
+        return False
+    return now[begin - now_first : end - now_first] == want
+
+
+def migrate_rows(conn: sqlite3.Connection, table: str, logger: str | None = None) -> None:
+    """The rows of a ``record`` table of before (``logger, seq, row``; ``seq, row`` of the
+    one ``logger`` when given) into pages, in the caller's transaction."""
+    if logger is None:
+        source = conn.execute(f"SELECT logger, seq, row FROM {table} ORDER BY logger, seq")
+    else:
+        source = conn.execute(f"SELECT ?, seq, row FROM {table} ORDER BY seq", (logger,))
+    for key, rows in groupby(source, key=lambda r: str(r[0])):
+        for first, run in _runs((int(seq), str(row)) for _, seq, row in rows):
+            _merge(conn, key, first // PAGE_ROWS, first, run)

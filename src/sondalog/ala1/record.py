@@ -63,7 +63,7 @@ class RecordMemory:
         self.cyclic = cyclic
         self.wrapped = wrapped
         self.refused = refused
-        self.chars = sum(len(r) + 2 for r in rows)
+        self.chars = sum(map(len, rows)) + 2 * len(rows)  # (a restore: 40,000 rows, fast)
         self._staged = 0  # rows at the end not yet handed to the store
         self._stored_head = first_seq
 

@@ -17,7 +17,7 @@ record that was rewritten since, some 600 pages, not 40,000 rows.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.backends.store.ala1_nv import LoggerNvStore
@@ -27,13 +27,16 @@ from sondalog.backends.store.record_pages import write_record
 @dataclass(frozen=True, slots=True)
 class StoredState:
     """One logger's memory: ``param`` and ``meta`` rows, files, the record from its first
-    sequence number (``record_head`` in ``meta``)."""
+    sequence number (``record_head`` in ``meta``); ``pages``: the record's pages as written
+    to disk, kept from one restore to the next (a test suite restores one snapshot again
+    and again)."""
 
     params: tuple[tuple[str, str], ...]
     meta: tuple[tuple[str, str], ...]
     files: tuple[tuple[str, bytes], ...]
     first_seq: int
     record: tuple[str, ...]
+    pages: dict[int, str] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def rows(self) -> int:
@@ -82,7 +85,9 @@ def write_state(store: LoggerNvStore, state: StoredState, record: RecordMemory) 
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?)",
             [(key, a, d) for a, d in state.files],
         )
-        write_record(conn, key, state.first_seq, state.record, first_seq(record), record.rows())
+        write_record(
+            conn, key, state.first_seq, state.record, first_seq(record), record.rows(), state.pages
+        )
     except BaseException:
         conn.execute("ROLLBACK")
         raise

@@ -160,11 +160,13 @@ def write_record(
     rows: Sequence[str],
     now_first: int | None = None,
     now: Sequence[str] = (),
+    made: dict[int, str] | None = None,
 ) -> None:
     """In the caller's transaction, ``logger``'s record becomes ``rows`` from sequence
     number ``first`` (``record_head`` included). ``now`` (from ``now_first``): the rows in
     its record now, the same as on disk; the pages where they are the same as ``rows`` are
-    left as they are. Without ``now_first`` every page is written."""
+    left as they are. Without ``now_first`` every page is written. ``made``: the JSON of
+    pages of these same ``rows`` made before (by page; the pages made here are added)."""
     conn.execute(_UPSERT_HEAD, (logger, str(first)))
     if not rows:
         conn.execute("DELETE FROM record_page WHERE logger = ?", (logger,))
@@ -175,27 +177,50 @@ def write_record(
     # two ranges of the primary key (one condition with OR would scan every row)
     conn.execute("DELETE FROM record_page WHERE logger = ? AND page < ?", (logger, low))
     conn.execute("DELETE FROM record_page WHERE logger = ? AND page > ?", (logger, high))
+    same = None if now_first is None else _same(first, rows, now_first, now)
+    made = {} if made is None else made
     writes = []
     for page in range(low, high + 1):
         begin = max(first, page * PAGE_ROWS)
         end = min(last + 1, (page + 1) * PAGE_ROWS)
         want = rows[begin - first : end - first]
-        if now_first is None or not _on_disk(page, begin, end, want, now_first, now):
-            writes.append((logger, page, begin, len(want), _json(want)))
+        if now_first is None or not _on_disk(page, begin, end, want, now_first, now, same):
+            text = made.get(page)
+            if text is None:
+                text = made[page] = _json(want)
+            writes.append((logger, page, begin, len(want), text))
     conn.executemany(_PUT, writes)
 
 
+def _same(first: int, rows: list[str], now_first: int, now: list[str]) -> tuple[int, int] | None:
+    """The sequence numbers ``(from, to)`` where ``rows`` and ``now`` both hold rows, if
+    they are the same rows there (one comparison instead of one a page: a restore after a
+    test, the record moved on by some rows)."""
+    low, high = max(first, now_first), min(first + len(rows), now_first + len(now))
+    if low < high and rows[low - first : high - first] == now[low - now_first : high - now_first]:
+        return low, high
+    return None
+
+
 def _on_disk(
-    page: int, begin: int, end: int, want: Sequence[str], now_first: int, now: Sequence[str]
+    page: int,
+    begin: int,
+    end: int,
+    want: Sequence[str],
+    now_first: int,
+    now: Sequence[str],
+    same: tuple[int, int] | None,
 ) -> bool:
     """Whether ``page`` on disk holds ``want`` (rows ``begin`` .. ``end - 1``) as it is,
-    the disk holding the record ``now`` (from ``now_first``): the same rows, and none after
-    ``end`` in the page. (Rows before ``begin`` may stay: ``begin`` is past the page's
-    start only as the record's new head, the rows before it are gone.)"""
+    the disk holding the record ``now`` (from ``now_first``): the same rows (``same``: all
+    rows both hold are known to be), and none after ``end`` in the page. (Rows before ``begin``
+    may stay: ``begin`` is past the page's start only as the record's new head, the rows
+    before it are gone.)"""
     now_end = now_first + len(now)
     if now_first > begin or min(now_end, (page + 1) * PAGE_ROWS) != end:
         return False
-    return now[begin - now_first : end - now_first] == want
+    # (rows begin .. end - 1 are both in ``now`` and the record: within ``same``'s span)
+    return same is not None or now[begin - now_first : end - now_first] == want
 
 
 def migrate_rows(conn: sqlite3.Connection, table: str, logger: str | None = None) -> None:

@@ -180,16 +180,28 @@ def write_record(
     same = None if now_first is None else _same(first, rows, now_first, now)
     made = {} if made is None else made
     writes = []
-    for page in range(low, high + 1):
+    for page in _candidates(low, high, last, now_first, len(now), same):
         begin = max(first, page * PAGE_ROWS)
         end = min(last + 1, (page + 1) * PAGE_ROWS)
-        want = rows[begin - first : end - first]
-        if now_first is None or not _on_disk(page, begin, end, want, now_first, now, same):
+        if now_first is None or not _on_disk(page, begin, end, rows, first, now_first, now, same):
             text = made.get(page)
             if text is None:
-                text = made[page] = _json(want)
-            writes.append((logger, page, begin, len(want), text))
+                text = made[page] = _json(rows[begin - first : end - first])
+            writes.append((logger, page, begin, end - begin, text))
     conn.executemany(_PUT, writes)
+
+
+def _candidates(
+    low: int, high: int, last: int, now_first: int | None, now_rows: int, same: object
+) -> Iterable[int]:
+    """The pages ``low`` .. ``high`` that may differ on disk. Where the rows both records
+    hold are the same (``same``), only the pages at either end: those that start before
+    the rows on disk now, and those from where either record ends."""
+    if now_first is None or same is None:
+        return range(low, high + 1)
+    before = range(low, min(high, (now_first - 1) // PAGE_ROWS) + 1)
+    after = range(max(low, min(now_first + now_rows, last + 1) // PAGE_ROWS), high + 1)
+    return sorted({*before, *after})
 
 
 def _same(first: int, rows: list[str], now_first: int, now: list[str]) -> tuple[int, int] | None:
@@ -206,21 +218,24 @@ def _on_disk(
     page: int,
     begin: int,
     end: int,
-    want: Sequence[str],
+    rows: list[str],
+    first: int,
     now_first: int,
-    now: Sequence[str],
+    now: list[str],
     same: tuple[int, int] | None,
 ) -> bool:
-    """Whether ``page`` on disk holds ``want`` (rows ``begin`` .. ``end - 1``) as it is,
-    the disk holding the record ``now`` (from ``now_first``): the same rows (``same``: all
-    rows both hold are known to be), and none after ``end`` in the page. (Rows before ``begin``
-    may stay: ``begin`` is past the page's start only as the record's new head, the rows
-    before it are gone.)"""
+    """Whether ``page`` on disk holds rows ``begin`` .. ``end - 1`` of ``rows`` (from
+    ``first``) as it is, the disk holding the record ``now`` (from ``now_first``): the same
+    rows (``same``: all rows both hold are known to be), and none after ``end`` in the
+    page. (Rows before ``begin`` may stay: ``begin`` is past the page's start only as the
+    record's new head, the rows before it are gone.)"""
     now_end = now_first + len(now)
     if now_first > begin or min(now_end, (page + 1) * PAGE_ROWS) != end:
         return False
     # (rows begin .. end - 1 are both in ``now`` and the record: within ``same``'s span)
-    return same is not None or now[begin - now_first : end - now_first] == want
+    return same is not None or (
+        now[begin - now_first : end - now_first] == rows[begin - first : end - first]
+    )
 
 
 def migrate_rows(conn: sqlite3.Connection, table: str, logger: str | None = None) -> None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from sondalog.ala1.record import RecordChanges, RecordMemory
 from sondalog.backends.store.ala1_nv import LoggerNvStore
-from sondalog.backends.store.record_pages import write_record
+from sondalog.backends.store.record_pages import MadePages, write_record
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,7 +36,7 @@ class StoredState:
     files: tuple[tuple[str, bytes], ...]
     first_seq: int
     record: tuple[str, ...]
-    pages: dict[int, str] = field(default_factory=dict, compare=False, repr=False)
+    pages: MadePages = field(default_factory=MadePages, compare=False, repr=False)
 
     @property
     def rows(self) -> int:

@@ -160,35 +160,60 @@ def write_record(
     rows: Sequence[str],
     now_first: int | None = None,
     now: Sequence[str] = (),
-    made: dict[int, str] | None = None,
+    made: MadePages | None = None,
 ) -> None:
     """In the caller's transaction, ``logger``'s record becomes ``rows`` from sequence
     number ``first`` (``record_head`` included). ``now`` (from ``now_first``): the rows in
     its record now, the same as on disk; the pages where they are the same as ``rows`` are
-    left as they are. Without ``now_first`` every page is written. ``made``: the JSON of
-    pages of these same ``rows`` made before (by page; the pages made here are added)."""
+    left as they are. Without ``now_first`` every page is written. ``made``: what was made
+    for these same ``rows`` before (the pages made here are added to it)."""
     conn.execute(_UPSERT_HEAD, (logger, str(first)))
     if not rows:
         conn.execute("DELETE FROM record_page WHERE logger = ?", (logger,))
         return
-    rows, now = list(rows), list(now)  # (slices compared: a tuple never equals a list)
     last = first + len(rows) - 1
     low, high = first // PAGE_ROWS, last // PAGE_ROWS
     # two ranges of the primary key (one condition with OR would scan every row)
     conn.execute("DELETE FROM record_page WHERE logger = ? AND page < ?", (logger, low))
     conn.execute("DELETE FROM record_page WHERE logger = ? AND page > ?", (logger, high))
+    made = MadePages() if made is None else made
+    if now_first is not None and (now_first > last or now_first + len(now) <= first):
+        # nothing in common (the record moved on past all of it): every page, as before
+        if made.every is None or made.every[0][0] != logger:
+            made.every = [_page(logger, page, first, rows, made) for page in range(low, high + 1)]
+        conn.executemany(_PUT, made.every)
+        return
+    rows, now = list(rows), list(now)  # (slices compared: a tuple never equals a list)
     same = None if now_first is None else _same(first, rows, now_first, now)
-    made = {} if made is None else made
     writes = []
     for page in _candidates(low, high, last, now_first, len(now), same):
-        begin = max(first, page * PAGE_ROWS)
-        end = min(last + 1, (page + 1) * PAGE_ROWS)
+        begin, end = max(first, page * PAGE_ROWS), min(last + 1, (page + 1) * PAGE_ROWS)
         if now_first is None or not _on_disk(page, begin, end, rows, first, now_first, now, same):
-            text = made.get(page)
-            if text is None:
-                text = made[page] = _json(rows[begin - first : end - first])
-            writes.append((logger, page, begin, end - begin, text))
+            writes.append(_page(logger, page, first, rows, made))
     conn.executemany(_PUT, writes)
+
+
+class MadePages:
+    """The JSON of a record's pages once made, by page, and the rows of a write of every
+    page (a snapshot's: a test suite restores it again and again)."""
+
+    __slots__ = ("every", "texts")
+
+    def __init__(self) -> None:
+        self.texts: dict[int, str] = {}
+        self.every: list[tuple[str, int, int, int, str]] | None = None
+
+
+def _page(
+    logger: str, page: int, first: int, rows: Sequence[str], made: MadePages
+) -> tuple[str, int, int, int, str]:
+    """The ``record_page`` row of ``page`` of ``rows`` (from ``first``)."""
+    begin = max(first, page * PAGE_ROWS)
+    end = min(first + len(rows), (page + 1) * PAGE_ROWS)
+    text = made.texts.get(page)
+    if text is None:
+        text = made.texts[page] = _json(rows[begin - first : end - first])
+    return logger, page, begin, end - begin, text
 
 
 def _candidates(

@@ -2,7 +2,7 @@
 
 A logger's record is up to 40,000 rows (``ala1.md`` §6.6: a megabyte of memory). Kept a row
 a database row, a restore that puts back a whole record (a cyclic record that wrapped since
-the snapshot) deleted and inserted 40,000 rows of two b-trees, 80-200 ms of SQLite's own
+the snapshot) deleted and inserted 40,000 rows of two b-trees, 80-300 ms of SQLite's own
 work. Kept in pages it is a few hundred rows (docs/control.md "Figures"):
 
 - ``record_page (logger, page, first, count, rows)``: the rows with sequence numbers

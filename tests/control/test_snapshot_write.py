@@ -104,3 +104,25 @@ def test_a_restore_after_a_short_test_writes_the_pages_that_differ_only() -> Non
     assert written == [(0, "INSERT"), (15, "INSERT"), (16, "DELETE")]
     assert store.load_record()[:2] == (rows, 0)
     database.close()
+
+
+def test_one_snapshot_restored_again_and_again_in_a_fleets_file() -> None:
+    """A snapshot keeps its pages once made (``StoredState.pages``): restored after records
+    that share no row with it, share some, or are empty, the disk holds its record each
+    time; the other logger of the file is never touched."""
+    database = NvDatabase(":memory:")
+    conn = database.conn
+    mine, other = database.store("L1"), database.store("L2")
+    others = [f"L2 row {i}" for i in range(300)]
+    write_record(conn, "L2", 7, others)
+    rows = [f"row {i}" for i in range(500)]
+    write_record(conn, "L1", 100, rows)
+    state = read_state(mine, RecordMemory(list(rows), 100, 10**6, True))
+    for first, count in ((5000, 700), (300, 500), (0, 0), (9000, 3), (100, 500), (40, 90)):
+        now = [f"now {i}" for i in range(count)]
+        write_record(conn, "L1", first, now)
+        write_state(mine, state, RecordMemory(now, first, 10**6, True))
+        assert mine.load_record()[:2] == (rows, 100)
+        assert other.load_record()[:2] == (others, 7)
+    assert state.pages.every is not None  # (made once, used again)
+    database.close()

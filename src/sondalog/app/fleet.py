@@ -35,7 +35,7 @@ from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import private_dir
 from sondalog.io.tcp import TcpServer, serve_tcp
-from sondalog.io.timers import Timers
+from sondalog.io.timers import PAUSE, Timers
 from sondalog.protocol.device import Effect, Event
 
 DATABASE_FILE = "fleet.sqlite"
@@ -233,7 +233,8 @@ async def start_fleet(
         states / DATABASE_FILE, schedule, checkpoint_every=CHECKPOINT_EVERY, background=True
     )
     fleet = RunningFleet(database)
-    timers = Timers(clock)  # one deadline loop for all, its due work in slices (issue 24)
+    # one deadline loop for all, its due work in slices with rests between (issue 24)
+    timers = Timers(clock, pause_seconds=PAUSE)
     root = sensor_root()
     try:
         identities = _identities(loggers, states, path)

@@ -29,6 +29,12 @@ second of the minute, and this client's own lateness (a starved client measures 
 
 The module clocks follow the wall clock's local time (``write date``); the loggers'
 minutes start with the wall clock's in any time zone whose offset is whole minutes.
+
+``--fill ROWS`` (a long run: a month of 1-minute rows is 43,200): before the first start
+every logger's memory gets ROWS record rows of 4 channels (a random walk, 1-minute stamps,
+written into the fleet's database as the loggers would have), so the RSS figures show what
+a fleet that has run for that long holds. Mind the disk: about 50 bytes a row and logger
+(``--loggers 1000 --fill 24000``: 1.2 GB; the factory record holds about 24,000 such rows).
 """
 
 from __future__ import annotations
@@ -97,6 +103,31 @@ def start(count: int, work: Path, loop: str) -> tuple[subprocess.Popen[bytes], l
         watchdog.cancel()
     STARTS.append(cpu_seconds(proc.pid))
     return proc, ports, time.perf_counter() - began
+
+
+def prefill(count: int, work: Path, rows: int) -> None:
+    """``rows`` record rows in each of ``count`` loggers' memory (see ``--fill``)."""
+    import random
+
+    from sondalog.ala1.record import RecordChanges
+    from sondalog.backends.store.ala1_nv import NvDatabase
+
+    states = work / "state" / "loggers"
+    states.mkdir(parents=True, mode=0o700)
+    database = NvDatabase(states / "fleet.sqlite")
+    rng = random.Random(24)
+    began = time.perf_counter()
+    start = int(time.time()) // 60 * 60 - rows * 60
+    for n in range(1, count + 1):
+        values = [12.0, 11.5, 20.0, 3.3]
+        made = []
+        for seq in range(rows):
+            values = [round(v + rng.choice((-0.01, 0.0, 0.0, 0.01)), 2) for v in values]
+            stamp = time.strftime("%Y%m%d%H%M%S", time.localtime(start + seq * 60))
+            made.append((seq, f"{stamp}.0,1," + ",".join(f"{v:.2f}" for v in values)))
+        database.write([(f"F{n:05}", ({}, None, RecordChanges(made, 0, False, False), None))])
+    database.close()
+    print(f"prefilled {count} x {rows} rows in {time.perf_counter() - began:.0f} s")
 
 
 def stop(proc: subprocess.Popen[bytes]) -> None:
@@ -266,6 +297,7 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--loop", choices=("auto", "asyncio", "uvloop"), default="auto")
     parser.add_argument("--quick", action="store_true", help="500 loggers, 100 polled, 2 runs")
+    parser.add_argument("--fill", type=int, default=0, help="record rows per logger at start")
     args = parser.parse_args()
     if args.quick:
         args.loggers, args.poll, args.runs = 500, 100, 2
@@ -274,8 +306,13 @@ def main() -> None:
     runs: list[Run] = []
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
+        if args.fill:
+            prefill(args.loggers, work, args.fill)
         for number in range(args.runs):
             proc, ports, started = start(args.loggers, work, args.loop)
+            if number == 0 and args.fill:
+                rss, _ = memory_mb(proc.pid)
+                print(f"RSS after start with {args.fill} rows a logger: {rss:.0f} MB")
             try:
                 if number == 0:
                     maps = Path(f"/proc/{proc.pid}/maps").read_text()

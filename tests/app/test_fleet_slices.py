@@ -10,10 +10,13 @@ import sqlite3
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
+
 from sondalog.ala1 import Engine, Identity
 from sondalog.backends.sim.logger import SimHardware
 from sondalog.backends.sim.signals import sine
 from sondalog.backends.store.ala1_nv import NvDatabase
+from sondalog.io import timers
 from sondalog.io.clock import SteppedClock
 from sondalog.io.host import DeviceHost, LocalLink
 from sondalog.io.timers import Timers
@@ -59,9 +62,9 @@ class Fleet:
     """``size`` loggers on one :class:`Timers`, each with a sine on its supply input, their
     memory in one database with group commit at the end of the loop's turn."""
 
-    def __init__(self, tmp: Path, size: int, slice_seconds: float) -> None:
+    def __init__(self, tmp: Path, size: int, slice_seconds: float, pause: float = 0.0) -> None:
         self.clock = SteppedClock(T0)
-        self.timers = Timers(self.clock, slice_seconds=slice_seconds)
+        self.timers = Timers(self.clock, slice_seconds=slice_seconds, pause_seconds=pause)
         loop = asyncio.get_running_loop()
         self.database = NvDatabase(tmp / "fleet.sqlite", loop.call_soon)
         self.hosts: list[DeviceHost] = []
@@ -112,10 +115,13 @@ class Fleet:
         self.database.close()
 
 
-async def _scenario(tmp: Path, slice_seconds: float) -> tuple[list[bytes], Rows]:
+async def _scenario(
+    tmp: Path, slice_seconds: float, pause: float = 0.0
+) -> tuple[list[bytes], Rows]:
     """Steps of the clock that jump over sampling instants; after each, every logger is asked
-    for its last samples while the fleet runs its due work."""
-    fleet = Fleet(tmp, 12, slice_seconds)
+    for its last samples while the fleet runs its due work (resting ``pause`` real seconds
+    after each slice)."""
+    fleet = Fleet(tmp, 12, slice_seconds, pause)
     answers: list[bytes] = []
     try:
         await fleet.setup()
@@ -123,8 +129,10 @@ async def _scenario(tmp: Path, slice_seconds: float) -> tuple[list[bytes], Rows]
             fleet.clock.advance(step)
             asked = [asyncio.ensure_future(_ask(link, POLL)) for link in fleet.links]
             answers += await asyncio.gather(*asked)
-            for _ in range(20):  # let the deadline loop finish its work
-                await asyncio.sleep(0)
+            for _ in range(20 if not pause else 400):  # let the deadline loop finish its work
+                if not fleet.due():
+                    break
+                await asyncio.sleep(pause)
             assert fleet.due() == 0
         return answers, fleet.rows()
     finally:
@@ -143,6 +151,36 @@ def test_answers_and_records_do_not_depend_on_slicing(tmp_path: Path) -> None:
     assert len(rows) == 12 * 8
     stamps = sorted({row.split(",")[0] for _, _, row in rows})
     assert stamps == [f"2020010100{s // 60:02}{s % 60:02}.0" for s in range(0, 80, 10)]
+
+
+def test_rests_between_slices_change_nothing_and_the_flood_ends(tmp_path: Path) -> None:
+    """A fleet's loop rests after each slice (io/timers.py PAUSE): answers and rows are those
+    of the whole flood at once, and every logger's due work is done (liveness)."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    whole = asyncio.run(_scenario(tmp_path / "a", math.inf))
+    rested = asyncio.run(_scenario(tmp_path / "b", 0.0, pause=0.003))
+    assert rested == whole
+
+
+def test_a_long_flood_stops_resting(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Rests last for the first RESTS_FOR seconds of a flood only: due work that takes
+    longer runs on at full speed (here rests of an hour, for no time at all)."""
+    monkeypatch.setattr(timers, "RESTS_FOR", 0.0)
+
+    async def run() -> int:
+        fleet = Fleet(tmp_path, 20, 0.0, pause=3600.0)
+        try:
+            await fleet.setup()
+            fleet.clock.advance(10.0)
+            assert fleet.due() == 20
+            for _ in range(100):
+                await asyncio.sleep(0)
+            return fleet.due()
+        finally:
+            await fleet.close()
+
+    assert asyncio.run(asyncio.wait_for(run(), 60)) == 0
 
 
 def test_a_sample_is_taken_at_its_deadline_however_late_it_runs(tmp_path: Path) -> None:

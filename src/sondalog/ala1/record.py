@@ -7,14 +7,26 @@ plus CR LF. A cyclic record drops its oldest rows to make room (and from then on
 The rows live in RAM for fast reads and in the non-volatile store for durability. Every change
 is staged: :meth:`RecordMemory.mark` and :meth:`RecordMemory.rollback` make a command line
 atomic, and :meth:`RecordMemory.take_changes` hands the store what to write.
+
+In RAM the rows are kept compactly (issue 24: a month of 1-minute rows of 10,000 loggers was
+tens of GB as one string object a row): all but the newest rows are sealed into pages of
+:data:`PAGE` rows, each one zlib-compressed text with the rows' ends, decompressed when
+read (the last few decoded pages are kept, :func:`_decoded`).
 """
 
 from __future__ import annotations
 
 import bisect
+import functools
+import itertools
+import zlib
+from array import array
 from dataclasses import dataclass
 
 _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
+#: Rows sealed into one page; the newest rows (at least KEEP) stay plain strings.
+PAGE = 64
+KEEP = 16
 
 
 def row_key(row: str) -> str:
@@ -44,6 +56,29 @@ class RecordMark:
     staged: int
 
 
+class _Page:
+    """:data:`PAGE` rows in one compressed text, with where each row ends."""
+
+    __slots__ = ("data", "ends")
+
+    def __init__(self, rows: list[str]) -> None:
+        ends = list(itertools.accumulate(map(len, rows)))
+        self.ends = array("H" if ends[-1] < 65536 else "I", ends)  # 2 bytes a row if they fit
+        self.data = zlib.compress("".join(rows).encode("utf-8", "surrogatepass"), 6)
+
+    def length(self, index: int) -> int:
+        """The length of row ``index`` of the page (without decompressing it)."""
+        return self.ends[index] - (self.ends[index - 1] if index else 0)
+
+
+@functools.lru_cache(maxsize=32)
+def _decoded(page: _Page) -> list[str]:
+    """The rows of ``page`` (the pages read last are kept decoded, for all modules)."""
+    text = zlib.decompress(page.data).decode("utf-8", "surrogatepass")
+    starts = itertools.chain((0,), page.ends)
+    return [text[start:end] for start, end in zip(starts, page.ends, strict=False)]
+
+
 class RecordMemory:
     """Rows of the record in memory order."""
 
@@ -56,8 +91,10 @@ class RecordMemory:
         wrapped: bool = False,
         refused: bool = False,
     ) -> None:
-        self._rows = rows  # rows[head:] are in the record; rows[:head] were dropped
-        self._seq0 = first_seq  # sequence number of _rows[0]
+        # rows [head:] of the pages' rows then the tail's are in the record; [:head] dropped
+        self._pages: list[_Page] = []
+        self._tail: list[str] = list(rows)
+        self._seq0 = first_seq  # sequence number of the first page's first row
         self._head = 0
         self.capacity = capacity
         self.cyclic = cyclic
@@ -66,16 +103,57 @@ class RecordMemory:
         self.chars = sum(map(len, rows)) + 2 * len(rows)  # (a restore: 40,000 rows, fast)
         self._staged = 0  # rows at the end not yet handed to the store
         self._stored_head = first_seq
+        self._seal()
+
+    # -- the rows in RAM ---------------------------------------------------------------------
+    def _count(self) -> int:
+        return len(self._pages) * PAGE + len(self._tail)
+
+    def _seal(self) -> None:
+        """Seal the oldest plain rows into pages, leaving at least :data:`KEEP` plain."""
+        tail = self._tail
+        if len(tail) < PAGE + KEEP:
+            return
+        full = (len(tail) - KEEP) // PAGE
+        self._pages.extend(_Page(tail[n * PAGE : (n + 1) * PAGE]) for n in range(full))
+        del tail[: full * PAGE]
+
+    def _row(self, index: int) -> str:
+        sealed = len(self._pages) * PAGE
+        if index >= sealed:
+            return self._tail[index - sealed]
+        return _decoded(self._pages[index // PAGE])[index % PAGE]
+
+    def _length(self, index: int) -> int:
+        sealed = len(self._pages) * PAGE
+        if index >= sealed:
+            return len(self._tail[index - sealed])
+        return self._pages[index // PAGE].length(index % PAGE)
+
+    def _slice(self, begin: int, end: int) -> list[str]:
+        """Rows ``begin`` to ``end`` (indices in RAM, ``end`` excluded)."""
+        sealed = len(self._pages) * PAGE
+        out: list[str] = []
+        index = begin
+        while index < min(end, sealed):
+            page, offset = divmod(index, PAGE)
+            stop = min(end - page * PAGE, PAGE)
+            out.extend(_decoded(self._pages[page])[offset:stop])
+            index = page * PAGE + stop
+        if end > sealed:
+            out.extend(self._tail[max(begin, sealed) - sealed : end - sealed])
+        return out
 
     # -- reading ---------------------------------------------------------------------------
     def __len__(self) -> int:
-        return len(self._rows) - self._head
+        return self._count() - self._head
 
     def rows(self, start: int = 0, count: int | None = None) -> list[str]:
         """``count`` rows from position ``start`` (0 = the oldest)."""
         begin = self._head + start
-        end = len(self._rows) if count is None else min(len(self._rows), begin + count)
-        return self._rows[begin:end]
+        total = self._count()
+        end = total if count is None else min(total, begin + count)
+        return self._slice(begin, end) if begin < end else []
 
     def position_at_or_after(self, point: str) -> int:
         """Position of the oldest row whose point is at or after ``point`` (a prefix)."""
@@ -86,27 +164,26 @@ class RecordMemory:
         return self._search(point, strictly=True)
 
     def _search(self, point: str, *, strictly: bool) -> int:
-        rows = self._rows
-        lo, hi = self._head, len(rows)
+        lo, hi = self._head, self._count()
         if lo == hi:
             return 0
         # rows are in time order unless the clock was set back: bisect when the keys ascend
-        if row_key(rows[lo]) <= row_key(rows[hi - 1]):
-            keys = _KeyView(rows)
+        if row_key(self._row(lo)) <= row_key(self._row(hi - 1)):
+            keys = _KeyView(self)
             found = (bisect.bisect_right if strictly else bisect.bisect_left)(keys, point, lo, hi)
             if self._ordered_around(found):
                 return found - self._head
         for i in range(lo, hi):
-            key = row_key(rows[i])
+            key = row_key(self._row(i))
             if key > point or (not strictly and key >= point):
                 return i - self._head
         return hi - self._head
 
     def _ordered_around(self, index: int) -> bool:
-        rows = self._rows
+        row = self._row
         return all(
-            row_key(rows[i - 1]) <= row_key(rows[i])
-            for i in range(max(self._head + 1, index - 1), min(len(rows), index + 2))
+            row_key(row(i - 1)) <= row_key(row(i))
+            for i in range(max(self._head + 1, index - 1), min(self._count(), index + 2))
         )
 
     def status(self) -> str:
@@ -125,7 +202,7 @@ class RecordMemory:
         """Store a row written at ``stamp`` (YYYYMMDDhhmmss); None if it does not fit."""
         counter = 0
         if len(self):
-            last = self._rows[-1]
+            last = self._tail[-1] if self._tail else self._row(self._count() - 1)
             if last.startswith(stamp) and last[14] == ".":
                 counter = min(_COUNTERS.index(last[15]) + 1, len(_COUNTERS) - 1)
         row = f"{stamp}.{_COUNTERS[counter]},{body}"
@@ -138,24 +215,26 @@ class RecordMemory:
                 self.refused = True
                 return None
             while self.chars + size > self.capacity:
-                self.chars -= len(self._rows[self._head]) + 2
+                self.chars -= self._length(self._head) + 2
                 self._head += 1
             self.wrapped = True
-        self._rows.append(row)
+        self._tail.append(row)
         self._staged += 1
         self.chars += size
+        self._seal()
         return row
 
     def load_rows(self, rows: list[str]) -> None:
         """Append rows as they are (an image written by XMODEM, §6.16.3)."""
         for row in rows:
-            self._rows.append(row)
+            self._tail.append(row)
             self._staged += 1
             self.chars += len(row) + 2
+        self._seal()
 
     def clear(self) -> None:
         """§6.6.5.1: erase every row; the state returns to CLEAR."""
-        self._head = len(self._rows)
+        self._head = self._count()
         self.chars = 0
         self.wrapped = False
         self.refused = False
@@ -168,11 +247,18 @@ class RecordMemory:
     # -- transactions ------------------------------------------------------------------------
     def mark(self) -> RecordMark:
         return RecordMark(
-            len(self._rows), self._head, self.chars, self.wrapped, self.refused, self._staged
+            self._count(), self._head, self.chars, self.wrapped, self.refused, self._staged
         )
 
     def rollback(self, mark: RecordMark) -> None:
-        del self._rows[mark.length :]
+        sealed = len(self._pages) * PAGE
+        if mark.length < sealed:  # rows sealed since the mark: their pages become plain
+            first = mark.length // PAGE
+            rows = [row for page in self._pages[first:] for row in _decoded(page)]
+            del self._pages[first:]
+            self._tail = rows + self._tail
+            sealed = first * PAGE
+        del self._tail[mark.length - sealed :]
         self._head, self.chars = mark.head, mark.chars
         self.wrapped, self.refused, self._staged = mark.wrapped, mark.refused, mark.staged
 
@@ -181,33 +267,36 @@ class RecordMemory:
         head_seq = self._seq0 + self._head
         if not self._staged and head_seq == self._stored_head:
             return None
-        first_new = len(self._rows) - self._staged
+        total = self._count()
+        first_new = total - self._staged
         first_kept = max(first_new, self._head)  # rows dropped again before reaching the store
-        new_rows = [(self._seq0 + i, self._rows[i]) for i in range(first_kept, len(self._rows))]
+        rows = self._slice(first_kept, total)
+        new_rows = list(zip(range(self._seq0 + first_kept, self._seq0 + total), rows, strict=True))
         changes = RecordChanges(new_rows, head_seq, self.wrapped, self.refused)
         self._staged = 0
         self._stored_head = head_seq
-        if self._head > 4096 and self._head * 2 > len(self._rows):
-            del self._rows[: self._head]
-            self._seq0 += self._head
-            self._head = 0
+        if self._head > 4096 and self._head * 2 > total:
+            pages = min(self._head // PAGE, len(self._pages))  # whole pages of dropped rows
+            del self._pages[:pages]
+            self._seq0 += pages * PAGE
+            self._head -= pages * PAGE
         return changes
 
     @property
     def next_seq(self) -> int:
-        return self._seq0 + len(self._rows)
+        return self._seq0 + self._count()
 
 
 class _KeyView:
     """Row keys as a sequence, for bisect."""
 
-    __slots__ = ("rows",)
+    __slots__ = ("memory",)
 
-    def __init__(self, rows: list[str]) -> None:
-        self.rows = rows
+    def __init__(self, memory: RecordMemory) -> None:
+        self.memory = memory
 
     def __getitem__(self, index: int) -> str:
-        return row_key(self.rows[index])
+        return row_key(self.memory._row(index))
 
     def __len__(self) -> int:
-        return len(self.rows)
+        return self.memory._count()

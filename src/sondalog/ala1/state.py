@@ -14,7 +14,6 @@ import functools
 import logging
 import math
 from datetime import datetime
-from typing import Protocol
 
 from sondalog.ala1.hardware import Hardware, NoHardware
 from sondalog.ala1.measure import ChannelConfig, Measurer, channel_config, format_value
@@ -26,11 +25,13 @@ from sondalog.ala1.moduleclock import (
     from_seconds,
     to_seconds,
 )
+from sondalog.ala1.nvstore import NvStore as NvStore  # (re-exported: the engine, stores)
 from sondalog.ala1.ondemand import OnDemand, measure_now
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.parser import Plan
-from sondalog.ala1.record import RecordChanges, RecordMark, RecordMemory
+from sondalog.ala1.record import RecordMark, RecordMemory
 from sondalog.ala1.sampling import Outputs, Sampler
+from sondalog.ala1.shared import Derived, derived_for
 from sondalog.ala1.tokens import format_stamp
 from sondalog.protocol.tables import TableSet
 
@@ -40,52 +41,17 @@ log = logging.getLogger("sondalog.ala1.state")
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
 
 
-class NvStore(Protocol):
-    """Non-volatile memory of one module (DESIGN.md point 5)."""
-
-    def load(self) -> tuple[dict[str, str], float | None]:
-        """Parameters written so far, and the clock offset (None for a new module)."""
-        ...
-
-    def load_record(self) -> tuple[list[str], int, bool, bool]:
-        """Record rows oldest first, first sequence number, wrapped and refused flags."""
-        ...
-
-    def load_files(self) -> dict[str, bytes]:
-        """The file areas (``list``, ``data``) of §6.15."""
-        ...
-
-    def write_file(self, area: str, data: bytes) -> None:
-        """Durably replace a file area."""
-        ...
-
-    def last_seen(self) -> float | None:
-        """The host time of the latest commit, if any."""
-        ...
-
-    def commit(
-        self,
-        changes: dict[str, str | None],
-        clock_offset: float | None,
-        record: RecordChanges | None = None,
-        seen: float | None = None,
-    ) -> None:
-        """Durably apply ``changes`` (None = back to the factory value) in one transaction;
-        ``seen`` is the host time of the change."""
-        ...
-
-    def commit_scheduled(self, record: RecordChanges, seen: float) -> None:
-        """Rows the module sampled on its own (no command line waits for them): durable by
-        the end of the current turn, so a store may group the commits of many modules in
-        one transaction (group commit, issue 11); a store without it commits at once."""
-        ...
-
-
 @functools.cache
 def fixed_defaults(version: Version) -> dict[str, str]:
     """Factory values that depend on nothing else: shared by every module (issue 24)."""
     keys = storage_keys(version).items()
     return {key: i.leaf.default for key, i in keys if isinstance(i.leaf.default, str)}
+
+
+@functools.lru_cache(maxsize=64)
+def _tables(listing: bytes, data: bytes) -> TableSet:
+    """The tables of these file areas, shared by the modules holding the same (issue 24)."""
+    return TableSet(listing, data)
 
 
 class NeedWait(Exception):
@@ -129,7 +95,7 @@ class ModuleState:
         self.counters = [0, 0, 0, 0]
         self.measurer = Measurer(self.hardware)
         files = store.load_files()
-        self.measurer.tables = TableSet(files.get("list", b""), files.get("data", b""))
+        self.measurer.tables = _tables(files.get("list", b""), files.get("data", b""))
         rows, first_seq, wrapped, refused = store.load_record()
         self.record = RecordMemory(rows, first_seq, 0, True, wrapped, refused)
         self.outputs = Outputs(self.hardware)
@@ -139,10 +105,11 @@ class ModuleState:
         )
         self.conversions: dict[int, float] = {}  # channel -> module time a DS18B20 is ready
         self._names: dict[str, int] | None = None
-        #: Typed channel configurations of the committed parameters (speed, issue 11):
-        #: emptied whenever a parameter commits (:meth:`Transaction.commit`, ``_repair``).
-        self._configs: dict[int, ChannelConfig] = {}
-        self._settings: dict[str, str] = {}  # committed values read per command, likewise
+        #: What the committed values determine (typed channel configurations, dependent
+        #: factory values: speed, issue 11), shared with every module of the same values
+        #: (issue 24); let go whenever a parameter commits (:meth:`forget_values`).
+        self._derived: Derived | None = None
+        self._personal: dict[str, str] = {}  # dependent factory values that read the identity
         #: Parsed read-only lines (the interpreter's, issue 11): parsing depends on committed
         #: values only (channel max number, command names), so it holds until they change.
         self.plans: dict[str, Plan] = {}
@@ -187,12 +154,24 @@ class ModuleState:
     # -- parameters --------------------------------------------------------------------------
     def get(self, key: str) -> str:
         """A committed value (outside any line); a factory value that depends on others is
-        cached until a commit changes values, a fixed one is shared (issue 24)."""
+        cached until a commit changes values, shared with the modules of the same values
+        unless it reads the identity (issue 24)."""
         if (value := self.values.get(key)) is None and (value := self._fixed.get(key)) is None:
-            value = self._settings.get(key)
-            if value is None:
-                value = self._settings[key] = Transaction(self, 0.0).default(key)
+            derived = self.derived()
+            if (value := derived.settings.get(key)) is None and (
+                value := self._personal.get(key)
+            ) is None:
+                view = _SharedView(self)
+                value = view.default(key)
+                (self._personal if view.personal else derived.settings)[key] = value
         return value
+
+    def derived(self) -> Derived:
+        """What the committed values determine, shared (:mod:`sondalog.ala1.shared`)."""
+        if (derived := self._derived) is None:
+            identity = self.identity
+            derived = self._derived = derived_for(identity.version, identity.device, self.values)
+        return derived
 
     def command_names(self) -> dict[str, int]:
         """Named commands (§6.8.2): name -> number, the non-empty names only (cached)."""
@@ -210,16 +189,20 @@ class ModuleState:
     def forget_values(self) -> None:
         """Committed values changed: drop everything computed from them (issue 11)."""
         self._names = None
-        self._configs.clear()
-        self._settings.clear()
+        self._derived = None
+        self._personal.clear()
         self.plans.clear()
         self.on_demand.forget()
 
     def channel_config(self, ch: int) -> ChannelConfig:
-        """Channel ``ch``'s typed configuration from the committed parameters (cached)."""
-        cfg = self._configs.get(ch)
-        if cfg is None:
-            cfg = self._configs[ch] = channel_config(Transaction(self, 0.0), ch)
+        """Channel ``ch``'s typed configuration from the committed parameters (cached and
+        shared, unless it reads the identity)."""
+        configs = self.derived().configs
+        if (cfg := configs.get(ch)) is None:
+            view = _SharedView(self)
+            cfg = channel_config(view, ch)
+            if not view.personal:
+                configs[ch] = cfg
         return cfg
 
     def begin(self, host_now: float) -> Transaction:
@@ -227,9 +210,8 @@ class ModuleState:
 
     def configure(self, host_now: float) -> None:
         """Apply committed parameters to sampling, outputs, the record and the tables."""
-        view = Transaction(self, host_now)
+        view = self  # the committed values (shared, issue 24)
         max_number = int(view.get("channel max number"))
-        self._configs.clear()
         self._event = None
         configs = [self.channel_config(ch) for ch in range(1, max_number + 1)]
         now = math.floor(self.module_seconds(host_now))
@@ -456,3 +438,23 @@ class Transaction:
         if offset is not None:
             state.sampler.reschedule(math.floor(state.module_seconds(self.host_now)))
             state.forget_schedule()
+
+
+class _SharedView(Transaction):
+    """The committed values, noting whether what is computed from them read the identity
+    (then it is the module's own, not shared: :mod:`sondalog.ala1.shared`)."""
+
+    __slots__ = ("personal",)
+
+    def __init__(self, state: ModuleState) -> None:
+        self.personal = False
+        super().__init__(state, 0.0)
+
+    @property
+    def identity(self) -> Identity:
+        self.personal = True
+        return self.state.identity
+
+    @identity.setter
+    def identity(self, identity: Identity) -> None:
+        pass  # (Transaction.__init__: read from the state above)

@@ -35,7 +35,7 @@ from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
 from sondalog.io.private import private_dir
 from sondalog.io.tcp import TcpServer, serve_tcp
-from sondalog.io.timers import Timers
+from sondalog.io.timers import PAUSE, Timers
 from sondalog.protocol.device import Effect, Event
 
 DATABASE_FILE = "fleet.sqlite"
@@ -183,21 +183,31 @@ def _raise_open_files(needed: int) -> None:
 
 def _identities(loggers: Sequence[FleetLogger], states: Path, path: Path | None) -> list[Identity]:
     """Every logger's identity, read or (a new logger) written durably; in threads, so that
-    a new fleet's thousands of fsyncs overlap (issue 24: ten times faster than in turn)."""
+    a new fleet's thousands of fsyncs overlap (issue 24: ten times faster than in turn), a
+    few hundred loggers a task (a future a logger cost more than reading its file)."""
 
-    def one(plan: FleetLogger) -> Identity:
-        version = Version(plan.protocol) if plan.protocol else None
-        return load_identity(states / plan.serial_number, version, plan.serial_number)
-
-    with ThreadPoolExecutor(max_workers=IDENTITY_THREADS) as pool:
-        pending = [(plan, pool.submit(one, plan)) for plan in loggers]
-        identities = []
-        for plan, future in pending:
+    def some(plans: Sequence[FleetLogger]) -> list[Identity | IdentityConflict]:
+        found: list[Identity | IdentityConflict] = []
+        for plan in plans:
+            version = Version(plan.protocol) if plan.protocol else None
+            serial = plan.serial_number
             try:
-                identities.append(future.result())
+                found.append(load_identity(states / serial, version, serial))
             except IdentityConflict as exc:
-                pool.shutdown(cancel_futures=True)
-                raise ConfigError(path, f"{plan.where}.protocol", str(exc)) from exc
+                found.append(exc)
+                break  # (the first conflict in order is reported)
+        return found
+
+    size = max(1, -(-len(loggers) // (IDENTITY_THREADS * 4)))
+    chunks = [loggers[i : i + size] for i in range(0, len(loggers), size)]
+    with ThreadPoolExecutor(max_workers=IDENTITY_THREADS) as pool:
+        identities: list[Identity] = []
+        for chunk, found in zip(chunks, pool.map(some, chunks), strict=True):
+            for plan, identity in zip(chunk, found, strict=False):
+                if isinstance(identity, IdentityConflict):
+                    pool.shutdown(cancel_futures=True)
+                    raise ConfigError(path, f"{plan.where}.protocol", str(identity)) from identity
+                identities.append(identity)
         return identities
 
 
@@ -223,7 +233,8 @@ async def start_fleet(
         states / DATABASE_FILE, schedule, checkpoint_every=CHECKPOINT_EVERY, background=True
     )
     fleet = RunningFleet(database)
-    timers = Timers(clock)  # one deadline loop for all, its due work in slices (issue 24)
+    # one deadline loop for all, its due work in slices with rests between (issue 24)
+    timers = Timers(clock, pause_seconds=PAUSE)
     root = sensor_root()
     try:
         identities = _identities(loggers, states, path)

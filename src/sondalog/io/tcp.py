@@ -158,6 +158,16 @@ def _port_range() -> tuple[int, int]:
         return 32768, 60999
 
 
+@functools.lru_cache(maxsize=64)
+def _family(address: str) -> socket.AddressFamily | None:
+    """The socket family of a literal IP address; None for a host name (parsed once: a
+    fleet binds thousands of sockets on one address, issue 24)."""
+    try:
+        return socket.AF_INET6 if ipaddress.ip_address(address).version == 6 else socket.AF_INET
+    except ValueError:
+        return None
+
+
 def free_port_socket(address: str) -> socket.socket | None:
     """A socket bound to a free port of the ephemeral range on ``address`` (a literal IP
     address; None for a host name: the event loop binds it to port 0 itself).
@@ -165,9 +175,8 @@ def free_port_socket(address: str) -> socket.socket | None:
     Ports are tried in turn from where the last search ended: with thousands of ports bound
     (a fleet, issue 24) the kernel's own search for port 0 costs milliseconds a bind, an
     explicit port tens of microseconds."""
-    try:
-        family = socket.AF_INET6 if ipaddress.ip_address(address).version == 6 else socket.AF_INET
-    except ValueError:
+    family = _family(address)
+    if family is None:
         return None
     low, high = _port_range()
     span = high - low + 1

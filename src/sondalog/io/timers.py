@@ -9,11 +9,15 @@ thousand sleeping ones.
 When many hosts are due at once (a fleet whose loggers sample on the same minute), the work
 is cut into slices of at most :data:`SLICE` seconds: between two slices the loop yields, so
 input is read and answered while the rest of the due work waits for the next slice, as a
-real logger answers while it samples. Running a host late changes nothing it stores or
-answers: a device timestamps what falls due with the time of its deadline (the ALA1 samples
-at its scheduled module second, whatever the clock says when it runs), and input on a host
-that waits for its slice runs that host's due work first (the ALA1's ``receive`` samples up
-to its ``now`` before it answers).
+real logger answers while it samples. A fleet's loop also rests between slices
+(:data:`PAUSE`, for the first :data:`RESTS_FOR` seconds of a flood): the flood takes longer,
+but a process that leaves the processor now and then is scheduled at once when input comes
+on a busy machine (issue 24: answers of 75 ms in a sampling second without rests).
+
+Running a host late changes nothing it stores or answers: a device timestamps what falls
+due with the time of its deadline (the ALA1 samples at its scheduled module second, whatever
+the clock says when it runs), and input on a host that waits for its slice runs that host's
+due work first (the ALA1's ``receive`` samples up to its ``now`` before it answers).
 """
 
 from __future__ import annotations
@@ -29,6 +33,12 @@ from sondalog.io.clock import Clock
 
 #: The most seconds of due work run before the loop serves input again.
 SLICE = 0.002
+#: Seconds a fleet's loop rests after each slice of a flood (``pause_seconds``): the process
+#: gives the processor away, so on a machine shared with other work the system schedules it
+#: again at once when input comes, instead of making it wait for the time it took.
+PAUSE = 0.002
+#: A flood that has run this many seconds runs on without rests (the due work keeps up).
+RESTS_FOR = 5.0
 
 
 class Due(Protocol):
@@ -42,9 +52,14 @@ class Due(Protocol):
 class Timers:
     """The deadlines of some hosts on one clock, and the one task that runs them."""
 
-    def __init__(self, clock: Clock, *, slice_seconds: float = SLICE) -> None:
+    def __init__(
+        self, clock: Clock, *, slice_seconds: float = SLICE, pause_seconds: float = 0.0
+    ) -> None:
+        """``pause_seconds``: the rest after each slice of a flood (:data:`PAUSE` for a
+        fleet; 0: the loop only yields to input, as a single logger's does)."""
         self.clock = clock
         self.slice = slice_seconds
+        self.pause = pause_seconds
         self._deadlines: dict[Due, float] = {}  # host -> its deadline (live heap entry)
         self._heap: list[tuple[float, int, Due]] = []  # entries stale once replaced
         self._order = itertools.count()  # equal deadlines run in the order they were set
@@ -123,16 +138,17 @@ class Timers:
         """Run every host due now, earliest first, yielding to input after each slice."""
         heap, live = self._heap, self._deadlines
         now = self.clock.now()
-        began = time.perf_counter()
+        began = flood = time.perf_counter()
         while heap and heap[0][0] <= now:
             deadline, _, host = heapq.heappop(heap)
             if live.get(host) != deadline:
                 continue
             del live[host]  # it sets its next deadline while it runs
             host.run_due(now)
-            if time.perf_counter() - began >= self.slice:
+            if (ended := time.perf_counter()) - began >= self.slice:
                 self.slices += 1
-                await asyncio.sleep(0)  # input and its answers go first
+                rest = self.pause if ended - flood < RESTS_FOR else 0.0
+                await asyncio.sleep(rest)  # input and its answers go first
                 now = self.clock.now()
                 began = time.perf_counter()
 

@@ -93,15 +93,14 @@ class Messages:
         clock_set = self._offset is not None and state.clock_offset != self._offset
         self._generation, self._offset = state.generation, state.clock_offset
         after = math.floor(state.module_seconds(host_now))
-        for number in range(1, state.identity.limits.messages + 1):
-            try:
-                config = load(state, number)
-            except Exception as exc:  # DESIGN.md point 6: never stop the module
-                log.error("message %d cannot be used (%s): it is off", number, exc)
-                config = off(number)
+        # the same for every module with the same values: made once (issue 24)
+        configs = state.derived().shared("message configs", lambda: _configs(state))
+        for number, config in enumerate(configs, 1):
             message = self._messages.get(number)
             if message is None:
                 message = self._messages[number] = _Message(config)
+                if config.period == "000000" and config.channel_function == "NO":
+                    continue  # off, watching nothing: as the factory left it (start-up)
             elif message.config == config and not clock_set:
                 continue
             if message.crossing is None or message.config.watches != config.watches:
@@ -280,6 +279,18 @@ class Messages:
         if self.state.message_runs:
             deadlines.append(self._now)
         return min(deadlines, default=None)
+
+
+def _configs(state: ModuleState) -> tuple[MessageConfig, ...]:
+    """Every message's configuration from the committed values."""
+    configs = []
+    for number in range(1, state.identity.limits.messages + 1):
+        try:
+            configs.append(load(state, number))
+        except Exception as exc:  # DESIGN.md point 6: never stop the module
+            log.error("message %d cannot be used (%s): it is off", number, exc)
+            configs.append(off(number))
+    return tuple(configs)
 
 
 def _watcher(config: MessageConfig) -> Crossing | None:

@@ -1,7 +1,7 @@
 """The record's rows sealed into compressed pages (issue 24) answer exactly as one string a
 row did (record_reference.ListRecordMemory): every read, search, status and change handed
 to the store, over random operations (appends on one stamp, clock set back, wraps,
-rollbacks, images, clears, compaction)."""
+rollbacks, images, clears, compaction, a restore from a snapshot's sealed rows)."""
 
 from __future__ import annotations
 
@@ -27,6 +27,7 @@ operations = st.lists(
         st.tuples(st.just("clear"), st.just(0), st.just(0)),
         st.tuples(st.just("image"), st.integers(0, len(STAMPS) - 1), st.integers(1, 150)),
         st.tuples(st.just("resize"), st.integers(300, 20_000), st.booleans()),
+        st.tuples(st.just("copy"), st.just(0), st.just(0)),
     ),
     max_size=40,
 )
@@ -89,6 +90,13 @@ def test_paged_rows_answer_as_a_list_of_rows(
         elif kind == "resize":
             paged.reconfigure(a, b)
             plain.reconfigure(a, b)
+        elif kind == "copy":  # a restore: a new record from a snapshot's sealed rows
+            assert paged.take_changes() == plain.take_changes()
+            marks.clear()
+            first, flags = paged.next_seq - len(paged), (paged.wrapped, paged.refused)
+            settings_ = (paged.capacity, paged.cyclic)
+            paged = RecordMemory(paged.sealed(), first, *settings_, *flags)
+            plain = ListRecordMemory(plain.rows(), first, *settings_, *flags)
         assert _observe(paged, points) == _observe(plain, points)
     assert paged.take_changes() == plain.take_changes()
     assert _observe(paged, points) == _observe(plain, points)

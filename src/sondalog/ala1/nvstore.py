@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from sondalog.ala1.record import RecordChanges
+from sondalog.ala1.record import RecordChanges, Sealed
 
 
 class NvStore(Protocol):
@@ -17,8 +17,9 @@ class NvStore(Protocol):
         """Parameters written so far, and the clock offset (None for a new module)."""
         ...
 
-    def load_record(self) -> tuple[list[str], int, bool, bool]:
-        """Record rows oldest first, first sequence number, wrapped and refused flags."""
+    def load_record(self) -> tuple[list[str] | Sealed, int, bool, bool]:
+        """Record rows oldest first (or as a record in RAM held them: a restore), first
+        sequence number, wrapped and refused flags."""
         ...
 
     def load_files(self) -> dict[str, bytes]:

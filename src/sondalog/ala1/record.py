@@ -79,12 +79,36 @@ def _decoded(page: _Page) -> list[str]:
     return [text[start:end] for start, end in zip(starts, page.ends, strict=False)]
 
 
+@dataclass(frozen=True, slots=True)
+class Sealed:
+    """A record's rows as RAM holds them (:meth:`RecordMemory.sealed`): the sealed pages
+    (immutable, so shared), then the plain rows; the first ``head`` rows are not in the
+    record. A snapshot keeps one, and a restore starts from it without sealing again."""
+
+    pages: tuple[_Page, ...]
+    tail: tuple[str, ...]
+    head: int
+
+    @property
+    def chars(self) -> int:
+        """The record's characters, each row with its CR LF."""
+        rows = len(self.pages) * PAGE + len(self.tail) - self.head
+        whole, part = divmod(self.head, PAGE)  # the dropped rows: whole pages, then a part
+        pages, kept = self.pages[whole:], self.tail
+        if not pages:
+            kept = self.tail[self.head - len(self.pages) * PAGE :]
+        text = sum(page.ends[-1] for page in pages) + sum(map(len, kept))
+        if pages and part:
+            text -= pages[0].ends[part - 1]
+        return text + 2 * rows
+
+
 class RecordMemory:
     """Rows of the record in memory order."""
 
     def __init__(
         self,
-        rows: list[str],
+        rows: list[str] | Sealed,
         first_seq: int,
         capacity: int,
         cyclic: bool,
@@ -92,20 +116,28 @@ class RecordMemory:
         refused: bool = False,
     ) -> None:
         # rows [head:] of the pages' rows then the tail's are in the record; [:head] dropped
-        self._pages: list[_Page] = []
-        self._tail: list[str] = list(rows)
-        self._seq0 = first_seq  # sequence number of the first page's first row
-        self._head = 0
+        if isinstance(rows, Sealed):
+            self._pages: list[_Page] = list(rows.pages)
+            self._tail: list[str] = list(rows.tail)
+            self._head = rows.head
+            self.chars = rows.chars
+        else:
+            self._pages, self._tail, self._head = [], list(rows), 0
+            self.chars = sum(map(len, rows)) + 2 * len(rows)  # (a restore: 40,000 rows, fast)
+        self._seq0 = first_seq - self._head  # sequence number of the first page's first row
         self.capacity = capacity
         self.cyclic = cyclic
         self.wrapped = wrapped
         self.refused = refused
-        self.chars = sum(map(len, rows)) + 2 * len(rows)  # (a restore: 40,000 rows, fast)
         self._staged = 0  # rows at the end not yet handed to the store
         self._stored_head = first_seq
         self._seal()
 
     # -- the rows in RAM ---------------------------------------------------------------------
+    def sealed(self) -> Sealed:
+        """The rows as RAM holds them, for a copy that a new record starts from."""
+        return Sealed(tuple(self._pages), tuple(self._tail), self._head)
+
     def _count(self) -> int:
         return len(self._pages) * PAGE + len(self._tail)
 

@@ -27,6 +27,10 @@ _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 #: Rows sealed into one page; the newest rows (at least KEEP) stay plain strings.
 PAGE = 64
 KEEP = 16
+#: Raw deflate, level 1, a 4 KiB window: a page of 64 rows (about 5 KB) in 35 us instead
+#: of 90 us (level 6, 32 KiB: most of that is setting up the window), at about 10 bytes a
+#: row instead of 6; a simulated year seals some 8,000 pages.
+_LEVEL, _WBITS = 1, -12
 
 
 def row_key(row: str) -> str:
@@ -64,7 +68,8 @@ class _Page:
     def __init__(self, rows: list[str]) -> None:
         ends = list(itertools.accumulate(map(len, rows)))
         self.ends = array("H" if ends[-1] < 65536 else "I", ends)  # 2 bytes a row if they fit
-        self.data = zlib.compress("".join(rows).encode("utf-8", "surrogatepass"), 6)
+        text = "".join(rows).encode("utf-8", "surrogatepass")
+        self.data = zlib.compress(text, _LEVEL, wbits=_WBITS)
 
     def length(self, index: int) -> int:
         """The length of row ``index`` of the page (without decompressing it)."""
@@ -74,7 +79,7 @@ class _Page:
 @functools.lru_cache(maxsize=32)
 def _decoded(page: _Page) -> list[str]:
     """The rows of ``page`` (the pages read last are kept decoded, for all modules)."""
-    text = zlib.decompress(page.data).decode("utf-8", "surrogatepass")
+    text = zlib.decompress(page.data, wbits=_WBITS).decode("utf-8", "surrogatepass")
     starts = itertools.chain((0,), page.ends)
     return [text[start:end] for start, end in zip(starts, page.ends, strict=False)]
 

@@ -187,13 +187,15 @@ def rows_of(batch: Sequence[Reading], clean: bool = False) -> list[Row]:
 async def _copy(cur: psycopg.AsyncCursor[Row], sql: str, rows: list[Row]) -> None:
     """COPY ``rows``: formatted by psycopg's (compiled) binary formatter, which hands back a
     chunk of about 32 KiB now and then, sent while the server works on the previous one (no
-    coroutine a row, as ``write_row`` would be)."""
+    coroutine a row, as ``write_row`` would be). After each chunk the other parts of the
+    batch get their turn, so that every writer's server has work from the start."""
     async with cur.copy(sql) as copy:
         copy.set_types(TYPES)
         format_row = copy.formatter.write_row
         for row in rows:
             if chunk := format_row(row):
                 await copy.write(chunk)
+                await asyncio.sleep(0)
 
 
 async def insert_rows(cur: psycopg.AsyncCursor[Row], rows: list[Row], direct: bool) -> int:

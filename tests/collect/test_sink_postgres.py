@@ -89,6 +89,20 @@ def test_bad_config_is_refused(table: dict[str, object], message: str) -> None:
         sink_postgres.create(table)
 
 
+def test_split_by_logger_when_that_shares_out_well() -> None:
+    four = [r for i in range(10) for lg in "ABCD" for r in rows(lg, i, 1, channels=2)]
+    parts = sink_postgres.split(four, 2)
+    assert [sorted({r.logger for r in p}) for p in parts] == [["A", "C"], ["B", "D"]]
+    assert sorted(r.key for p in parts for r in p) == sorted(r.key for r in four)
+    assert [r for r in parts[0] if r.logger == "A"] == [r for r in four if r.logger == "A"]
+    # one logger, or one with most of the batch: slices in the batch's order
+    one = rows("A", 0, 10)
+    assert sink_postgres.split(one, 2) == [one[:15], one[15:]]
+    lopsided = [*rows("A", 0, 30), *rows("B", 0, 2)]
+    assert sink_postgres.split(lopsided, 2) == [lopsided[:48], lopsided[48:]]
+    assert sink_postgres.split(four, 1) == [four]
+
+
 # -- against the server --------------------------------------------------------------------
 
 
@@ -249,7 +263,8 @@ def backends(dsn: str) -> int:
 
 
 def test_large_batch_is_split_and_stored_once(pg_dsn: str) -> None:
-    first, second = big("BIG", 0), big("BIG", 300)  # the second overlaps the first
+    first = [*big("BIG", 0), *big("OTHER", 0)]  # split by logger
+    second = big("BIG", 300)  # one logger, in slices; it overlaps the first
     seen: list[int] = []
 
     async def run() -> sink_postgres.PostgresSink:

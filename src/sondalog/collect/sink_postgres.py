@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import itertools
 import logging
 import operator
 from collections.abc import Mapping, Sequence
@@ -153,6 +154,7 @@ Row = tuple[object, ...]
 
 #: A reading's fields in the order of :data:`COLUMNS` (one C call a reading).
 _fields = operator.attrgetter(*COLUMNS)
+_logger = operator.attrgetter("logger")
 
 
 def _clean(text: str | None) -> str | None:
@@ -182,6 +184,24 @@ def rows_of(batch: Sequence[Reading], clean: bool = False) -> list[Row]:
     if clean:
         return [_row(r) for r in batch]
     return list(map(_fields, batch))
+
+
+def split(batch: Sequence[Reading], n: int) -> Sequence[Sequence[Reading]]:
+    """``batch`` in at most ``n`` parts of similar size: by logger when that shares it out
+    well (each part's rows then go to other places of the primary key than the other
+    parts', so their servers do not wait for each other's pages), else in ``n`` slices. A
+    reading's key is in one part only either way when it is there twice (by logger), or
+    the parts may wait for each other (slices; see :func:`store_part`)."""
+    if n <= 1:
+        return [batch]
+    by_logger: list[list[Reading]] = [[] for _ in range(n)]
+    where: dict[str, int] = {}
+    for logger, run in itertools.groupby(batch, key=_logger):
+        by_logger[where.setdefault(logger, len(where) % n)].extend(run)
+    if len(where) >= n and max(map(len, by_logger)) * n <= len(batch) * 5 // 4:
+        return list(by_logger)
+    size = -(-len(batch) // n)
+    return [batch[i : i + size] for i in range(0, len(batch), size)]
 
 
 async def _copy(cur: psycopg.AsyncCursor[Row], sql: str, rows: list[Row]) -> None:
@@ -275,9 +295,7 @@ class PostgresSink:
         if not batch:
             return
         async with self._lock:
-            n = self.writers if len(batch) >= SPLIT_AT else 1
-            size = -(-len(batch) // n)
-            parts = [batch[i : i + size] for i in range(0, len(batch), size)]
+            parts = split(batch, self.writers if len(batch) >= SPLIT_AT else 1)
             conns = [await self._connection(i) for i in range(len(parts))]
             direct = not self._replay
             done = await asyncio.gather(

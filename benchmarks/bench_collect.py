@@ -19,7 +19,7 @@ SQLite: the collector's own store, when its sink module (``sondalog.collect.sink
 Not a test: it prints figures.
 
     .venv/bin/python benchmarks/bench_collect.py [--readings 500000] [--batch 5000] [--runs 3]
-        [--only postgres] [--writers 2]
+        [--only postgres] [--writers 1]
 """
 
 from __future__ import annotations
@@ -157,7 +157,7 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=5_000)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--only", choices=("postgres", "mqtt", "sqlite"))
-    ap.add_argument("--writers", type=int, default=2, help="PostgreSQL writer connections")
+    ap.add_argument("--writers", type=int, default=1, help="PostgreSQL writer connections")
     args = ap.parse_args()
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     batches = make_batches(args.readings, args.batch)

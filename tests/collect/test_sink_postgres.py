@@ -39,8 +39,10 @@ def keys(dsn: str) -> set[tuple[str, str, int, int]]:
     return {(lg, t.isoformat(timespec="seconds"), cnt, ch) for lg, t, cnt, ch in got}
 
 
-async def write_all(dsn: str, *batches: list[Reading]) -> sink_postgres.PostgresSink:
-    sink = sink_postgres.create({"dsn": dsn})
+async def write_all(
+    dsn: str, *batches: list[Reading], writers: int = 1
+) -> sink_postgres.PostgresSink:
+    sink = sink_postgres.create({"dsn": dsn, "writers": writers})
     await sink.open()
     try:
         for b in batches:
@@ -268,7 +270,7 @@ def test_large_batch_is_split_and_stored_once(pg_dsn: str) -> None:
     seen: list[int] = []
 
     async def run() -> sink_postgres.PostgresSink:
-        sink = sink_postgres.create({"dsn": pg_dsn})
+        sink = sink_postgres.create({"dsn": pg_dsn, "writers": 2})
         await sink.open()
         await sink.write(first)
         seen.append(backends(pg_dsn))
@@ -286,9 +288,9 @@ def test_large_batch_is_split_and_stored_once(pg_dsn: str) -> None:
     assert keys(pg_dsn) == expected
 
 
-def test_one_writer_setting_does_not_split(pg_dsn: str) -> None:
+def test_one_writer_by_default_does_not_split(pg_dsn: str) -> None:
     async def run() -> None:
-        sink = sink_postgres.create({"dsn": pg_dsn, "writers": 1})
+        sink = sink_postgres.create({"dsn": pg_dsn})
         await sink.open()
         await sink.write(big("ONE", 0))
         assert backends(pg_dsn) == 1
@@ -307,7 +309,7 @@ def test_parts_holding_each_others_rows_do_not_fail(pg_dsn: str) -> None:
     x, y = rows("DL", 0, 1, channels=1)[0], rows("DL", 1, 1, channels=1)[0]
     batch = [x, *body[:half], y, y, *body[half:], x]
     assert len(batch) % 2 == 0 and batch[len(batch) // 2] == y  # the parts' first rows
-    sink = asyncio.run(write_all(pg_dsn, batch))
+    sink = asyncio.run(write_all(pg_dsn, batch, writers=2))
     assert sink.inserted == len(body) + 2
     assert keys(pg_dsn) == {r.key for r in [x, y, *body]}
 
@@ -319,7 +321,7 @@ def test_a_part_lost_with_its_connection_is_written_again_once(pg_dsn: str) -> N
     batch = big("LOST", 0)
 
     async def run() -> sink_postgres.PostgresSink:
-        sink = sink_postgres.create({"dsn": pg_dsn})
+        sink = sink_postgres.create({"dsn": pg_dsn, "writers": 2})
         await sink.open()
         await sink.write(rows("LOST", 5000, 1, channels=1))  # small: one connection
         await sink.write(big("WARM", 0))  # now both

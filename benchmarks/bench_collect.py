@@ -3,9 +3,12 @@ PostgreSQL >= 250,000/s, issue 24).
 
 PostgreSQL: starts a throwaway server (Debian's ``postgresql``, as ``nobody`` on a loopback
 port, like the tests) and writes batches through :class:`~sondalog.collect.sink_postgres.
-PostgresSink` (binary COPY; a batch with stored rows through a temporary table and
-``INSERT ... ON CONFLICT DO NOTHING``): first new rows, then the same rows again (all
-duplicates, the cost of an idempotent replay). ``--runs`` fresh databases; best and median.
+PostgresSink` (binary COPY, a batch split between ``--writers`` connections; a batch with
+stored rows through a temporary table and ``INSERT ... ON CONFLICT DO NOTHING``): first new
+rows, then the same rows again (all duplicates, the cost of an idempotent replay). ``--runs``
+fresh databases; best and median. Besides the rate it prints the CPU a reading costs this
+process (formatting, sending) and the server's backends (``/proc``; the server runs here):
+on a shared machine those move less than the rate does.
 
 MQTT: the same readings, a tenth of them, as QoS 1 state messages to a local mosquitto
 (for information; the issue sets no goal for it).
@@ -16,13 +19,15 @@ SQLite: the collector's own store, when its sink module (``sondalog.collect.sink
 Not a test: it prints figures.
 
     .venv/bin/python benchmarks/bench_collect.py [--readings 500000] [--batch 5000] [--runs 3]
-        [--only postgres]
+        [--only postgres] [--writers 1]
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import functools
 import importlib
 import os
 import shutil
@@ -30,6 +35,7 @@ import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 from pathlib import Path
 
@@ -73,18 +79,64 @@ def report(label: str, n: int, seconds: list[float], goal: int = 50_000) -> None
 
 
 async def bench_sink(
-    label: str, sinks: list[Sink], batches: list[list[Reading]], goal: int = 50_000
+    label: str,
+    sinks: list[Sink],
+    batches: list[list[Reading]],
+    goal: int = 50_000,
+    server_cpu: Sequence[Callable[[], float]] = (),
 ) -> None:
-    """Each sink (a fresh store each) takes the batches as new rows, then again."""
+    """Each sink (a fresh store each) takes the batches as new rows, then again.
+
+    ``server_cpu[i]``: the CPU seconds the server has spent on ``sinks[i]`` so far."""
     n = sum(len(b) for b in batches)
     new, again = [], []
-    for sink in sinks:
+    cpu: dict[str, list[tuple[float, float]]] = {"new": [], "again": []}
+    for i, sink in enumerate(sinks):
         await sink.open()
-        new.append(await ingest(sink, batches))
-        again.append(await ingest(sink, batches))
+        spent = server_cpu[i] if server_cpu else float
+        for phase, times in (("new", new), ("again", again)):
+            c0, s0 = time.process_time(), spent()
+            times.append(await ingest(sink, batches))
+            c1, s1 = time.process_time(), spent()
+            cpu[phase].append((c1 - c0, s1 - s0))
         await sink.close()
     report(f"{label}: new rows", n, new, goal)
     report(f"{label}: same rows again (duplicates)", n, again, goal)
+    if server_cpu:
+        for phase, used in cpu.items():
+            client = statistics.median(c for c, _ in used) / n * 1e6
+            server = statistics.median(s for _, s in used) / n * 1e6
+            print(
+                f"  CPU a reading ({phase}, median): this process {client:.2f} us,"
+                f" server {server:.2f} us"
+            )
+
+
+def backends_cpu(dsn: str) -> float:
+    """CPU seconds (user + system) of the server's backends on ``dsn``'s database, from
+    ``/proc`` (the server runs on this machine); this query's own backend left out."""
+    import psycopg
+
+    with psycopg.connect(dsn, autocommit=True) as c:
+        pids = c.execute(
+            "SELECT pid FROM pg_stat_activity"
+            " WHERE datname = current_database() AND pid <> pg_backend_pid()"
+        ).fetchall()
+    total = 0.0
+    for (pid,) in pids:
+        with contextlib.suppress(OSError):
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return total
+
+
+async def bench_postgres(dsns: list[str], writers: int, batches: list[list[Reading]]) -> None:
+    """A sink on each database (a fresh one each run), the CPU of its backends read too."""
+    from sondalog.collect import sink_postgres
+
+    sinks: list[Sink] = [sink_postgres.create({"dsn": d, "writers": writers}) for d in dsns]
+    cpu = [functools.partial(backends_cpu, d) for d in dsns]
+    await bench_sink("PostgreSQL", sinks, batches, goal=250_000, server_cpu=cpu)
 
 
 async def bench_mqtt(sink: Sink, batches: list[list[Reading]]) -> None:
@@ -105,6 +157,7 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=5_000)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--only", choices=("postgres", "mqtt", "sqlite"))
+    ap.add_argument("--writers", type=int, default=1, help="PostgreSQL writer connections")
     args = ap.parse_args()
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     batches = make_batches(args.readings, args.batch)
@@ -116,13 +169,12 @@ def main() -> None:
     elif bindir is None:
         print("PostgreSQL: not installed; skipped")
     else:
-        from sondalog.collect import sink_postgres
-
         server = services.PostgresServer(bindir)
         try:
             server.start()
-            sinks = [sink_postgres.create({"dsn": server.create_db()}) for _ in range(args.runs)]
-            asyncio.run(bench_sink("PostgreSQL", sinks, batches, goal=250_000))
+            dsns = [server.create_db() for _ in range(args.runs)]
+            print(f"PostgreSQL: {args.writers} writer connections")
+            asyncio.run(bench_postgres(dsns, args.writers, batches))
         finally:
             server.destroy()
 

@@ -39,8 +39,10 @@ def keys(dsn: str) -> set[tuple[str, str, int, int]]:
     return {(lg, t.isoformat(timespec="seconds"), cnt, ch) for lg, t, cnt, ch in got}
 
 
-async def write_all(dsn: str, *batches: list[Reading]) -> sink_postgres.PostgresSink:
-    sink = sink_postgres.create({"dsn": dsn})
+async def write_all(
+    dsn: str, *batches: list[Reading], writers: int = 1
+) -> sink_postgres.PostgresSink:
+    sink = sink_postgres.create({"dsn": dsn, "writers": writers})
     await sink.open()
     try:
         for b in batches:
@@ -80,11 +82,27 @@ def test_migration_plan() -> None:
         ({"dsn": "host=x port"}, "not a valid connection string"),
         ({"dsn": "host=x", "timescaledb": "maybe"}, "timescaledb: must be one of auto, on, off"),
         ({"dsn": "host=x", "connect_timeout": 0}, "connect_timeout"),
+        ({"dsn": "host=x", "writers": 0}, "writers: .*from 1 to 8"),
+        ({"dsn": "host=x", "writers": 9}, "writers: .*from 1 to 8"),
     ],
 )
 def test_bad_config_is_refused(table: dict[str, object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         sink_postgres.create(table)
+
+
+def test_split_by_logger_when_that_shares_out_well() -> None:
+    four = [r for i in range(10) for lg in "ABCD" for r in rows(lg, i, 1, channels=2)]
+    parts = sink_postgres.split(four, 2)
+    assert [sorted({r.logger for r in p}) for p in parts] == [["A", "C"], ["B", "D"]]
+    assert sorted(r.key for p in parts for r in p) == sorted(r.key for r in four)
+    assert [r for r in parts[0] if r.logger == "A"] == [r for r in four if r.logger == "A"]
+    # one logger, or one with most of the batch: slices in the batch's order
+    one = rows("A", 0, 10)
+    assert sink_postgres.split(one, 2) == [one[:15], one[15:]]
+    lopsided = [*rows("A", 0, 30), *rows("B", 0, 2)]
+    assert sink_postgres.split(lopsided, 2) == [lopsided[:48], lopsided[48:]]
+    assert sink_postgres.split(four, 1) == [four]
 
 
 # -- against the server --------------------------------------------------------------------
@@ -223,3 +241,107 @@ def test_both_write_paths_store_the_same_columns(pg_dsn: str) -> None:
     assert len(stored["FAST"]) == len(fast)
     assert stored["FAST"] == stored["SLOW"]
     assert ("a\\b\tc\ndé", None) in {(row[5], row[4]) for row in stored["FAST"]}
+
+
+# -- a large batch split between the writer connections ----------------------------------
+
+
+def big(logger: str, first: int) -> list[Reading]:
+    """More readings than :data:`sink_postgres.SPLIT_AT`: split between the writers."""
+    out = rows(logger, first, sink_postgres.SPLIT_AT // 4 + 1, channels=4)
+    assert len(out) >= sink_postgres.SPLIT_AT
+    return out
+
+
+def backends(dsn: str) -> int:
+    """The sink's connections to the database (besides this one)."""
+    with psycopg.connect(dsn) as c:
+        row = c.execute(
+            "SELECT count(*) FROM pg_stat_activity"
+            " WHERE datname = current_database() AND pid <> pg_backend_pid()"
+        ).fetchone()
+        assert row is not None
+        return int(row[0])
+
+
+def test_large_batch_is_split_and_stored_once(pg_dsn: str) -> None:
+    first = [*big("BIG", 0), *big("OTHER", 0)]  # split by logger
+    second = big("BIG", 300)  # one logger, in slices; it overlaps the first
+    seen: list[int] = []
+
+    async def run() -> sink_postgres.PostgresSink:
+        sink = sink_postgres.create({"dsn": pg_dsn, "writers": 2})
+        await sink.open()
+        await sink.write(first)
+        seen.append(backends(pg_dsn))
+        await sink.write(first)  # a replay: every row stored already
+        await sink.write(second)
+        await sink.write(rows("SMALL", 0, 5))
+        await sink.close()
+        return sink
+
+    sink = asyncio.run(run())
+    assert seen == [2]  # both writers took a part
+    expected = {r.key for r in first + second + rows("SMALL", 0, 5)}
+    assert sink.inserted == len(expected)
+    assert count(pg_dsn) == len(expected)
+    assert keys(pg_dsn) == expected
+
+
+def test_one_writer_by_default_does_not_split(pg_dsn: str) -> None:
+    async def run() -> None:
+        sink = sink_postgres.create({"dsn": pg_dsn})
+        await sink.open()
+        await sink.write(big("ONE", 0))
+        assert backends(pg_dsn) == 1
+        await sink.close()
+
+    asyncio.run(run())
+    assert count(pg_dsn) == len(big("ONE", 0))
+
+
+def test_parts_holding_each_others_rows_do_not_fail(pg_dsn: str) -> None:
+    """The first part begins with row X and ends with row Y, the second begins with Y and
+    ends with X: each waits for the other at its end (a deadlock the server breaks). The
+    part it rolls back is written again once the other is committed: each row once."""
+    body = big("DL", 10)
+    half = len(body) // 2
+    x, y = rows("DL", 0, 1, channels=1)[0], rows("DL", 1, 1, channels=1)[0]
+    batch = [x, *body[:half], y, y, *body[half:], x]
+    assert len(batch) % 2 == 0 and batch[len(batch) // 2] == y  # the parts' first rows
+    sink = asyncio.run(write_all(pg_dsn, batch, writers=2))
+    assert sink.inserted == len(body) + 2
+    assert keys(pg_dsn) == {r.key for r in [x, y, *body]}
+
+
+def test_a_part_lost_with_its_connection_is_written_again_once(pg_dsn: str) -> None:
+    """The server ends the second writer's connection: the first part is committed, the
+    write raises :class:`SinkUnavailable` (the batch stays in the buffer), and writing the
+    batch again stores the second part and skips the first."""
+    batch = big("LOST", 0)
+
+    async def run() -> sink_postgres.PostgresSink:
+        sink = sink_postgres.create({"dsn": pg_dsn, "writers": 2})
+        await sink.open()
+        await sink.write(rows("LOST", 5000, 1, channels=1))  # small: one connection
+        await sink.write(big("WARM", 0))  # now both
+        with psycopg.connect(pg_dsn, autocommit=True) as c:
+            pids = [
+                pid
+                for (pid,) in c.execute(
+                    "SELECT pid FROM pg_stat_activity WHERE datname = current_database()"
+                    " AND pid <> pg_backend_pid() ORDER BY backend_start"
+                ).fetchall()
+            ]
+            assert len(pids) == 2
+            c.execute("SELECT pg_terminate_backend(%s)", (pids[1],))
+        with pytest.raises(SinkUnavailable):
+            await sink.write(batch)
+        assert 0 < count(pg_dsn, "logger = 'LOST'") - 1 < len(batch)  # half of it is there
+        await sink.write(batch)
+        await sink.close()
+        return sink
+
+    sink = asyncio.run(run())
+    assert count(pg_dsn, "logger = 'LOST'") == len(batch) + 1
+    assert sink.inserted == len(batch) + 1 + len(big("WARM", 0))

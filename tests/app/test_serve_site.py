@@ -32,6 +32,7 @@ def _serve(*args: str) -> subprocess.Popen[bytes]:
     return subprocess.Popen(
         [sys.executable, "-m", "sondalog", "serve", *args],
         stdout=subprocess.PIPE,
+        bufsize=0,  # (select sees each line: a burst of them is not buffered away)
         stderr=subprocess.PIPE,
     )
 

@@ -166,6 +166,7 @@ def test_served_state_is_private(tmp_path: Path, umask: int) -> None:
     proc = subprocess.Popen(
         [sys.executable, "-m", "sondalog", "serve", str(_site(tmp_path)), "--state", str(state)],
         stdout=subprocess.PIPE,
+        bufsize=0,  # (select sees each line: a burst of them is not buffered away)
         stderr=subprocess.PIPE,
     )
     try:

@@ -46,6 +46,7 @@ def fleet(tmp: Path) -> Iterator[dict[str, str]]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(tmp / "state")],
         stdout=subprocess.PIPE,
+        bufsize=0,  # (select sees each line: a burst of them is not buffered away)
         stderr=(tmp / "fleet.log").open("ab"),
     )
     urls: dict[str, str] = {}

@@ -5,6 +5,7 @@ checks are in :mod:`sondalog.client.ala1_codec`."""
 from __future__ import annotations
 
 import asyncio
+import functools
 from collections.abc import Iterable
 from types import TracebackType
 from typing import cast
@@ -78,6 +79,13 @@ class _Stream(asyncio.Protocol):
             self._waiter = None
 
 
+@functools.lru_cache(maxsize=1024)
+def _plain(text: str) -> Request:
+    """The request of a command line without headers, its line worked out once: a collector
+    sends the same few lines at every contact."""
+    return Request(text)
+
+
 class Ala1Client:
     """An asyncio connection to one ALA1 logger. Commands run one at a time."""
 
@@ -136,7 +144,7 @@ class Ala1Client:
         discarded first.
         """
         stream = self._require_stream()
-        reqs = [r if isinstance(r, Request) else Request(r) for r in requests]
+        reqs = [r if isinstance(r, Request) else _plain(r) for r in requests]
         payload = "".join(r.line() + "\r" for r in reqs).encode("latin-1")
         async with self._lock:
             stream.buffer.clear()

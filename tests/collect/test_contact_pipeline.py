@@ -21,7 +21,8 @@ from hypothesis import strategies as st
 from served_logger import Served, sampling_logger
 
 from sondalog.client import Ala1Client
-from sondalog.client.download import Download
+from sondalog.client.ala1_codec import MAX_LINE
+from sondalog.client.download import _HEAD, Download, _chained, _names
 from sondalog.collect.config import CollectorConfig, SourceConfig
 from sondalog.collect.readings import rows_to_readings
 from sondalog.collect.runner import Collector
@@ -68,7 +69,7 @@ ROW = st.one_of(
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(
-    channels=st.lists(CHANNEL, min_size=1, max_size=6),
+    channels=st.lists(CHANNEL, min_size=1, max_size=12),  # names in up to three lines
     rows=st.lists(ROW, max_size=25),
     cursor=st.none() | st.integers(0, 30),
     per=st.sampled_from([1, 2, 3, 7, 20]),
@@ -105,7 +106,7 @@ def test_pipelined_contact_reads_what_the_step_by_step_path_reads(
     after = None
     if cursor is not None and record:
         after = record[min(cursor, len(record) - 1)].split(",")[0]
-    last = {"right": count, "wrong": count % 6 + 1, "unknown": None}[guess]
+    last = {"right": count, "wrong": count % 12 + 1, "unknown": None}[guess]
     old_info, old_answers, old_chunks = asyncio.run(stepwise(logger.url, after, per))
     new_info, new_answers, new_chunks = asyncio.run(pipelined(logger.url, after, per, last))
     assert (new_info.snumber, new_info.channels) == (old_info.snumber, old_info.channels)
@@ -182,3 +183,13 @@ def test_a_stamp_is_read_as_strptime_reads_it(text: str) -> None:
     except ValueError:
         got = ValueError
     assert got == expected
+
+
+def test_the_identification_is_chained_into_lines_the_logger_keeps() -> None:
+    """Every chained line fits the 120 characters a module keeps (§3.4.1) and the lines hold
+    the identification's commands in order, the head alone in the first."""
+    for guess in range(100):
+        lines = _chained(guess)
+        assert all(len(line) <= MAX_LINE for line in lines)
+        assert lines[0] == " ".join(_HEAD)
+        assert " ".join(lines[1:]) == " ".join(_names(guess))

@@ -5,6 +5,7 @@ checks are in :mod:`sondalog.client.ala1_codec`."""
 from __future__ import annotations
 
 import asyncio
+import functools
 from collections.abc import Iterable
 from types import TracebackType
 from typing import cast
@@ -29,12 +30,13 @@ __all__ = ["Ala1Client", "Client"]
 
 
 class _Stream(asyncio.Protocol):
-    """Received bytes, split into lines on demand."""
+    """Received bytes, split into lines on demand. One reader waits at a time (the client's
+    lock): a bare future woken by the bytes or by a timer, not a task per wait."""
 
     def __init__(self) -> None:
         self.buffer = bytearray()
         self.closed = False
-        self._changed = asyncio.Event()
+        self._waiter: asyncio.Future[bool] | None = None
         self.transport: asyncio.Transport | None = None
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
@@ -43,11 +45,16 @@ class _Stream(asyncio.Protocol):
 
     def data_received(self, data: bytes) -> None:
         self.buffer += data
-        self._changed.set()
+        self._wake(True)
 
     def connection_lost(self, exc: Exception | None) -> None:
         self.closed = True
-        self._changed.set()
+        self._wake(True)
+
+    def _wake(self, value: bool) -> None:
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(value)
 
     def take_line(self) -> bytes | None:
         end = self.buffer.find(b"\n")
@@ -59,14 +66,24 @@ class _Stream(asyncio.Protocol):
 
     async def wait(self, timeout: float) -> bool:
         """Wait for more bytes (or the close); False on timeout."""
-        self._changed.clear()
         if self.closed:
             return False
+        loop = asyncio.get_running_loop()
+        waiter: asyncio.Future[bool] = loop.create_future()
+        self._waiter = waiter
+        timer = loop.call_later(timeout, self._wake, False)
         try:
-            await asyncio.wait_for(self._changed.wait(), timeout)
-        except TimeoutError:
-            return False
-        return True
+            return await waiter
+        finally:
+            timer.cancel()
+            self._waiter = None
+
+
+@functools.lru_cache(maxsize=1024)
+def _plain(text: str) -> Request:
+    """The request of a command line without headers, its line worked out once: a collector
+    sends the same few lines at every contact."""
+    return Request(text)
 
 
 class Ala1Client:
@@ -127,7 +144,7 @@ class Ala1Client:
         discarded first.
         """
         stream = self._require_stream()
-        reqs = [r if isinstance(r, Request) else Request(r) for r in requests]
+        reqs = [r if isinstance(r, Request) else _plain(r) for r in requests]
         payload = "".join(r.line() + "\r" for r in reqs).encode("latin-1")
         async with self._lock:
             stream.buffer.clear()

@@ -28,6 +28,7 @@ step path, so both store the same rows.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass, field
@@ -36,6 +37,7 @@ from zoneinfo import ZoneInfo
 
 from sondalog.client.ala1 import Ala1Client
 from sondalog.client.ala1_codec import (
+    MAX_LINE,
     ChecksumError,
     IncompleteAnswer,
     NoAnswer,
@@ -173,33 +175,31 @@ class Download:
         logger's silence and is raised as it is."""
         guess = channels if channels is not None and 1 <= channels <= 99 else 0
         first = self._command(self.rows_per_chunk)
-        requests: list[Request | str] = [*_HEAD, *_names(guess), *extra]
-        requests.append(Request(first, crcsum=True))
+        lines = _chained(guess)
+        requests: list[Request | str] = [*lines, *extra, Request(first, crcsum=True)]
         before = self.clock()
         try:
             answers = await self.client.pipeline(requests)
+            head = _unchain(lines[:1], answers[:1], _HEAD)
+            count = _count(head)
+            names = None
+            if count == guess:
+                names = _unchain(lines[1:], answers[1 : len(lines)], _names(guess))
         except (ChecksumError, IncompleteAnswer, NoAnswer) as exc:
-            if isinstance(exc, NoAnswer) and repr(_HEAD[0]) in str(exc):
+            if isinstance(exc, NoAnswer) and repr(lines[0]) in str(exc):
                 raise
             info = await self.identify()
             return info, await self.client.pipeline(extra) if extra else []
         after = self.clock()
-        head, rest = answers[:3], answers[3:]
-        for command, answer in zip(_HEAD, head, strict=True):
-            _refused(command, answer)
-        count = _count(head)
-        if count == guess:
-            names = rest[:guess]
-            for command, answer in zip(_names(guess), names, strict=True):
-                _refused(command, answer)
-        else:
+        if names is None:
             names = await self._ask(_names(count))
-        chunk = rest[guess:][-1]
+        rest = answers[len(lines) :]
+        chunk = rest[-1]
         if chunk.error:
             raise DownloadError(f"the logger refused {first!r}")
         total = sum(len(a.raw) for a in answers) or 1
         self._prefetched = (first, chunk, max(after - before, 1e-6) * len(chunk.raw) / total)
-        return self._identified(head, names, before, after), list(rest[guess:-1])
+        return self._identified(head, names, before, after), list(rest[:-1])
 
     def _identified(
         self, head: list[Response], names: list[Response], before: float, after: float
@@ -314,7 +314,48 @@ _HEAD = ("read i snumber", "read date", "read channel max number")
 
 def _names(count: int) -> list[str]:
     """The commands reading the names of channels 1..``count`` (§6.5.3)."""
-    return [f"read channel {n} name" for n in range(1, count + 1)]
+    return list(_NAMES[:count]) if count <= len(_NAMES) else [_name(n) for n in range(1, count + 1)]
+
+
+def _name(n: int) -> str:
+    return f"read channel {n} name"
+
+
+_NAMES = tuple(_name(n) for n in range(1, 100))
+
+
+@functools.cache
+def _chained(guess: int) -> tuple[str, ...]:
+    """The identification as chained lines (§7: a chained line answers every command's data
+    line, then one ``OK``): :data:`_HEAD` in the first, the names of ``guess`` channels in
+    lines of at most :data:`MAX_LINE` characters after it (a wrong guess refuses only those)."""
+    lines: list[list[str]] = [list(_HEAD), []]
+    for command in _names(guess):
+        if lines[-1] and len(" ".join([*lines[-1], command])) > MAX_LINE:
+            lines.append([])
+        lines[-1].append(command)
+    return tuple(" ".join(line) for line in lines if line)
+
+
+def _unchain(
+    lines: Sequence[str], answers: Sequence[Response], commands: Sequence[str]
+) -> list[Response]:
+    """The answers of chained ``lines`` of ``commands``, one per command (each answers one
+    data line); a refused line is :class:`DownloadError`, another count of data lines
+    :class:`IncompleteAnswer` (the step by step path then reads)."""
+    out: list[Response] = []
+    for line, answer in zip(lines, answers, strict=True):
+        _refused(line, answer)
+        mine = commands[len(out) : len(out) + line.count("read ")]
+        if len(answer.lines) != len(mine):
+            raise IncompleteAnswer(f"{line!r} answered {len(answer.lines)} lines", answer.raw)
+        out.extend(
+            Response(c, (text,), answer.status, b"")
+            for c, text in zip(mine, answer.lines, strict=True)
+        )
+    if len(out) != len(commands):
+        raise IncompleteAnswer(f"{len(out)} answers for {len(commands)} commands", b"")
+    return out
 
 
 def _refused(command: str, answer: Response) -> None:

@@ -38,10 +38,11 @@ class LoggerSource:
     """An ALA1 logger: incremental download after the store's cursor (§6.6.1.1).
 
     A contact is one pipelined write in the usual case (:meth:`Download.contact`: the
-    identification, ``read record status``, the channel types and formats and the first chunk
-    together), and at most three store transactions: the runner's ``contacting``, each chunk
-    with the source's state, and the runner's end of contact. The ``channels`` rows are
-    written when they change (and at the first contact of this process).
+    identification as chained lines, ``read record status``, the channel types and formats and
+    the first chunk together). Its store writes (each chunk with the source's state, the
+    runner's end of contact, ``contacting`` for a contact longer than a second) wait for the
+    store's write-behind flush: one transaction for the contacts of a second. The ``channels``
+    rows are written when they change (and at the first contact of this process).
     """
 
     kind = "logger"

@@ -9,6 +9,13 @@
 - ``meta.schema_version`` tells which schema the file has; opening an older file migrates it,
   a newer one is refused.
 
+- **Write-behind** (:attr:`SqliteStore.write_behind`, the collector's): readings, source
+  state and contact events wait in memory and are committed together, one transaction per
+  ``write_behind`` seconds, not three a contact; a chunk's readings and its cursor still go in
+  the same transaction, so a crash loses at most those seconds of contacts, which the next
+  start downloads again. Whoever uses :attr:`SqliteStore.db` (or reads events) first gets
+  everything pending committed: nothing outside this class sees the store out of order.
+
 The store is also the ``sqlite`` sink (:mod:`sondalog.collect.sink_sqlite`), so it can take
 batches like any other sink. Its ``[sqlite]`` table is read by :func:`parse_store`, for the
 collector's own store and the sink alike.
@@ -16,7 +23,10 @@ collector's own store and the sink alike.
 
 from __future__ import annotations
 
+import asyncio
+import logging
 import sqlite3
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime
@@ -32,6 +42,8 @@ from sondalog.collect.schema import (
 )
 from sondalog.config import Table, of
 from sondalog.io.private import connect_private, private_parents
+
+log = logging.getLogger(__name__)
 
 _INSERT = (
     "INSERT OR IGNORE INTO readings "
@@ -74,8 +86,15 @@ def row_of(r: Reading) -> tuple[Any, ...]:
     )
 
 
+_NOW: list[Any] = [-1, ""]  # the second of the last now_text() and its text
+
+
 def now_text() -> str:
-    return datetime.now().astimezone().isoformat(timespec="seconds")
+    """The local time to the second, ISO 8601 with its offset (worked out once a second)."""
+    second = int(time.time())
+    if second != _NOW[0]:
+        _NOW[0], _NOW[1] = second, datetime.fromtimestamp(second).astimezone().isoformat()
+    return str(_NOW[1])
 
 
 class SqliteStore:
@@ -87,6 +106,13 @@ class SqliteStore:
         self.path = Path(path)
         self.keep_readings = readings
         self._db: sqlite3.Connection | None = None
+        #: Seconds the writes of contacts wait to be committed together (None: at once).
+        self.write_behind: float | None = None
+        self._readings: list[tuple[Any, ...]] = []
+        self._states: dict[str, dict[str, Any]] = {}
+        self._events: list[tuple[str, str, str, str]] = []
+        self._flush: asyncio.TimerHandle | None = None
+        self._known: dict[str, dict[str, Any]] = {}  # sources' rows as committed or pending
 
     # -- the Sink protocol ------------------------------------------------------------------
     async def open(self) -> None:
@@ -109,9 +135,68 @@ class SqliteStore:
 
     @property
     def db(self) -> sqlite3.Connection:
+        """The connection, with every pending write committed."""
+        if self._flush is not None or self._states:
+            self.flush()
+        return self._conn()
+
+    def _conn(self) -> sqlite3.Connection:
         if self._db is None:
             raise StoreError("the store is not open")
         return self._db
+
+    @property
+    def pending(self) -> bool:
+        return bool(self._readings or self._states or self._events)
+
+    def flush(self) -> None:
+        """Commit what waits (readings, source states, events) in one transaction; on an
+        error it stays pending for the next flush and the error is raised."""
+        if self._flush is not None:
+            self._flush.cancel()
+            self._flush = None
+        if not self.pending:
+            return
+        db = self._conn()
+        with db:
+            if self._readings:
+                db.executemany(_INSERT, self._readings)
+            for name, state in self._states.items():
+                self._update(name, state)
+            if self._events:
+                db.executemany(
+                    "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
+                    self._events,
+                )
+        self._readings, self._states, self._events = [], {}, []
+
+    def _flush_due(self) -> None:
+        self._flush = None
+        try:
+            self.flush()
+        except sqlite3.Error as exc:  # kept pending: the next flush tries again
+            log.warning("store %s: %s; the writes wait for the next try", self.path, exc)
+            self._later()
+
+    def _later(self) -> bool:
+        """Keep the writes for later (True), or False: write them now."""
+        if self.write_behind is None:
+            return False
+        if self._flush is None:
+            try:
+                loop = asyncio.get_running_loop()
+            except RuntimeError:
+                return False
+            self._flush = loop.call_later(self.write_behind, self._flush_due)
+        return True
+
+    def _pend(self, name: str, state: dict[str, Any]) -> None:
+        if set(state) - set(_STATE_COLUMNS):
+            self._update(name, state)  # raises ValueError
+        self._states.setdefault(name, {}).update(state)
+        known = self._known.get(name)
+        if known is not None:
+            known.update(state)
 
     def open_sync(self) -> SqliteStore:
         if self._db is not None:
@@ -195,26 +280,35 @@ class SqliteStore:
 
     def close_sync(self) -> None:
         if self._db is not None:
-            self._db.close()
+            try:
+                self.flush()
+            finally:
+                self._db.close()
             self._db = None
 
     def _insert(self, batch: Iterable[Reading]) -> None:
         if self.keep_readings:
-            self.db.executemany(_INSERT, [row_of(r) for r in batch])
+            self._conn().executemany(_INSERT, [row_of(r) for r in batch])
 
     def commit_chunk(
         self, source: str, batch: Sequence[Reading], cursor: str | None, **state: Any
     ) -> None:
         """Readings and the source's new cursor (and state columns) in one transaction."""
-        with self.db:
+        if cursor is not None:
+            state["cursor"] = cursor
+        if self._later():
+            self._pend(source, state)
+            if self.keep_readings:
+                self._readings.extend(row_of(r) for r in batch)
+            return
+        with self._conn():
             self._insert(batch)
-            if cursor is not None:
-                state["cursor"] = cursor
             self._update(source, state)
 
     # -- sources and events -----------------------------------------------------------------
     def add_source(self, name: str, url: str, kind: str) -> None:
         """Register a source (kept with its cursor if it exists; the URL may change)."""
+        self._known.pop(name, None)
         with self.db:
             self.db.execute(
                 "INSERT INTO sources (name, url, kind) VALUES (?, ?, ?) "
@@ -223,25 +317,40 @@ class SqliteStore:
             )
 
     def source(self, name: str) -> dict[str, Any] | None:
-        cur = self.db.execute(
-            f"SELECT {', '.join(_STATE_COLUMNS)} FROM sources WHERE name = ?", (name,)
-        )
-        row = cur.fetchone()
-        return None if row is None else dict(zip(_STATE_COLUMNS, row, strict=True))
+        """The source's state columns (pending writes included); read once, then kept."""
+        known = self._known.get(name)
+        if known is None:
+            cur = self._conn().execute(
+                f"SELECT {', '.join(_STATE_COLUMNS)} FROM sources WHERE name = ?", (name,)
+            )
+            row = cur.fetchone()
+            if row is None:
+                return None
+            known = dict(zip(_STATE_COLUMNS, row, strict=True))
+            known.update(self._states.get(name, {}))
+            self._known[name] = known
+        return dict(known)
 
     def cursor(self, name: str) -> str | None:
         row = self.source(name)
         return None if row is None else row["cursor"]
 
     def set_state(self, name: str, **state: Any) -> None:
-        with self.db:
+        if self._later():
+            self._pend(name, state)
+            return
+        with self._conn():
             self._update(name, state)
 
     def finish(self, name: str, kind: str, text: str, **state: Any) -> None:
         """The end of a contact: the source's state and its event in one transaction."""
-        with self.db:
+        if self._later():
+            self._pend(name, state)
+            self._events.append((now_text(), name, kind, text))
+            return
+        with self._conn():
             self._update(name, state)
-            self.db.execute(
+            self._conn().execute(
                 "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
                 (now_text(), name, kind, text),
             )
@@ -252,8 +361,13 @@ class SqliteStore:
         unknown = set(state) - set(_STATE_COLUMNS)
         if unknown:
             raise ValueError(f"unknown source columns {sorted(unknown)}")
+        known = self._known.get(name)
+        if known is not None:
+            known.update(state)
         assignments = ", ".join(f"{column} = ?" for column in state)
-        self.db.execute(f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name))
+        self._conn().execute(
+            f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name)
+        )
 
     def set_channels(
         self,

@@ -14,7 +14,7 @@ Its :class:`AlarmRecord` is what the store keeps, so a restart neither forgets n
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from datetime import UTC
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
@@ -209,9 +209,12 @@ _record_values = attrgetter(*(f.name for f in fields(AlarmRecord)))
 
 @dataclass(frozen=True, slots=True)
 class StateChanges:
-    """Rows of ``alarm_states`` to write (:meth:`~.evaluate.Alarms.changes`): ``states``
+    """Rows to write (:meth:`~.evaluate.Alarms.changes`): of ``alarm_states``, ``states``
     whole, ``counters`` only in their rule's progress columns (``count``, ``last_value``,
-    ``last_time``, ``last_counter``; the rest of the row is as the store has it)."""
+    ``last_time``, ``last_counter``; the rest of the row is as the store has it); of
+    ``alarm_progress``, ``progress``: (logger, progress) of each logger whose reading alarms
+    moved (:mod:`.progress`), in the order of the logger."""
 
     states: list[tuple[Any, ...]]
     counters: list[tuple[Any, ...]]
+    progress: list[tuple[str, bytes]] = field(default_factory=list)

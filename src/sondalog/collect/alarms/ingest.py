@@ -8,9 +8,10 @@ changed, the same states (tests/collect/alarms/test_alarm_ingest.py checks it on
 and readings). What makes it fast:
 
 - each (source, logger, channel, name) is a :class:`Channel`: its matching rules (matched
-  once for every logger they match alike), compiled into closures
-  (:func:`~.kinds.compile_check`) when a reading first needs them; a row's time is computed
-  once for its channels;
+  once for every logger they match alike), each with its alarm; a rule is compiled into
+  one function (:func:`~.kinds.compile_check`) for all its alarms, once, so a restart
+  compiles the rules, not every (logger, channel); a row's time is computed once for its
+  channels;
 - a channel whose rules are all thresholds (``for`` >= 1) and whose alarms are all off
   with no reading counted towards a raise is *quiet*: a reading on the good side of every
   limit changes nothing but each alarm's last reading, and that last reading is the newest
@@ -41,16 +42,15 @@ class Channel:
     """One channel's compiled rules, its alarms, and the quiet readings not settled yet."""
 
     name: str | None
-    rules: tuple[Rule, ...]
     tracks: tuple[Track, ...]
+    #: Each rule's compiled check with the rule's alarm of this channel.
+    pairs: tuple[tuple[Check, Track], ...]
     #: Every rule a threshold with ``for`` >= 1 (and no alarm shared with another channel).
     thresholds: bool
     #: Quiet readings are within [lo, hi]: at or above every ``below``, at or below every
     #: ``above`` limit.
     lo: float = -inf
     hi: float = inf
-    #: The rules compiled, when a reading first needs them (a quiet channel never does).
-    checks: tuple[Check, ...] | None = None
     quiet: bool = False
     #: The :class:`Ingest` call ``quiet`` was checked in.
     epoch: int = -1
@@ -87,12 +87,15 @@ class _Rules:
     hi: float
     #: The rules' names (an alarm is found by (rule name, subject)).
     names: tuple[str, ...]
+    #: The rules compiled (:func:`~.kinds.compile_check`).
+    checks: tuple[Check, ...]
 
     @classmethod
-    def of(cls, rules: tuple[Rule, ...]) -> _Rules:
+    def of(cls, rules: tuple[Rule, ...], checks: tuple[Check, ...]) -> _Rules:
         return cls(
             rules,
             names=tuple(r.name for r in rules),
+            checks=checks,
             thresholds=bool(rules) and all(r.kind == "threshold" and r.count >= 1 for r in rules),
             lo=max((r.limit for r in rules if r.direction == "below"), default=-inf),
             hi=min((r.limit for r in rules if r.direction == "above"), default=inf),
@@ -136,6 +139,8 @@ class Ingest:
         self._logger_rules: dict[tuple[str, str], _RuleSet] = {}
         self._rule_sets: dict[tuple[int, ...], _RuleSet] = {}
         self._channel_names: dict[tuple[str, str | None], bool] = {}
+        #: Each rule compiled (by name), once for all its alarms.
+        self._checks: dict[str, Check] = {}
 
     def run(self, source: str, readings: Iterable[Reading]) -> list[Transition]:
         """The transitions of ``readings`` (of ``source``), in order."""
@@ -178,11 +183,8 @@ class Ingest:
                     continue
                 if ch.newest is not None:
                     ch.settle(progress)
-                checks = ch.checks
-                if checks is None:
-                    checks = ch.checks = self._compile(ch)
-                for check in checks:
-                    got = check(t, c, v)
+                for check, track in ch.pairs:
+                    got = check(track, t, c, v)
                     if got:
                         out += got
                 if ch.thresholds:
@@ -206,7 +208,14 @@ class Ingest:
         for rule, rule_name in zip(rules.rules, rules.names, strict=True):
             track = known((rule_name, subject))
             tracks.append(make(rule, subject) if track is None else track)  # None: a new alarm
-        found = Channel(name, rules.rules, tuple(tracks), rules.thresholds, rules.lo, rules.hi)
+        found = Channel(
+            name,
+            tuple(tracks),
+            tuple(zip(rules.checks, tracks, strict=True)),
+            rules.thresholds,
+            rules.lo,
+            rules.hi,
+        )
         self._channels[key] = found
         other = self._subjects.setdefault(subject, found)
         if other is not found:  # renamed, or read by two sources: the alarms are shared
@@ -215,12 +224,11 @@ class Ingest:
                 ch.thresholds = ch.quiet = False
         return found
 
-    def _compile(self, channel: Channel) -> tuple[Check, ...]:
-        progress, apply = self._progress, self._apply
-        return tuple(
-            compile_check(r, track, progress, apply)
-            for r, track in zip(channel.rules, channel.tracks, strict=True)
-        )
+    def _compile(self, rule: Rule) -> Check:
+        check = self._checks.get(rule.name)
+        if check is None:
+            check = self._checks[rule.name] = compile_check(rule, self._progress, self._apply)
+        return check
 
     def _rules_of(self, source: str, logger: str, channel: int, name: str | None) -> _Rules:
         found = self._logger_rules.get((source, logger))
@@ -232,8 +240,9 @@ class Ingest:
             self._logger_rules[(source, logger)] = found
         rules = found.by_channel.get((channel, name))
         if rules is None:
+            matched = tuple(r for r in found.rules if self._channel_matches(r, channel, name))
             rules = found.by_channel[(channel, name)] = _Rules.of(
-                tuple(r for r in found.rules if self._channel_matches(r, channel, name))
+                matched, tuple(self._compile(r) for r in matched)
             )
         return rules
 

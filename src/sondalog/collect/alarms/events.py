@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field, fields
-from datetime import UTC
+from datetime import UTC, datetime, timedelta
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -68,8 +68,17 @@ class Sample:
 
 def reading_time(reading: Reading) -> float:
     """A reading's time in seconds since the epoch: its UTC time when the logger's zone is
-    known, else its own clock read as UTC."""
-    return (reading.utc or reading.time.replace(tzinfo=UTC)).timestamp()
+    known, else its own clock read as UTC. The same number as ``.timestamp()`` (both divide
+    the microseconds since the epoch by a million), without a datetime made each time."""
+    utc = reading.utc
+    if utc is not None:
+        return (utc - _EPOCH) / _SECOND
+    return (reading.time - _NAIVE_EPOCH) / _SECOND
+
+
+_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+_NAIVE_EPOCH = datetime(1970, 1, 1)
+_SECOND = timedelta(seconds=1)
 
 
 @dataclass(frozen=True, slots=True)

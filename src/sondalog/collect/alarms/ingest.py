@@ -42,9 +42,10 @@ class Channel:
     """One channel's compiled rules, its alarms, and the quiet readings not settled yet."""
 
     name: str | None
+    #: The rules' alarms of this channel, and the rules compiled (shared by every channel
+    #: with the same rules: nothing made per channel but the alarms' tuple).
     tracks: tuple[Track, ...]
-    #: Each rule's compiled check with the rule's alarm of this channel.
-    pairs: tuple[tuple[Check, Track], ...]
+    checks: tuple[Check, ...]
     #: Every rule a threshold with ``for`` >= 1 (and no alarm shared with another channel).
     thresholds: bool
     #: Quiet readings are within [lo, hi]: at or above every ``below``, at or below every
@@ -183,7 +184,7 @@ class Ingest:
                     continue
                 if ch.newest is not None:
                     ch.settle(progress)
-                for check, track in ch.pairs:
+                for check, track in zip(ch.checks, ch.tracks, strict=True):
                     got = check(track, t, c, v)
                     if got:
                         out += got
@@ -201,21 +202,17 @@ class Ingest:
         found = self._channels.get(key)
         if found is not None:
             return found
-        rules = self._rules_of(source, logger, channel, name)
+        rule_set = self._logger_rules.get((source, logger))
+        if rule_set is None:
+            rule_set = self._rule_set(source, logger)
+        rules = rule_set.by_channel.get((channel, name))
+        if rules is None:
+            rules = self._rules_of(rule_set, channel, name)
         subject = f"{logger}/{channel}"
         known, make = self._tracks.get, self._track
-        tracks: list[Track] = []
-        for rule, rule_name in zip(rules.rules, rules.names, strict=True):
-            track = known((rule_name, subject))
-            tracks.append(make(rule, subject) if track is None else track)  # None: a new alarm
-        found = Channel(
-            name,
-            tuple(tracks),
-            tuple(zip(rules.checks, tracks, strict=True)),
-            rules.thresholds,
-            rules.lo,
-            rules.hi,
-        )
+        pairs = zip(rules.rules, rules.names, strict=True)
+        tracks = tuple([known((n, subject)) or make(r, subject) for r, n in pairs])  # make: new
+        found = Channel(name, tracks, rules.checks, rules.thresholds, rules.lo, rules.hi)
         self._channels[key] = found
         other = self._subjects.setdefault(subject, found)
         if other is not found:  # renamed, or read by two sources: the alarms are shared
@@ -230,20 +227,21 @@ class Ingest:
             check = self._checks[rule.name] = compile_check(rule, self._progress, self._apply)
         return check
 
-    def _rules_of(self, source: str, logger: str, channel: int, name: str | None) -> _Rules:
-        found = self._logger_rules.get((source, logger))
+    def _rule_set(self, source: str, logger: str) -> _RuleSet:
+        """The rules that watch ``logger`` of ``source`` (one set for all loggers alike)."""
+        which = tuple(i for i, r in enumerate(self._rules) if r.matches(source, logger))
+        found = self._rule_sets.get(which)
         if found is None:
-            which = tuple(i for i, r in enumerate(self._rules) if r.matches(source, logger))
-            found = self._rule_sets.get(which)
-            if found is None:
-                found = self._rule_sets[which] = _RuleSet(tuple(self._rules[i] for i in which))
-            self._logger_rules[(source, logger)] = found
-        rules = found.by_channel.get((channel, name))
-        if rules is None:
-            matched = tuple(r for r in found.rules if self._channel_matches(r, channel, name))
-            rules = found.by_channel[(channel, name)] = _Rules.of(
-                matched, tuple(self._compile(r) for r in matched)
-            )
+            found = self._rule_sets[which] = _RuleSet(tuple(self._rules[i] for i in which))
+        self._logger_rules[(source, logger)] = found
+        return found
+
+    def _rules_of(self, rule_set: _RuleSet, channel: int, name: str | None) -> _Rules:
+        """The rules of ``rule_set`` on (``channel``, ``name``), matched and compiled."""
+        matched = tuple(r for r in rule_set.rules if self._channel_matches(r, channel, name))
+        rules = rule_set.by_channel[(channel, name)] = _Rules.of(
+            matched, tuple(self._compile(r) for r in matched)
+        )
         return rules
 
     def _channel_matches(self, rule: Rule, channel: int, name: str | None) -> bool:

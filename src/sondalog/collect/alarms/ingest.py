@@ -42,10 +42,10 @@ class Channel:
     """One channel's compiled rules, its alarms, and the quiet readings not settled yet."""
 
     name: str | None
-    #: The rules' alarms of this channel, and the rules compiled (shared by every channel
-    #: with the same rules: nothing made per channel but the alarms' tuple).
+    #: The rules' alarms of this channel, and each with its rule compiled (the compiled
+    #: checks are shared by every channel with the same rules).
     tracks: tuple[Track, ...]
-    checks: tuple[Check, ...]
+    pairs: tuple[tuple[Check, Track], ...]
     #: Every rule a threshold with ``for`` >= 1 (and no alarm shared with another channel).
     thresholds: bool
     #: Quiet readings are within [lo, hi]: at or above every ``below``, at or below every
@@ -60,9 +60,14 @@ class Channel:
     newest_counter: int = 0
 
     def check_quiet(self) -> None:
-        self.quiet = self.thresholds and all(
-            t.count == 0 and t.state != "raised" and t.state != "acknowledged" for t in self.tracks
-        )
+        if self.thresholds:
+            for t in self.tracks:  # a loop, not all(): no generator made each time
+                if t.count != 0 or t.state == "raised" or t.state == "acknowledged":
+                    break
+            else:
+                self.quiet = True
+                return
+        self.quiet = False
 
     def settle(self, progress: dict[str, Track]) -> None:
         """Every alarm takes the newest quiet reading if it is newer than its last one."""
@@ -184,7 +189,7 @@ class Ingest:
                     continue
                 if ch.newest is not None:
                     ch.settle(progress)
-                for check, track in zip(ch.checks, ch.tracks, strict=True):
+                for check, track in ch.pairs:
                     got = check(track, t, c, v)
                     if got:
                         out += got
@@ -212,7 +217,14 @@ class Ingest:
         known, make = self._tracks.get, self._track
         pairs = zip(rules.rules, rules.names, strict=True)
         tracks = tuple([known((n, subject)) or make(r, subject) for r, n in pairs])  # make: new
-        found = Channel(name, tracks, rules.checks, rules.thresholds, rules.lo, rules.hi)
+        found = Channel(
+            name,
+            tracks,
+            tuple(zip(rules.checks, tracks, strict=True)),
+            rules.thresholds,
+            rules.lo,
+            rules.hi,
+        )
         self._channels[key] = found
         other = self._subjects.setdefault(subject, found)
         if other is not found:  # renamed, or read by two sources: the alarms are shared

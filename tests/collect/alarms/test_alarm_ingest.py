@@ -23,6 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sondalog.collect.alarms import AlarmPlan, AlarmRecord, Alarms, AlarmStore, Rule, Sample
+from sondalog.collect.alarms.progress import unpack
 from sondalog.collect.model import Reading
 
 T0 = datetime(2026, 1, 1)
@@ -119,11 +120,13 @@ def calm_chunks(draw: st.DrawFn) -> list[tuple[str, list[Reading]]]:
 
 def run(plan: AlarmPlan, feed: list[tuple[str, list[Reading]]], records: list[AlarmRecord]) -> None:
     """Both paths on the same chunks, each with a table of states saved after every chunk
-    (the slow one whole by ``changed()``, the fast one by ``changes()``: progress columns
-    only where that is all that changed), compared as text (NaN equals NaN)."""
+    (the slow one whole by ``changed()``; the fast one by ``changes()``: whole rows where
+    more than the progress changed, and each logger's row of its reading alarms' progress),
+    compared as text (NaN equals NaN)."""
     slow, fast = Alarms(plan, records), Alarms(plan, records)
     slow_table = {r.alarm: _row(r) for r in records}
     fast_table = dict(slow_table)
+    fast_progress: dict[str, bytes] = {}
     for source, readings in feed:
         expected = slow.readings(Sample.of(source, r) for r in readings)
         got = fast.ingest(source, readings)
@@ -135,12 +138,32 @@ def run(plan: AlarmPlan, feed: list[tuple[str, list[Reading]]], records: list[Al
         for row in changes.counters:
             old = fast_table[row[0]]  # only the progress of a row the store has
             fast_table[row[0]] = old[:12] + row[12:16] + old[16:]
-        assert sorted(row[0] for row in changes.states + changes.counters) == sorted(
-            r.alarm for r in changed
-        )
-        assert repr(sorted(fast_table.items())) == repr(sorted(slow_table.items()))
-    assert repr(sorted(fast_table.values())) == repr(sorted(_row(r) for r in fast.export()))
+        assert [k for k, _ in changes.progress] == sorted({k for k, _ in changes.progress})
+        fast_progress |= dict(changes.progress)
+        written = {row[0] for row in changes.states + changes.counters}
+        in_rows = {a for _, blob in changes.progress for a in unpack(blob)}
+        assert written <= {r.alarm for r in changed} <= written | in_rows
+        stored = _with_progress(fast_table, fast_progress)
+        assert repr(sorted(stored.items())) == repr(sorted(slow_table.items()))
+    stored = _with_progress(fast_table, fast_progress)
+    assert repr(sorted(stored.values())) == repr(sorted(_row(r) for r in fast.export()))
     assert repr(sorted(fast.export(), key=_alarm)) == repr(sorted(slow.export(), key=_alarm))
+
+
+def _with_progress(
+    table: dict[str, tuple[object, ...]], progress: dict[str, bytes]
+) -> dict[str, tuple[object, ...]]:
+    """The rows of ``table`` as a store loads them: with the progress of the loggers' rows
+    where it is not older (the rule of :func:`~sondalog.collect.alarms.progress.overlay`,
+    the values exact)."""
+    out = dict(table)
+    for blob in progress.values():
+        for alarm, (count, value, time, counter) in unpack(blob).items():
+            row = out[alarm]
+            last = row[14]
+            if last is None or (time is not None and (time, counter) >= (last, row[15])):
+                out[alarm] = (*row[:12], count, value, time, counter, *row[16:])
+    return out
 
 
 def _row(record: AlarmRecord) -> tuple[object, ...]:
@@ -194,7 +217,9 @@ for = 2
     assert alarms.ingest("s1", readings) == []  # the same rows again: ignored
 
 
-def test_save_changes_writes_progress_alone_and_whole_rows_the_store_lacks(tmp_path: Path) -> None:
+def test_save_changes_writes_progress_in_the_loggers_row_and_whole_rows_on_a_change(
+    tmp_path: Path,
+) -> None:
     plan = plan_of(
         """
 [[alarm]]
@@ -212,39 +237,81 @@ above = 5
     )
     alarms = Alarms(plan)
 
-    def rows(first: int, values: list[float]) -> list[Reading]:
+    def rows(first: int, values: list[float], logger: str = "F01") -> list[Reading]:
         return [
-            Reading("F01", 1, T0 + timedelta(minutes=first + i), 0, 1, v)
+            Reading(logger, 1, T0 + timedelta(minutes=first + i), 0, 1, v)
             for i, v in enumerate(values)
         ]
 
     def stored(store: AlarmStore) -> dict[str, AlarmRecord]:
         return {r.alarm: r for r in store.load_states()}
 
+    def progress_rows(store: AlarmStore) -> list[str]:
+        return [r[0] for r in store.db.execute("SELECT logger FROM alarm_progress ORDER BY 1")]
+
     with AlarmStore(tmp_path / "collector.sqlite") as store:
         assert alarms.ingest("s1", rows(0, [1.0, 2.0])) == []
         changes = alarms.changes()
         assert len(changes.states) == 2 and changes.counters == []  # new alarms: whole
+        assert [k for k, _ in changes.progress] == ["F01"]
         store.save_changes(changes)
         assert alarms.ingest("s1", rows(2, [2.0, 3.0])) == []
         changes = alarms.changes()
-        assert changes.states == [] and len(changes.counters) == 2  # progress only
+        assert changes.states == [] and changes.counters == []  # progress only: one row
+        [(logger, blob)] = changes.progress
+        assert logger == "F01" and len(blob) == 2 * 43
         store.save_changes(changes)
         assert stored(store) == {r.alarm: r for r in alarms.export()}
+        columns = store.db.execute("SELECT max(last_time) FROM alarm_states").fetchone()[0]
+        assert columns < max(r.last_time or 0 for r in alarms.export())  # not written
         out = alarms.ingest("s1", rows(4, [3.0, 3.0, 6.0]))
         assert [t.what for t in out] == ["raised", "cleared", "raised"]
-        store.save_changes(alarms.changes())
-        assert stored(store) == {r.alarm: r for r in alarms.export()}
-        store.db.execute("DELETE FROM alarm_states")  # say a save that was rolled back
-        alarms.ingest("s1", rows(7, [6.0]))
         changes = alarms.changes()
-        assert changes.states == [] and len(changes.counters) == 2
+        assert len(changes.states) == 2  # both changed state: whole rows
         store.save_changes(changes)
+        alarms.ingest("s1", rows(0, [7.0], logger="F02"))  # a second logger
+        changes = alarms.changes()
+        assert [k for k, _ in changes.progress] == ["F02"]
+        store.save_changes(changes)
+        assert progress_rows(store) == ["F01", "F02"]
         assert stored(store) == {r.alarm: r for r in alarms.export()}
     with AlarmStore(tmp_path / "collector.sqlite") as store:  # a restart goes on from there
         again = Alarms(plan, store.load_states())
-        assert again.ingest("s1", rows(7, [6.0])) == []  # an old row: ignored
+        assert again.ingest("s1", rows(6, [6.0])) == []  # an old row: ignored
         assert {r.alarm: r for r in again.export()} == {r.alarm: r for r in alarms.export()}
+        out = again.ingest("s1", rows(8, [1.0, 1.0, 1.0]))
+        assert repr(out) == repr(alarms.ingest("s1", rows(8, [1.0, 1.0, 1.0])))
+        assert [t.what for t in out] == ["cleared", "raised"]  # hot; flat: three alike
+
+
+def test_a_store_without_progress_rows_goes_on_from_its_columns(tmp_path: Path) -> None:
+    """A store of the version before ``alarm_progress`` (the progress in the columns of
+    ``alarm_states``), and columns written later than a logger's row: the newer wins."""
+    plan = plan_of(
+        """
+[[alarm]]
+name = "hot"
+kind = "threshold"
+channel = 1
+above = 5
+for = 3
+"""
+    )
+    reading = [Reading("F01", 1, T0 + timedelta(minutes=i), 0, 1, 6.0) for i in range(3)]
+    alarms = Alarms(plan)
+    assert alarms.ingest("s1", reading[:2]) == []  # two of three
+    path = tmp_path / "old.sqlite"
+    with AlarmStore(path) as store:
+        store.save_states(alarms.export())  # whole rows only, as the older version did
+        assert store.db.execute("SELECT count(*) FROM alarm_progress").fetchone()[0] == 0
+        again = Alarms(plan, store.load_states())
+        assert [t.what for t in again.ingest("s1", reading[2:])] == ["raised"]
+        store.save_changes(again.changes())
+    alarms.ingest("s1", reading[2:])
+    alarms.ingest("s1", [replace(reading[0], time=T0 + timedelta(minutes=9), value=1.0)])
+    with AlarmStore(path) as store:
+        store.save_states(alarms.export())  # newer columns than the logger's row
+        assert store.load_states() == alarms.export()
 
 
 @pytest.mark.timeout(600)  # long chunks: some 40 s on an idle machine

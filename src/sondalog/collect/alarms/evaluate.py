@@ -49,6 +49,7 @@ from .kinds import (
     level,
     refusing,
 )
+from .progress import fits, logger_of, pack
 from .rules import AlarmPlan, Rule
 
 if TYPE_CHECKING:
@@ -71,6 +72,10 @@ class Alarms:
         #: and in their rule's progress only (count, last value, last reading's time).
         self._dirty: dict[str, Track] = {}
         self._progress: dict[str, Track] = {}
+        #: The reading rules' alarms of each logger, and each one's logger: their progress
+        #: is saved one row per logger (:mod:`.progress`).
+        self._loggers: dict[str, dict[str, Track]] = {}
+        self._logger_of: dict[str, str] = {}
         #: Timers (no contact, sink down): the alarm and the seconds from its ``ref`` to the
         #: raise (not kept: it comes from the file and the source's interval).
         self._timers: dict[str, tuple[Track, float]] = {}
@@ -92,6 +97,9 @@ class Alarms:
     def _add(self, track: Track) -> Track:
         self._tracks[(track.rule, track.subject)] = track
         self._by_id[track.alarm] = track
+        if track.kind in READINGS and fits(track.alarm):
+            logger = self._logger_of[track.alarm] = logger_of(track.subject)
+            self._loggers.setdefault(logger, {})[track.alarm] = track
         return track
 
     def _track(self, rule: Rule, subject: str) -> Track:
@@ -353,12 +361,22 @@ class Alarms:
     def changes(self) -> StateChanges:
         """What :meth:`changed` says, as the rows :meth:`AlarmStore.save_changes` writes
         (cheaper, for the ingest path): an alarm whose only change is its rule's progress
-        (count, last value, last reading's time: every reading changes them) has only those
-        columns written."""
-        dirty, progress = self._dirty, self._progress
+        (count, last value, last reading's time: every reading changes them) has only that
+        written: a reading rule's in its logger's row of ``alarm_progress`` (one row for
+        all of them, :mod:`.progress`), any other's in its own row's progress columns."""
+        dirty, progress, logger_of = self._dirty, self._progress, self._logger_of
+        loggers: dict[str, None] = {}
+        counters = []
+        for alarm, track in progress.items():
+            logger = logger_of.get(alarm)
+            if logger is not None:
+                loggers[logger] = None
+            elif alarm not in dirty:
+                counters.append(track.row())
         out = StateChanges(
             [t.row() for t in dirty.values()],
-            [t.row() for a, t in progress.items() if a not in dirty],
+            counters,
+            [(logger, pack(self._loggers[logger])) for logger in sorted(loggers)],
         )
         dirty.clear()
         progress.clear()

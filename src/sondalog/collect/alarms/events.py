@@ -14,8 +14,8 @@ Its :class:`AlarmRecord` is what the store keeps, so a restart neither forgets n
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, fields
-from datetime import UTC
+from dataclasses import dataclass, field, fields
+from datetime import UTC, datetime, timedelta
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -68,8 +68,17 @@ class Sample:
 
 def reading_time(reading: Reading) -> float:
     """A reading's time in seconds since the epoch: its UTC time when the logger's zone is
-    known, else its own clock read as UTC."""
-    return (reading.utc or reading.time.replace(tzinfo=UTC)).timestamp()
+    known, else its own clock read as UTC. The same number as ``.timestamp()`` (both divide
+    the microseconds since the epoch by a million), without a datetime made each time."""
+    utc = reading.utc
+    if utc is not None:
+        return (utc - _EPOCH) / _SECOND
+    return (reading.time - _NAIVE_EPOCH) / _SECOND
+
+
+_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+_NAIVE_EPOCH = datetime(1970, 1, 1)
+_SECOND = timedelta(seconds=1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -209,9 +218,12 @@ _record_values = attrgetter(*(f.name for f in fields(AlarmRecord)))
 
 @dataclass(frozen=True, slots=True)
 class StateChanges:
-    """Rows of ``alarm_states`` to write (:meth:`~.evaluate.Alarms.changes`): ``states``
+    """Rows to write (:meth:`~.evaluate.Alarms.changes`): of ``alarm_states``, ``states``
     whole, ``counters`` only in their rule's progress columns (``count``, ``last_value``,
-    ``last_time``, ``last_counter``; the rest of the row is as the store has it)."""
+    ``last_time``, ``last_counter``; the rest of the row is as the store has it); of
+    ``alarm_progress``, ``progress``: (logger, progress) of each logger whose reading alarms
+    moved (:mod:`.progress`), in the order of the logger."""
 
     states: list[tuple[Any, ...]]
     counters: list[tuple[Any, ...]]
+    progress: list[tuple[str, bytes]] = field(default_factory=list)

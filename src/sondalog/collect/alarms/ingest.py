@@ -8,9 +8,10 @@ changed, the same states (tests/collect/alarms/test_alarm_ingest.py checks it on
 and readings). What makes it fast:
 
 - each (source, logger, channel, name) is a :class:`Channel`: its matching rules (matched
-  once for every logger they match alike), compiled into closures
-  (:func:`~.kinds.compile_check`) when a reading first needs them; a row's time is computed
-  once for its channels;
+  once for every logger they match alike), each with its alarm; a rule is compiled into
+  one function (:func:`~.kinds.compile_check`) for all its alarms, once, so a restart
+  compiles the rules, not every (logger, channel); a row's time is computed once for its
+  channels;
 - a channel whose rules are all thresholds (``for`` >= 1) and whose alarms are all off
   with no reading counted towards a raise is *quiet*: a reading on the good side of every
   limit changes nothing but each alarm's last reading, and that last reading is the newest
@@ -41,16 +42,16 @@ class Channel:
     """One channel's compiled rules, its alarms, and the quiet readings not settled yet."""
 
     name: str | None
-    rules: tuple[Rule, ...]
+    #: The rules' alarms of this channel, and each with its rule compiled (the compiled
+    #: checks are shared by every channel with the same rules).
     tracks: tuple[Track, ...]
+    pairs: tuple[tuple[Check, Track], ...]
     #: Every rule a threshold with ``for`` >= 1 (and no alarm shared with another channel).
     thresholds: bool
     #: Quiet readings are within [lo, hi]: at or above every ``below``, at or below every
     #: ``above`` limit.
     lo: float = -inf
     hi: float = inf
-    #: The rules compiled, when a reading first needs them (a quiet channel never does).
-    checks: tuple[Check, ...] | None = None
     quiet: bool = False
     #: The :class:`Ingest` call ``quiet`` was checked in.
     epoch: int = -1
@@ -59,9 +60,14 @@ class Channel:
     newest_counter: int = 0
 
     def check_quiet(self) -> None:
-        self.quiet = self.thresholds and all(
-            t.count == 0 and t.state != "raised" and t.state != "acknowledged" for t in self.tracks
-        )
+        if self.thresholds:
+            for t in self.tracks:  # a loop, not all(): no generator made each time
+                if t.count != 0 or t.state == "raised" or t.state == "acknowledged":
+                    break
+            else:
+                self.quiet = True
+                return
+        self.quiet = False
 
     def settle(self, progress: dict[str, Track]) -> None:
         """Every alarm takes the newest quiet reading if it is newer than its last one."""
@@ -87,12 +93,15 @@ class _Rules:
     hi: float
     #: The rules' names (an alarm is found by (rule name, subject)).
     names: tuple[str, ...]
+    #: The rules compiled (:func:`~.kinds.compile_check`).
+    checks: tuple[Check, ...]
 
     @classmethod
-    def of(cls, rules: tuple[Rule, ...]) -> _Rules:
+    def of(cls, rules: tuple[Rule, ...], checks: tuple[Check, ...]) -> _Rules:
         return cls(
             rules,
             names=tuple(r.name for r in rules),
+            checks=checks,
             thresholds=bool(rules) and all(r.kind == "threshold" and r.count >= 1 for r in rules),
             lo=max((r.limit for r in rules if r.direction == "below"), default=-inf),
             hi=min((r.limit for r in rules if r.direction == "above"), default=inf),
@@ -136,6 +145,8 @@ class Ingest:
         self._logger_rules: dict[tuple[str, str], _RuleSet] = {}
         self._rule_sets: dict[tuple[int, ...], _RuleSet] = {}
         self._channel_names: dict[tuple[str, str | None], bool] = {}
+        #: Each rule compiled (by name), once for all its alarms.
+        self._checks: dict[str, Check] = {}
 
     def run(self, source: str, readings: Iterable[Reading]) -> list[Transition]:
         """The transitions of ``readings`` (of ``source``), in order."""
@@ -178,11 +189,8 @@ class Ingest:
                     continue
                 if ch.newest is not None:
                     ch.settle(progress)
-                checks = ch.checks
-                if checks is None:
-                    checks = ch.checks = self._compile(ch)
-                for check in checks:
-                    got = check(t, c, v)
+                for check, track in ch.pairs:
+                    got = check(track, t, c, v)
                     if got:
                         out += got
                 if ch.thresholds:
@@ -199,14 +207,24 @@ class Ingest:
         found = self._channels.get(key)
         if found is not None:
             return found
-        rules = self._rules_of(source, logger, channel, name)
+        rule_set = self._logger_rules.get((source, logger))
+        if rule_set is None:
+            rule_set = self._rule_set(source, logger)
+        rules = rule_set.by_channel.get((channel, name))
+        if rules is None:
+            rules = self._rules_of(rule_set, channel, name)
         subject = f"{logger}/{channel}"
         known, make = self._tracks.get, self._track
-        tracks: list[Track] = []
-        for rule, rule_name in zip(rules.rules, rules.names, strict=True):
-            track = known((rule_name, subject))
-            tracks.append(make(rule, subject) if track is None else track)  # None: a new alarm
-        found = Channel(name, rules.rules, tuple(tracks), rules.thresholds, rules.lo, rules.hi)
+        pairs = zip(rules.rules, rules.names, strict=True)
+        tracks = tuple([known((n, subject)) or make(r, subject) for r, n in pairs])  # make: new
+        found = Channel(
+            name,
+            tracks,
+            tuple(zip(rules.checks, tracks, strict=True)),
+            rules.thresholds,
+            rules.lo,
+            rules.hi,
+        )
         self._channels[key] = found
         other = self._subjects.setdefault(subject, found)
         if other is not found:  # renamed, or read by two sources: the alarms are shared
@@ -215,26 +233,27 @@ class Ingest:
                 ch.thresholds = ch.quiet = False
         return found
 
-    def _compile(self, channel: Channel) -> tuple[Check, ...]:
-        progress, apply = self._progress, self._apply
-        return tuple(
-            compile_check(r, track, progress, apply)
-            for r, track in zip(channel.rules, channel.tracks, strict=True)
-        )
+    def _compile(self, rule: Rule) -> Check:
+        check = self._checks.get(rule.name)
+        if check is None:
+            check = self._checks[rule.name] = compile_check(rule, self._progress, self._apply)
+        return check
 
-    def _rules_of(self, source: str, logger: str, channel: int, name: str | None) -> _Rules:
-        found = self._logger_rules.get((source, logger))
+    def _rule_set(self, source: str, logger: str) -> _RuleSet:
+        """The rules that watch ``logger`` of ``source`` (one set for all loggers alike)."""
+        which = tuple(i for i, r in enumerate(self._rules) if r.matches(source, logger))
+        found = self._rule_sets.get(which)
         if found is None:
-            which = tuple(i for i, r in enumerate(self._rules) if r.matches(source, logger))
-            found = self._rule_sets.get(which)
-            if found is None:
-                found = self._rule_sets[which] = _RuleSet(tuple(self._rules[i] for i in which))
-            self._logger_rules[(source, logger)] = found
-        rules = found.by_channel.get((channel, name))
-        if rules is None:
-            rules = found.by_channel[(channel, name)] = _Rules.of(
-                tuple(r for r in found.rules if self._channel_matches(r, channel, name))
-            )
+            found = self._rule_sets[which] = _RuleSet(tuple(self._rules[i] for i in which))
+        self._logger_rules[(source, logger)] = found
+        return found
+
+    def _rules_of(self, rule_set: _RuleSet, channel: int, name: str | None) -> _Rules:
+        """The rules of ``rule_set`` on (``channel``, ``name``), matched and compiled."""
+        matched = tuple(r for r in rule_set.rules if self._channel_matches(r, channel, name))
+        rules = rule_set.by_channel[(channel, name)] = _Rules.of(
+            matched, tuple(self._compile(r) for r in matched)
+        )
         return rules
 
     def _channel_matches(self, rule: Rule, channel: int, name: str | None) -> bool:

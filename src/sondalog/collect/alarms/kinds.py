@@ -85,43 +85,44 @@ READINGS = {"threshold": level, "stuck": stuck, "step": step}
 
 # -- compiled for ingest ------------------------------------------------------------------
 #
-# The same three kinds as closures over one (rule, alarm) pair, built once per (logger,
-# channel) by :meth:`~.evaluate.Alarms.ingest`: the rule's numbers are locals, the ordering
-# test (:meth:`Track.newer`) is inlined, and the common case (a threshold in ``ok`` on its
-# good side) is one comparison. They must answer exactly as ``level``/``stuck``/``step``
-# above through :meth:`~.evaluate.Alarms.reading` (tests/collect/alarms/test_alarm_ingest.py
-# checks it on random rules and readings).
+# The same three kinds as one function per rule, built once for every alarm of the rule (the
+# alarm comes with each call) by :meth:`~.evaluate.Alarms.ingest`: the rule's numbers are
+# locals, the ordering test (:meth:`Track.newer`) is inlined, and the common case (a
+# threshold in ``ok`` on its good side) is one comparison. They must answer exactly as
+# ``level``/``stuck``/``step`` above through :meth:`~.evaluate.Alarms.reading`
+# (tests/collect/alarms/test_alarm_ingest.py checks it on random rules and readings).
 
 #: ``apply(rule, track, verdict, time, value, extra)``: the transition a verdict makes.
 Apply = Callable[[Rule, Track, Verdict, float, "float | None", str], "list[Transition]"]
-#: ``check(time, counter, value)``: the transitions of one reading (None or []: none).
-Check = Callable[[float, int, float], "list[Transition] | None"]
+#: ``check(alarm, time, counter, value)``: the transitions of one reading of the alarm's
+#: channel (None or []: none).
+Check = Callable[[Track, float, int, float], "list[Transition] | None"]
 
 
-def compile_check(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    """``rule`` (``threshold``, ``stuck`` or ``step``) on ``track``'s alarm as one closure;
-    a reading it takes marks the alarm in ``dirty`` (what :meth:`Alarms.changed` writes)."""
+def compile_check(rule: Rule, dirty: dict[str, Track], apply: Apply) -> Check:
+    """``rule`` (``threshold``, ``stuck`` or ``step``) as one function of its alarm and a
+    reading; a reading it takes marks the alarm in ``dirty`` (what :meth:`Alarms.changed`
+    writes)."""
     if rule.kind == "threshold":
         return (
-            _level_above(rule, track, dirty, apply)
+            _level_above(rule, dirty, apply)
             if rule.direction == "above"
-            else (_level_below(rule, track, dirty, apply))
+            else (_level_below(rule, dirty, apply))
         )
     if rule.kind == "stuck":
-        return _stuck(rule, track, dirty, apply)
+        return _stuck(rule, dirty, apply)
     if rule.kind == "step":
-        return _step(rule, track, dirty, apply)
+        return _step(rule, dirty, apply)
     raise ValueError(f"not a reading rule: {rule.kind}")
 
 
-def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    # the rule's numbers and the alarm as defaults: fast locals, and no cells to allocate
+def _level_above(rule: Rule, dirty: dict[str, Track], apply: Apply) -> Check:
+    # the rule's numbers as defaults: fast locals, and no cells to allocate
     def check(
+        track: Track,
         t: float,
         c: int,
         v: float,
-        track: Track = track,
-        alarm: str = track.alarm,
         limit: float = rule.limit,
         clear: float = rule.clear,
         n_raise: int = rule.count,
@@ -135,7 +136,7 @@ def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
             return None
         track.last_time = t
         track.last_counter = c
-        dirty[alarm] = track
+        dirty[track.alarm] = track
         state = track.state
         if state != "raised" and state != "acknowledged":
             if v > limit:
@@ -157,14 +158,13 @@ def _level_above(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
     return check
 
 
-def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
-    # the rule's numbers and the alarm as defaults: fast locals, and no cells to allocate
+def _level_below(rule: Rule, dirty: dict[str, Track], apply: Apply) -> Check:
+    # the rule's numbers as defaults: fast locals, and no cells to allocate
     def check(
+        track: Track,
         t: float,
         c: int,
         v: float,
-        track: Track = track,
-        alarm: str = track.alarm,
         limit: float = rule.limit,
         clear: float = rule.clear,
         n_raise: int = rule.count,
@@ -178,7 +178,7 @@ def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
             return None
         track.last_time = t
         track.last_counter = c
-        dirty[alarm] = track
+        dirty[track.alarm] = track
         state = track.state
         if state != "raised" and state != "acknowledged":
             if v < limit:
@@ -200,13 +200,12 @@ def _level_below(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply
     return check
 
 
-def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+def _stuck(rule: Rule, dirty: dict[str, Track], apply: Apply) -> Check:
     def check(
+        track: Track,
         t: float,
         c: int,
         v: float,
-        track: Track = track,
-        alarm: str = track.alarm,
         tolerance: float = rule.tolerance,
         n_raise: int = rule.count,
         dirty: dict[str, Track] = dirty,
@@ -218,7 +217,7 @@ def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> C
             return None
         track.last_time = t
         track.last_counter = c
-        dirty[alarm] = track
+        dirty[track.alarm] = track
         last = track.last_value
         state = track.state
         if last is not None and abs(v - last) <= tolerance:
@@ -237,13 +236,12 @@ def _stuck(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> C
     return check
 
 
-def _step(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Check:
+def _step(rule: Rule, dirty: dict[str, Track], apply: Apply) -> Check:
     def check(
+        track: Track,
         t: float,
         c: int,
         v: float,
-        track: Track = track,
-        alarm: str = track.alarm,
         jump: float = rule.step,
         n_clear: int = rule.count,
         dirty: dict[str, Track] = dirty,
@@ -255,7 +253,7 @@ def _step(rule: Rule, track: Track, dirty: dict[str, Track], apply: Apply) -> Ch
             return None
         track.last_time = t
         track.last_counter = c
-        dirty[alarm] = track
+        dirty[track.alarm] = track
         last = track.last_value
         track.last_value = v
         state = track.state

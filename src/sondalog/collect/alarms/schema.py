@@ -6,6 +6,9 @@ they may live in the collector's SQLite store beside ``readings`` or in a file o
 
 - ``alarm_states``: one row per alarm (rule, subject) with its state and times, and what its
   rule needs to go on after a restart (``count``, ``last_value``, ``last_time``, ``ref``).
+- ``alarm_progress``: one row per logger with the progress of its reading alarms
+  (threshold, stuck, step), which every chunk of readings moves (:mod:`.progress`); newer
+  than the same columns of ``alarm_states``, which are written with a whole row only.
 - ``alarm_events``: the history of transitions, unique on (event, what).
 - ``alarm_acks``: acknowledgements asked for by a person (the dashboard's button,
   ``sondalog alarms ack``), applied by the collector on its next turn (``done`` set then).
@@ -21,6 +24,8 @@ from .dialect import POSTGRES
 ALARM_SCHEMA_VERSION = 1
 #: The alarm tables (a store without them has no alarms yet).
 ALARM_TABLES = ("alarm_states", "alarm_events", "alarm_outbox", "alarm_acks")
+#: Added later (a store of an older version has none: its progress is in ``alarm_states``).
+PROGRESS_TABLE = "alarm_progress"
 
 SQLITE_ALARM_DDL = """
 CREATE TABLE IF NOT EXISTS alarm_states (
@@ -43,6 +48,10 @@ CREATE TABLE IF NOT EXISTS alarm_states (
     last_counter INTEGER NOT NULL DEFAULT 0,
     ref          REAL,
     UNIQUE (rule, subject)
+);
+CREATE TABLE IF NOT EXISTS alarm_progress (
+    logger   TEXT PRIMARY KEY,
+    progress BLOB NOT NULL
 );
 CREATE TABLE IF NOT EXISTS alarm_events (
     id      INTEGER PRIMARY KEY AUTOINCREMENT,
@@ -95,6 +104,7 @@ POSTGRES_ALARM_DDL = (
     SQLITE_ALARM_DDL.replace("INTEGER PRIMARY KEY AUTOINCREMENT", "BIGSERIAL PRIMARY KEY")
     .replace(" REAL", " DOUBLE PRECISION")
     .replace(" INTEGER", " BIGINT")
+    .replace(" BLOB", " BYTEA")
 )
 
 #: Columns of ``alarm_states`` in the order of :class:`~.events.AlarmRecord`'s fields.

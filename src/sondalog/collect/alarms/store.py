@@ -23,7 +23,7 @@ from pathlib import Path
 from sondalog.io.private import connect_private, private_parents
 
 from .dialect import SQLITE
-from .schema import ALARM_TABLES, SQLITE_ALARM_DDL
+from .schema import ALARM_TABLES, PROGRESS_TABLE, SQLITE_ALARM_DDL
 from .store_sql import AlarmTablesMissing, SqlAlarmStore
 
 __all__ = ["AlarmStore", "AlarmTablesMissing", "SqlAlarmStore"]
@@ -34,7 +34,6 @@ class AlarmStore(SqlAlarmStore):
 
     dialect = SQLITE
     errors = (sqlite3.Error,)
-    group_counters = True  # BEGIN IMMEDIATE: the whole file is this transaction's
 
     def __init__(self, path: Path | str, *, read_only: bool = False) -> None:
         super().__init__()
@@ -68,13 +67,15 @@ class AlarmStore(SqlAlarmStore):
         try:
             db.execute("PRAGMA busy_timeout=10000")
             rows = db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
-            missing = set(ALARM_TABLES) - {str(r[0]) for r in rows}
+            tables = {str(r[0]) for r in rows}
+            missing = set(ALARM_TABLES) - tables
         except BaseException:
             db.close()
             raise
         if missing:
             db.close()
             raise AlarmTablesMissing(f"the store {self.path} has no {min(missing)} table")
+        self._progress_table = PROGRESS_TABLE in tables
         return db
 
     @contextlib.contextmanager

@@ -43,6 +43,7 @@ from typing import Any, ClassVar, Self
 from .dialect import Dialect
 from .events import AlarmRecord, StateChanges, Transition
 from .outbox import Message, add_line
+from .progress import overlay
 from .schema import CLAIM, OUTBOX_COLUMNS, STATE_COLUMNS
 
 #: A connection of either driver (``sqlite3``, psycopg): both have ``execute`` (giving a
@@ -62,20 +63,17 @@ SAVE_STATE = (
     "ON CONFLICT (alarm) DO UPDATE SET "
     + ", ".join(f"{c} = excluded.{c}" for c in STATE_COLUMNS if c not in _KEY)
 )
-#: The columns of an alarm's rule's progress, which every reading changes.
+#: The columns of an alarm's rule's progress, which every observation changes.
 _COUNTERS = ("count", "last_value", "last_time", "last_counter")
 _counter_values = itemgetter(*(STATE_COLUMNS.index(c) for c in (*_COUNTERS, "alarm")))
 SAVE_COUNTERS = (
     f"UPDATE alarm_states SET {', '.join(f'{c} = ?' for c in _COUNTERS)} WHERE alarm = ?"
 )
-#: The same progress for several alarms, one statement (``{ids}``: their markers): the
-#: alarms of a channel whose readings were all within their limits took the same readings.
-SAVE_SAME_COUNTERS = (
-    f"UPDATE alarm_states SET {', '.join(f'{c} = ?' for c in _COUNTERS)} WHERE alarm IN ({{ids}})"
+#: The progress of a logger's reading alarms, written in place (:mod:`.progress`).
+SAVE_PROGRESS = (
+    "INSERT INTO alarm_progress (logger, progress) VALUES (?, ?) "
+    "ON CONFLICT (logger) DO UPDATE SET progress = excluded.progress"
 )
-#: The most alarms one grouped statement names; a group is padded (its last id repeated) to
-#: a power of two, so few statement texts are prepared.
-GROUP = 256
 ADD_EVENT = (
     "INSERT INTO alarm_events (event, what, alarm, rule, subject, time, value, text) "
     "VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (event, what) DO NOTHING"
@@ -117,17 +115,15 @@ class SqlAlarmStore:
     #: The driver's errors (the server went away, a lock waited too long): what a caller
     #: that goes on without the store (the dashboard) catches.
     errors: ClassVar[tuple[type[Exception], ...]]
-    #: Whether alarms with the same progress are written by one statement each group
-    #: (:meth:`save_changes`): only where a transaction holds the whole store (SQLite's
-    #: ``BEGIN IMMEDIATE``); on a server that locks rows one by one, rows are written in
-    #: the order of their alarm id (two collectors lock them alike: no deadlock).
-    group_counters: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self._db: Conn | None = None
         self._depth = 0
         #: The last acknowledgement request this store has handed out (see the docstring).
         self._ack_mark = 0
+        #: Whether the store has ``alarm_progress`` (a file of an older version opened
+        #: read-only has not: its progress is all in ``alarm_states``).
+        self._progress_table = True
 
     # -- what each server does its own way ------------------------------------------------
 
@@ -210,8 +206,15 @@ class SqlAlarmStore:
     # -- alarm states ---------------------------------------------------------------------
 
     def load_states(self) -> list[AlarmRecord]:
-        rows = self.db.execute(f"SELECT {_STATES} FROM alarm_states ORDER BY alarm")
-        return [AlarmRecord(*row) for row in rows]
+        """Every alarm's state, with the progress of ``alarm_progress`` where it is newer."""
+        db = self.db
+        records = [
+            AlarmRecord(*row)
+            for row in db.execute(f"SELECT {_STATES} FROM alarm_states ORDER BY alarm")
+        ]
+        if self._progress_table:
+            overlay(records, db.execute("SELECT logger, progress FROM alarm_progress"))
+        return records
 
     def active_states(self) -> list[AlarmRecord]:
         """The alarms that are on (raised or acknowledged), the newest raise first."""
@@ -231,9 +234,11 @@ class SqlAlarmStore:
                 self._many(db, SAVE_STATE, rows)
 
     def save_changes(self, changes: StateChanges) -> None:
-        """:meth:`Alarms.changes`: whole rows, and the progress columns of the others (a
-        row the store does not have yet, say after a failed save, is written whole)."""
-        if not changes.states and not changes.counters:
+        """:meth:`Alarms.changes`: whole rows, the progress columns of the others (a row
+        the store does not have yet, say after a failed save, is written whole), and the
+        loggers' rows of reading alarms' progress (in the order of the logger, after the
+        states: two collectors lock rows alike, no deadlock)."""
+        if not changes.states and not changes.counters and not changes.progress:
             return
         with self.transaction() as db:
             if changes.states:
@@ -241,36 +246,15 @@ class SqlAlarmStore:
             if changes.counters:
                 whole = _by_alarm(changes.counters)
                 rows = [_counter_values(row) for row in whole]
-                if self._save_counters(db, rows) < len(rows):
+                if self._many(db, SAVE_COUNTERS, rows) < len(rows):
                     update = self._sql(SAVE_COUNTERS)  # which rows are not there?
                     pairs = zip(whole, rows, strict=True)
                     missing = [w for w, r in pairs if not _hit(db, update, r)]
                     self._many(db, SAVE_STATE, missing)
-
-    def _save_counters(self, db: Conn, rows: list[tuple[Any, ...]]) -> int:
-        """The progress ``rows`` (their columns, then the alarm) written; how many alarms
-        were found. With :attr:`group_counters`, the alarms of equal progress by one
-        statement per group (a quiet channel's alarms all took its newest reading)."""
-        if not self.group_counters or len(rows) < 2:
-            return self._many(db, SAVE_COUNTERS, rows)
-        groups: dict[tuple[Any, ...], list[Any]] = {}
-        for row in rows:
-            groups.setdefault(row[:-1], []).append(row[-1])
-        single = []
-        found = 0
-        for values, alarms in groups.items():
-            if len(alarms) == 1:
-                single.append((*values, alarms[0]))
-                continue
-            for at in range(0, len(alarms), GROUP):
-                ids = alarms[at : at + GROUP]
-                size = 1 << (len(ids) - 1).bit_length()
-                ids += [ids[-1]] * (size - len(ids))
-                text = self._sql(SAVE_SAME_COUNTERS.replace("{ids}", ", ".join("?" * size)))
-                found += int(db.execute(text, (*values, *ids)).rowcount)
-        if single:
-            found += self._many(db, SAVE_COUNTERS, single)
-        return found
+            if len(changes.progress) == 1:  # the common case: a chunk of one logger
+                db.execute(self._sql(SAVE_PROGRESS), changes.progress[0])
+            elif changes.progress:
+                self._many(db, SAVE_PROGRESS, changes.progress)
 
     def record(self, transitions: Iterable[Transition]) -> None:
         """Add ``transitions`` to the history (each (event, what) once)."""

@@ -8,7 +8,7 @@ from decimal import Decimal
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.ala1.measure import _render
+from sondalog.ala1.measure import _fixed, _render
 from sondalog.ala1.tokens import NumberFormat
 
 values = st.one_of(
@@ -31,3 +31,26 @@ def test_render_by_digits_is_the_decimal_rendering(value: float, decimals: int) 
     expected = NumberFormat(0, decimals).render(Decimal(repr(value)))
     got = _render(repr(value), decimals)
     assert got is None if "e" in repr(value) else got == expected, (value, got, expected)
+
+
+@given(value=values, decimals=st.integers(0, 9))
+@example(value=0.05, decimals=1)
+@example(value=-0.05, decimals=1)
+@example(value=-0.04, decimals=1)
+@example(value=-0.0, decimals=2)
+@example(value=0.0, decimals=0)
+@example(value=2.675, decimals=2)
+@example(value=1.005, decimals=2)  # 1.00499999999999989...: format says 1.00, the repr 1.01
+@example(value=0.125, decimals=2)  # exact in binary: format rounds half to even
+@example(value=9.995, decimals=2)
+@example(value=-999.5, decimals=0)
+@example(value=0.5, decimals=0)
+@example(value=99999.99999, decimals=9)
+def test_render_by_format_is_the_decimal_rendering(value: float, decimals: int) -> None:
+    """``_fixed`` (issue 24) renders as :func:`_render` and ``Decimal`` do, or declines."""
+    expected = NumberFormat(0, decimals).render(Decimal(repr(value)))
+    got = _fixed(value, decimals)
+    assert got is None or got == expected, (value, got, expected)
+    if abs(value) < 10.0 ** (13 - decimals) and abs(value) >= 1e-4:
+        finer = f"{value:.{decimals + 1}f}"
+        assert (got is None) == finer.endswith("5"), (value, got)  # declines only ties

@@ -15,6 +15,7 @@ channel's fault log.
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from collections.abc import Callable, Hashable, Sequence
@@ -180,7 +181,11 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
         def counts(times: list[float], windows: list[int]) -> list[Value]:
             starts = [t - window for t, window in zip(times, windows, strict=True)]
             got = many_pulses(device, address, timer, starts, times)
-            limited = [min(c, floor(limit * w)) for c, w in zip(got, windows, strict=True)]
+            caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
+            limited = [
+                cap if (cap := caps[w]) < c else c  # (min(c, cap))
+                for c, w in zip(got, windows, strict=True)
+            ]
             return [c * dm + da for c in limited] if timer else [float(c) for c in limited]
 
     return Source(("pulses", cfg.number, number), counted, windowed=True, counts=counts)
@@ -271,15 +276,127 @@ def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, 
     return (one,), remembered(tabled)
 
 
-def plain_column(cfg: ChannelConfig) -> Callable[[list[Value]], list[Value]] | None:
-    """The values of a one-input channel without tables (not GSM) from its readings, as one
-    list comprehension (``plain`` of :func:`channel_plan` without a call per value)."""
-    if cfg.type in (9, 11, 12) or cfg.table1 or cfg.table2:
-        return None
-    first = cfg.inputs[0]
-    m1, a1, mult, add = first.cal2_mult, first.cal2_add, cfg.mult, cfg.add
+#: A channel's values from its inputs' readings (one list per input), a whole series at once.
+Many = Callable[..., list[Value]]
 
-    def column(readings: list[Value]) -> list[Value]:
-        return [None if r is None else (r * m1 + a1) * mult + add for r in readings]
+
+def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
+    """The values of channel ``cfg`` from its sources' readings (:func:`channel_plan`) as
+    list comprehensions, without a call per value: the very floats of its calculation, or an
+    exception (the caller then computes value by value). None: a channel whose tables are
+    missing or of the wrong kind (value by value, as :func:`channel_plan`)."""
+    kind = cfg.type
+    tables = measurer.tables
+    table1 = tables.get(cfg.table1) if cfg.table1 else None
+    table2 = tables.get(cfg.table2) if cfg.table2 else None
+    if (table1 is not None and not isinstance(table1, Curve | Surface)) or (
+        table2 is not None and not isinstance(table2, Curve)
+    ):
+        return None
+    mult, add = cfg.mult, cfg.add
+    second = None if table2 is None else curve_column(table2)
+
+    def finish(ys: list[Value]) -> list[Value]:  # (channel_plan's finish)
+        ys = [None if y is None else y * mult + add for y in ys]
+        return ys if second is None else second(ys)
+
+    if kind == 11 or kind == 12:  # (gsm_value: a 1-D table, or none)
+        if isinstance(table1, Surface):
+            return None
+        if table1 is None:
+            return finish
+        gsm_table = curve_column(table1)
+        return lambda xs: finish(gsm_table(xs))
+    m1, a1 = cfg.inputs[0].cal2_mult, cfg.inputs[0].cal2_add
+    if kind == 9:
+        if not isinstance(table1, Surface):
+            return None
+        m2, a2 = cfg.inputs[1].cal2_mult, cfg.inputs[1].cal2_add
+        surface = surface_column(table1)
+
+        def two_d(rs: list[Value], r2s: list[Value]) -> list[Value]:
+            xs = [None if r is None else r * m1 + a1 for r in rs]
+            ps = [None if r is None else r * m2 + a2 for r in r2s]
+            return finish(surface(xs, ps))
+
+        return two_d
+    if isinstance(table1, Surface):
+        return None
+    first = None if table1 is None else curve_column(table1)
+
+    def one_d(rs: list[Value]) -> list[Value]:
+        xs = [None if r is None else r * m1 + a1 for r in rs]
+        return finish(xs if first is None else first(xs))
+
+    if first is None and second is None:
+
+        def plain(rs: list[Value]) -> list[Value]:  # (channel_plan's plain)
+            return [None if r is None else (r * m1 + a1) * mult + add for r in rs]
+
+        return plain
+    return one_d
+
+
+def curve_column(curve: Curve) -> Callable[[list[Value]], list[Value]]:
+    """``curve(x)`` of each value (None stays None): :meth:`Curve.__call__`'s interpolation
+    with each segment's differences taken once (the same floats)."""
+    xs, ys = curve.xs, curve.ys
+    x_first, x_last, y_first, y_last = xs[0], xs[-1], ys[0], ys[-1]
+    segments = [
+        (xs[i - 1], ys[i - 1], ys[i] - ys[i - 1], xs[i] - xs[i - 1]) for i in range(1, len(xs))
+    ]
+    right = bisect.bisect_right
+
+    def column(values: list[Value]) -> list[Value]:
+        out: list[Value] = []
+        append = out.append
+        for x in values:
+            if x is None:
+                append(None)
+            elif x <= x_first:
+                append(y_first)
+            elif x >= x_last:
+                append(y_last)
+            else:  # (a NaN: no segment, IndexError, as in Curve)
+                x0, y0, dy, dx = segments[right(xs, x) - 1]
+                append(y0 + dy * (x - x0) / dx)
+        return out
+
+    return column
+
+
+def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], list[Value]]:
+    """``surface(x, p)`` of each pair (None when either is None): :meth:`Surface.__call__`,
+    the samples grouped by the curves their parameter falls between."""
+    params, curves = surface.params, [curve_column(c) for c in surface.curves]
+    p_first, p_last = params[0], params[-1]
+    right = bisect.bisect_right
+
+    def column(xs: list[Value], ps: list[Value]) -> list[Value]:
+        out: list[Value] = [None] * len(xs)
+        groups: dict[int, list[int]] = {}  # -1: below the first, -2: above the last
+        for k, (x, p) in enumerate(zip(xs, ps, strict=True)):
+            if x is None or p is None:
+                continue
+            key = -1 if p <= p_first else -2 if p >= p_last else right(params, p)
+            group = groups.get(key)
+            if group is None:
+                groups[key] = [k]
+            else:
+                group.append(k)
+        for key, index in groups.items():
+            at = [xs[k] for k in index]
+            if key < 0:
+                got = curves[0 if key == -1 else -1](at)
+            else:  # (a NaN parameter: no pair of curves, IndexError, as in Surface)
+                p0, p1 = params[key - 1], params[key]
+                y0s, y1s = curves[key - 1](at), curves[key](at)
+                got = [
+                    y0 + (y1 - y0) * (ps[k] - p0) / (p1 - p0)  # type: ignore[operator]
+                    for k, y0, y1 in zip(index, y0s, y1s, strict=True)
+                ]
+            for k, y in zip(index, got, strict=True):
+                out[k] = y
+        return out
 
     return column

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from decimal import Decimal
 from typing import Protocol
@@ -346,12 +346,50 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
         rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
     text = rendered.get(value)
     if text is None:
-        text = _render(repr(value), fmt.decimals)
+        text = _fixed(value, fmt.decimals) or _render(repr(value), fmt.decimals)
         text = fmt.render(Decimal(repr(value))) if text is None else text.rjust(fmt.width)
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
         rendered[value] = text
     return text
+
+
+def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
+    """:func:`format_value` of each of ``values`` (issue 24: a series of samples), the texts
+    rendered lately looked up without a call."""
+    fmt = cfg.format
+    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
+    if rendered is None:
+        rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
+    get = rendered.get  # (None for a value not rendered lately, None and NaN included)
+    return [
+        text if (text := get(value)) is not None else format_value(cfg, value)  # type: ignore[arg-type]
+        for value in values
+    ]
+
+
+def _fixed(value: float, decimals: int) -> str | None:
+    """:func:`_render` of ``repr(value)`` by ``format`` (issue 24: averages rarely repeat), or
+    None where the two may differ. ``format`` rounds the float's exact binary value (half to
+    even), :func:`_render` the shortest decimal that reads back as it (half away from zero).
+    Below ``10**(14 - decimals)`` no rounding boundary (a number with ``decimals + 1``
+    decimals ending in 5) lies between the two unless the repr is that boundary itself, and
+    then the value shown with one more decimal ends in 5: such values are left to
+    :func:`_render` (tests/ala1/test_fast_sampling_render.py)."""
+    size = abs(value)
+    if size >= _FIXED_BELOW[decimals] or (size < 1e-4 and value):
+        return None  # (large, or a repr with an exponent)
+    finer, spec = _FIXED_SPECS[decimals]
+    if format(value, finer)[-1] == "5":
+        return None
+    text = format(value, spec)
+    if text[0] == "-" and not text.strip("-0."):
+        return text[1:]  # no "-0"
+    return text
+
+
+_FIXED_BELOW = [10.0 ** (14 - decimals) for decimals in range(10)]
+_FIXED_SPECS = [(f".{decimals + 1}f", f".{decimals}f") for decimals in range(10)]
 
 
 def _render(shown: str, decimals: int) -> str | None:

@@ -19,16 +19,23 @@ observer of instants without a series observer, or fewer than two instants befor
 
 from __future__ import annotations
 
-import functools
 import math
-import operator
 from collections.abc import Callable, Hashable
-from decimal import Decimal
 from typing import Protocol
 
-from sondalog.ala1.columns import Column, Source, Value, channel_plan, mapped, plain_column
-from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
-from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide, record
+from sondalog.ala1.columns import (
+    Calc,
+    Column,
+    Many,
+    Source,
+    Value,
+    channel_column,
+    channel_plan,
+    mapped,
+)
+from sondalog.ala1.conditions import decide_series
+from sondalog.ala1.measure import ChannelConfig, Measurer
+from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs
 
 #: Instants of the most frequent channel in one stretch (bounds the memory of a stretch).
 CHUNK = 4096
@@ -144,7 +151,7 @@ def _sample_series(
         for t in instants:
             groups.setdefault(frozenset(_powered(switched, t)), []).append(t)
     # every channel's sources and calculation; sources read once per cohort
-    plans: dict[int, tuple[tuple[Source, ...], Callable[..., Value]]] = {}
+    plans: dict[int, tuple[tuple[Source, ...], Calc]] = {}
     for run in runs:
         plans[run.cfg.number] = channel_plan(sampler.measurer, run.cfg)
     columns: dict[tuple[tuple[int, int], Hashable], Column] = {}
@@ -176,10 +183,11 @@ def _sample_series(
             continue
         sources, calc = plans[run.cfg.number]
         got = [columns[key, src.key] for src in sources]
-        many = plain_column(run.cfg)
-        values = _values(sources, calc, got) if many is None else _plain(many, calc, got[0])
+        values = _values(sources, calc, channel_column(sampler.measurer, run.cfg), got)
         samples[run.cfg.number] = (run.cfg, times, values.values)
-        written[run.cfg.number] = _decide_all(sampler, run, times, values, offset)
+        decided = decide_series(run, times, values, offset, sampler.faults.report)
+        if run.cfg.number <= sampler.max_number:
+            written[run.cfg.number] = decided
         run.last_t = times[-1]
         run.next_t = times[-1] + run.cfg.period
     outputs.update(float(instants[-1]), offset)
@@ -236,26 +244,20 @@ def _read(
             column.faults[k] = got.faults[i]
 
 
-def _plain(
-    many: Callable[[list[Value]], list[Value]], calc: Callable[..., Value], got: Column
+def _values(
+    sources: tuple[Source, ...], calc: Calc, many: Many | None, got: list[Column]
 ) -> Column:
-    """:func:`_values` of a one-input channel without tables, in one comprehension."""
-    try:
-        result = Column(many(got.values))
-    except Exception:  # (computed one by one: that value's fault)
-        result = mapped(calc, got.values)
-    for k, exc in got.faults.items():
-        result.faults[k] = exc
-        result.values[k] = None
-    for k in result.faults:
-        result.values[k] = None
-    return result
-
-
-def _values(sources: tuple[Source, ...], calc: Callable[..., Value], got: list[Column]) -> Column:
-    """The channel's values from its sources' columns; a fault of a source is the channel's
-    fault (type 9: the second input counts only when the first has a value)."""
-    result = mapped(calc, *(column.values for column in got))
+    """The channel's values from its sources' columns (at once by ``many`` where it can, else
+    value by value); a fault of a source is the channel's fault (type 9: the second input
+    counts only when the first has a value)."""
+    result: Column | None = None
+    if many is not None:
+        try:
+            result = Column(many(*(column.values for column in got)))
+        except Exception:  # (computed one by one: that value's fault)
+            result = None
+    if result is None:
+        result = mapped(calc, *(column.values for column in got))
     faults = result.faults
     first = got[0]
     for k, exc in first.faults.items():
@@ -267,138 +269,3 @@ def _values(sources: tuple[Source, ...], calc: Callable[..., Value], got: list[C
     for k in faults:
         result.values[k] = None
     return result
-
-
-def _decide_all(
-    sampler: Sampler, run: ChannelRun, times: list[int], values: Column, offset: float
-) -> dict[int, str]:
-    """§6.5.15-§6.5.16 for every sample of ``run``: the texts written, by instant (as
-    :meth:`Sampler._measure_due` does sample by sample)."""
-    cfg = run.cfg
-    if cfg.average > 0:
-        return _averaged(sampler, run, times, values, offset)
-    report = sampler.faults.report
-    faults = values.faults
-    written: dict[int, str] = {}
-    sample: Value = None
-    texts: list[str | None]
-    try:
-        texts = _texts(cfg, values.values)
-    except Exception:  # (decide meets it again below, sample by sample)
-        texts = [None] * len(values.values)
-    quiet = _Quiet(cfg)
-    samples = cfg.samples
-    for k, value in enumerate(values.values):
-        sample = value
-        shown = texts[k]
-        if (
-            shown
-            and shown in quiet
-            and run.recorded is not None
-            and not run.event_active
-            and (cfg.type == 6 or shown == run.recorded)
-            and not (faults and k in faults)
-            and not (samples > 0 and run.since_write + 1 >= samples)
-        ):
-            run.since_write += 1  # runs.record of a value that writes nothing, without the call
-            continue
-        if faults and k in faults:
-            # (Sampler._measure_due's except branch)
-            report(cfg.number, faults[k], times[k] - offset)
-            try:
-                text = decide(run, None)
-            except Exception:
-                text = None
-        else:
-            try:
-                shown = texts[k]
-                text = decide(run, value) if shown is None else record(run, shown)
-            except Exception as exc:
-                report(cfg.number, exc, times[k] - offset)
-                sample = None
-                try:
-                    text = decide(run, None)
-                except Exception:
-                    text = None
-        if text is not None and cfg.number <= sampler.max_number:
-            written[times[k]] = text
-    run.sample, run.sampled = sample, True
-    return written
-
-
-class _Quiet:
-    """Texts for which :func:`runs.record` writes nothing by the change condition: for a
-    type 6 channel those below the change (while no event is active), for the others any
-    text equal to the last recorded one when the change is positive (§6.5.16.1)."""
-
-    def __init__(self, cfg: ChannelConfig) -> None:
-        self.cfg = cfg
-        change = cfg.change
-        self.events = cfg.type == 6 and change > 0
-        self.same = cfg.type != 6 and change > 0
-        self._below: dict[str, bool] = {}
-
-    def __contains__(self, text: object) -> bool:
-        if self.same:
-            return True  # (the caller compares with the recorded text)
-        if not self.events or not isinstance(text, str):
-            return False
-        below = self._below.get(text)
-        if below is None:
-            below = self._below[text] = Decimal(text) < self.cfg.change
-        return below
-
-
-def _texts(cfg: ChannelConfig, values: list[Value]) -> list[str | None]:
-    """``format_value`` of each value; repeated values (events, a steady signal) looked up."""
-    shown: dict[Value, str] = {}
-    return [
-        shown[value] if value in shown else shown.setdefault(value, format_value(cfg, value))
-        for value in values
-    ]
-
-
-def _averaged(
-    sampler: Sampler, run: ChannelRun, times: list[int], values: Column, offset: float
-) -> dict[int, str]:
-    """:func:`_decide_all` of an averaging channel (§6.5.15): a sample without a valid value
-    does not count, and :func:`decide` of one is a no-op; the samples of each average are
-    summed in order as the event-by-event path adds them, then :func:`decide` adds the last
-    one and decides on the average."""
-    cfg, report = run.cfg, sampler.faults.report
-    for k, exc in values.faults.items():
-        report(cfg.number, exc, times[k] - offset)
-    samples = values.values
-    if None in samples:
-        index = [k for k, value in enumerate(samples) if value is not None]
-        valid = [samples[k] for k in index]
-    else:
-        index, valid = list(range(len(samples))), samples
-    written: dict[int, str] = {}
-    last = len(samples) - 1
-    sample = samples[-1]
-    i = 0
-    while True:
-        need = cfg.average - run.avg_n
-        if i + need > len(valid):
-            break
-        run.avg_sum = functools.reduce(operator.add, valid[i : i + need - 1], run.avg_sum)
-        run.avg_n = cfg.average - 1
-        k = index[i + need - 1]
-        try:
-            text = decide(run, valid[i + need - 1])
-        except Exception as exc:
-            report(cfg.number, exc, times[k] - offset)
-            if k == last:
-                sample = None
-            try:
-                text = decide(run, None)
-            except Exception:
-                text = None
-        if text is not None and cfg.number <= sampler.max_number:
-            written[times[k]] = text
-        i += need
-    run.avg_sum = functools.reduce(operator.add, valid[i:], run.avg_sum)
-    run.avg_n += len(valid) - i
-    run.sample, run.sampled = sample, True
-    return written

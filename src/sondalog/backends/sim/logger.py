@@ -21,7 +21,7 @@ from sondalog.ala1.hardware import (
     normalise,
     pin_of,
 )
-from sondalog.backends.sim.signals import Signal, constant
+from sondalog.backends.sim.signals import Signal, constant, signal_column
 
 
 @dataclass
@@ -73,8 +73,14 @@ class PulseSource:
             return [0] * len(ends)
         self._extend(max(ends))
         events, burst, left = self._events, self.burst, bisect.bisect_left
+        at_ends = [left(events, t1) for t1 in ends]
+        if starts[1:] == ends[:-1]:  # (windows one after the other: each start an end before)
+            at_starts = [left(events, starts[0]), *at_ends[:-1]]
+        else:
+            at_starts = [left(events, t0) for t0 in starts]
         return [
-            0 if t1 <= t0 else (left(events, t1) - left(events, t0)) * burst for t0, t1 in windows
+            0 if t1 <= t0 else (b - a) * burst
+            for t0, t1, a, b in zip(starts, ends, at_starts, at_ends, strict=True)
         ]
 
     def _extend(self, until: float) -> None:
@@ -222,35 +228,40 @@ class SimHardware:
             source, reference = self.analog.get(address), INTERNAL_REFERENCE
         if source is None or (source.power is not None and not self.outputs.get(source.power)):
             return [None] * len(times)
-        signal, levels = source.signal, ADC_LEVELS
-        out: list[float | None] = []
-        for t in times:
-            fraction = signal(t) / reference
-            if fraction <= 0.0:
-                out.append(0.0)
-            else:
-                out.append(1.0 if fraction >= 1.0 else round(fraction * levels) / levels)
-        return out
+        levels = ADC_LEVELS
+        fractions = [x / reference for x in signal_column(source.signal, times)]
+        # (a NaN raises in round(), as in :meth:`adc`)
+        return [
+            0.0 if f <= 0.0 else (1.0 if f >= 1.0 else round(f * levels) / levels)
+            for f in fractions
+        ]
 
     def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[float | None]:
         """The normalised reading of :meth:`ds18b20` at each of ``times``."""
         sensor = self._thermometer(pin, rom)
         if sensor is None or sensor.crc_error:
             return [None] * len(times)
-        signal = sensor.signal
-        return [round(min(125.0, max(-55.0, signal(t))) * 16) / 16 / DS18B20_SCALE for t in times]
+        scale = DS18B20_SCALE
+        celsius = signal_column(sensor.signal, times)
+        # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
+        celsius = [c if c > -55.0 else -55.0 for c in celsius]
+        return [round((c if c < 125.0 else 125.0) * 16) / 16 / scale for c in celsius]
 
     def supply_column(self, times: list[float]) -> list[float | None]:
         """:meth:`supply` at each of ``times``."""
         signal = self.supply_signal
         if signal is None or not self.powered(self.supply_power):
             return [None] * len(times)
-        return [normalise(signal(t) / SUPPLY_DIVIDER) for t in times]
+        levels, reference = ADC_LEVELS, INTERNAL_REFERENCE  # normalise() written out
+        fractions = [x / SUPPLY_DIVIDER / reference for x in signal_column(signal, times)]
+        return [
+            1.0 if f >= 1.0 else (round(f * levels) / levels if f > 0.0 else 0.0) for f in fractions
+        ]
 
     def gsm_column(self, what: str, times: list[float]) -> list[float | None]:
         """:meth:`gsm` at each of ``times``."""
         signal = self.gsm_signals.get(what)
-        return [None] * len(times) if signal is None else [signal(t) for t in times]
+        return [None] * len(times) if signal is None else list(signal_column(signal, times))
 
     def pulses_column(
         self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]

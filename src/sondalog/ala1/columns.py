@@ -15,13 +15,13 @@ channel's fault log.
 
 from __future__ import annotations
 
-import bisect
 import functools
 import math
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from sondalog.ala1.curves import curve_column, surface_column
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.measure import TIMER_MAX_HZ, ChannelConfig, Input, Measurer
 from sondalog.protocol.tables import Curve, Surface, TableError
@@ -71,9 +71,17 @@ def _calibrated(
     raw: Callable[[list[float]], list[Value]], mult: float, add: float
 ) -> Callable[[list[float]], list[Value]]:
     def column(times: list[float]) -> list[Value]:
-        return [None if r is None else r * mult + add for r in raw(times)]
+        return affine(raw(times), mult, add)
 
     return column
+
+
+def affine(values: list[Value], mult: float, add: float) -> list[Value]:
+    """``v * mult + add`` of each value (None stays None), a new list: the values themselves
+    where that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
+    if mult == 1.0 and add == 0.0 and 0.0 not in values:
+        return list(values)
+    return [None if v is None else v * mult + add for v in values]
 
 
 def mapped(fn: Callable[..., Value], *columns: Sequence[Value]) -> Column:
@@ -182,13 +190,18 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
             starts = [t - window for t, window in zip(times, windows, strict=True)]
             got = many_pulses(device, address, timer, starts, times)
             caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
-            limited = [
-                cap if (cap := caps[w]) < c else c  # (min(c, cap))
-                for c, w in zip(got, windows, strict=True)
+            if timer:  # (min(c, cap) * dm + da)
+                return [
+                    (cap if (cap := caps[w]) < c else c) * dm + da
+                    for c, w in zip(got, windows, strict=True)
+                ]
+            return [
+                float(cap if (cap := caps[w]) < c else c) for c, w in zip(got, windows, strict=True)
             ]
-            return [c * dm + da for c in limited] if timer else [float(c) for c in limited]
 
-    return Source(("pulses", cfg.number, number), counted, windowed=True, counts=counts)
+    # (channels of a cohort with the same window count the same pulses: the series adds it)
+    key = ("pulses", device, address, timer, limit, dm, da)
+    return Source(key, counted, windowed=True, counts=counts)
 
 
 def _supplied(
@@ -297,7 +310,7 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     second = None if table2 is None else curve_column(table2)
 
     def finish(ys: list[Value]) -> list[Value]:  # (channel_plan's finish)
-        ys = [None if y is None else y * mult + add for y in ys]
+        ys = affine(ys, mult, add)
         return ys if second is None else second(ys)
 
     if kind == 11 or kind == 12:  # (gsm_value: a 1-D table, or none)
@@ -315,9 +328,7 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
         surface = surface_column(table1)
 
         def two_d(rs: list[Value], r2s: list[Value]) -> list[Value]:
-            xs = [None if r is None else r * m1 + a1 for r in rs]
-            ps = [None if r is None else r * m2 + a2 for r in r2s]
-            return finish(surface(xs, ps))
+            return finish(surface(affine(rs, m1, a1), affine(r2s, m2, a2)))
 
         return two_d
     if isinstance(table1, Surface):
@@ -325,78 +336,15 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     first = None if table1 is None else curve_column(table1)
 
     def one_d(rs: list[Value]) -> list[Value]:
-        xs = [None if r is None else r * m1 + a1 for r in rs]
+        xs = affine(rs, m1, a1)
         return finish(xs if first is None else first(xs))
 
     if first is None and second is None:
 
         def plain(rs: list[Value]) -> list[Value]:  # (channel_plan's plain)
+            if m1 == 1.0 and a1 == 0.0 and 0.0 not in rs:
+                return affine(rs, mult, add)  # (r * 1.0 + 0.0 is r, but for -0.0)
             return [None if r is None else (r * m1 + a1) * mult + add for r in rs]
 
         return plain
     return one_d
-
-
-def curve_column(curve: Curve) -> Callable[[list[Value]], list[Value]]:
-    """``curve(x)`` of each value (None stays None): :meth:`Curve.__call__`'s interpolation
-    with each segment's differences taken once (the same floats)."""
-    xs, ys = curve.xs, curve.ys
-    x_first, x_last, y_first, y_last = xs[0], xs[-1], ys[0], ys[-1]
-    segments = [
-        (xs[i - 1], ys[i - 1], ys[i] - ys[i - 1], xs[i] - xs[i - 1]) for i in range(1, len(xs))
-    ]
-    right = bisect.bisect_right
-
-    def column(values: list[Value]) -> list[Value]:
-        out: list[Value] = []
-        append = out.append
-        for x in values:
-            if x is None:
-                append(None)
-            elif x <= x_first:
-                append(y_first)
-            elif x >= x_last:
-                append(y_last)
-            else:  # (a NaN: no segment, IndexError, as in Curve)
-                x0, y0, dy, dx = segments[right(xs, x) - 1]
-                append(y0 + dy * (x - x0) / dx)
-        return out
-
-    return column
-
-
-def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], list[Value]]:
-    """``surface(x, p)`` of each pair (None when either is None): :meth:`Surface.__call__`,
-    the samples grouped by the curves their parameter falls between."""
-    params, curves = surface.params, [curve_column(c) for c in surface.curves]
-    p_first, p_last = params[0], params[-1]
-    right = bisect.bisect_right
-
-    def column(xs: list[Value], ps: list[Value]) -> list[Value]:
-        out: list[Value] = [None] * len(xs)
-        groups: dict[int, list[int]] = {}  # -1: below the first, -2: above the last
-        for k, (x, p) in enumerate(zip(xs, ps, strict=True)):
-            if x is None or p is None:
-                continue
-            key = -1 if p <= p_first else -2 if p >= p_last else right(params, p)
-            group = groups.get(key)
-            if group is None:
-                groups[key] = [k]
-            else:
-                group.append(k)
-        for key, index in groups.items():
-            at = [xs[k] for k in index]
-            if key < 0:
-                got = curves[0 if key == -1 else -1](at)
-            else:  # (a NaN parameter: no pair of curves, IndexError, as in Surface)
-                p0, p1 = params[key - 1], params[key]
-                y0s, y1s = curves[key - 1](at), curves[key](at)
-                got = [
-                    y0 + (y1 - y0) * (ps[k] - p0) / (p1 - p0)  # type: ignore[operator]
-                    for k, y0, y1 in zip(index, y0s, y1s, strict=True)
-                ]
-            for k, y in zip(index, got, strict=True):
-                out[k] = y
-        return out
-
-    return column

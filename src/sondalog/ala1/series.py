@@ -155,6 +155,7 @@ def _sample_series(
     for run in runs:
         plans[run.cfg.number] = channel_plan(sampler.measurer, run.cfg)
     columns: dict[tuple[tuple[int, int], Hashable], Column] = {}
+    hosts = {key: [t - offset for t in times] for key, times in cohorts.items()}
     for on_outputs, group in groups.items():
         scheduled = outputs.scheduled
         for output in set(scheduled) | on_outputs:
@@ -167,11 +168,13 @@ def _sample_series(
             times = cohorts.get(key)
             if not times:
                 continue
-            window0 = key[0] - run.last_t if run.last_t is not None else run.cfg.period
+            window0 = _window0(run, key[0])
             for src in plans[run.cfg.number][0]:
-                if (key, src.key) not in done:
-                    done.add((key, src.key))
-                    _read(columns, key, src, times, members, offset, window0, run.cfg.period)
+                name = (src.key, window0) if src.windowed else src.key
+                if (key, name) not in done:
+                    done.add((key, name))
+                    at = (times, hosts[key], members)
+                    _read(columns, (key, name), src, at, offset, window0, run.cfg.period)
     for numbers in outputs.scheduled.values():
         numbers.clear()
     samples: Samples = {}
@@ -182,7 +185,8 @@ def _sample_series(
         if not times:
             continue
         sources, calc = plans[run.cfg.number]
-        got = [columns[key, src.key] for src in sources]
+        window0 = _window0(run, key[0])
+        got = [columns[key, (src.key, window0) if src.windowed else src.key] for src in sources]
         values = _values(sources, calc, channel_column(sampler.measurer, run.cfg), got)
         samples[run.cfg.number] = (run.cfg, times, values.values)
         decided = decide_series(run, times, values, offset, sampler.faults.report)
@@ -199,29 +203,35 @@ def _sample_series(
         sampler.series_observer(rows, samples)
 
 
+def _window0(run: ChannelRun, first: int) -> int:
+    """The counting window of ``run``'s first sample at ``first`` (pulses): whole seconds
+    since its last sample."""
+    return first - run.last_t if run.last_t is not None else run.cfg.period
+
+
 def _read(
     columns: dict[tuple[tuple[int, int], Hashable], Column],
-    cohort: tuple[int, int],
+    name: tuple[tuple[int, int], Hashable],
     src: Source,
-    times: list[int],
-    members: set[int] | None,
+    at: tuple[list[int], list[float], set[int] | None],
     offset: float,
     window0: int,
     period: int,
 ) -> None:
-    """Read ``src`` at the cohort's ``times`` that belong to the current group (all when
-    ``members`` is None) into ``columns``."""
+    """Read ``src`` into ``columns[name]`` at the cohort's times (module and host times) that
+    belong to the current group (all when its members are None)."""
+    times, all_hosts, members = at
     read = src.read
     if read is None:
-        if (cohort, src.key) not in columns:
-            columns[cohort, src.key] = Column([src.constant] * len(times))
+        if name not in columns:
+            columns[name] = Column([src.constant] * len(times))
         return
     if members is None:
         index: list[int] | range = range(len(times))
-        hosts = [t - offset for t in times]
+        hosts = all_hosts
     else:
         index = [k for k, t in enumerate(times) if t in members]
-        hosts = [times[k] - offset for k in index]
+        hosts = [all_hosts[k] for k in index]
     windows = [window0 if k == 0 else period for k in index] if src.windowed else []
     try:
         if src.counts is not None:
@@ -232,12 +242,12 @@ def _read(
             got = mapped(read, hosts, windows) if src.windowed else mapped(read, hosts)
     except Exception:  # (a reading that raises: read one by one, it is that one's fault)
         got = mapped(read, hosts, windows) if src.windowed else mapped(read, hosts)
-    column = columns.get((cohort, src.key))
+    column = columns.get(name)
     if column is None:
         if members is None:
-            columns[cohort, src.key] = got
+            columns[name] = got
             return
-        column = columns[cohort, src.key] = Column([None] * len(times))
+        column = columns[name] = Column([None] * len(times))
     for i, k in enumerate(index):
         column.values[k] = got.values[i]
         if i in got.faults:

@@ -229,11 +229,10 @@ class SimHardware:
         if source is None or (source.power is not None and not self.outputs.get(source.power)):
             return [None] * len(times)
         levels = ADC_LEVELS
-        fractions = [x / reference for x in signal_column(source.signal, times)]
         # (a NaN raises in round(), as in :meth:`adc`)
         return [
-            0.0 if f <= 0.0 else (1.0 if f >= 1.0 else round(f * levels) / levels)
-            for f in fractions
+            0.0 if (f := x / reference) <= 0.0 else 1.0 if f >= 1.0 else round(f * levels) / levels
+            for x in signal_column(source.signal, times)
         ]
 
     def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[float | None]:
@@ -243,9 +242,18 @@ class SimHardware:
             return [None] * len(times)
         scale = DS18B20_SCALE
         celsius = signal_column(sensor.signal, times)
+        distinct = set(celsius)  # (a sensor's temperature repeats: each converted once)
         # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
-        celsius = [c if c > -55.0 else -55.0 for c in celsius]
-        return [round((c if c < 125.0 else 125.0) * 16) / 16 / scale for c in celsius]
+        if len(distinct) * 2 > len(celsius):
+            return [
+                round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+                for c in celsius
+            ]
+        reading = {
+            c: round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+            for c in distinct
+        }
+        return [reading[c] for c in celsius]
 
     def supply_column(self, times: list[float]) -> list[float | None]:
         """:meth:`supply` at each of ``times``."""
@@ -253,9 +261,13 @@ class SimHardware:
         if signal is None or not self.powered(self.supply_power):
             return [None] * len(times)
         levels, reference = ADC_LEVELS, INTERNAL_REFERENCE  # normalise() written out
-        fractions = [x / SUPPLY_DIVIDER / reference for x in signal_column(signal, times)]
         return [
-            1.0 if f >= 1.0 else (round(f * levels) / levels if f > 0.0 else 0.0) for f in fractions
+            1.0
+            if (f := x / SUPPLY_DIVIDER / reference) >= 1.0
+            else round(f * levels) / levels
+            if f > 0.0
+            else 0.0
+            for x in signal_column(signal, times)
         ]
 
     def gsm_column(self, what: str, times: list[float]) -> list[float | None]:
@@ -267,12 +279,15 @@ class SimHardware:
         self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]
     ) -> list[int]:
         """:meth:`pulses` of each window ``[starts[i], ends[i])``."""
-        totals = [0] * len(ends)
+        totals: list[int] | None = None
         for source in self.pulse_sources:
             if source.timer == timer and (timer or pin_of(source.address) == pin_of(address)):
                 counted = source.counts(starts, ends)
-                totals = [a + b for a, b in zip(totals, counted, strict=True)]
-        return totals
+                if totals is None:
+                    totals = counted
+                else:
+                    totals = [a + b for a, b in zip(totals, counted, strict=True)]
+        return [0] * len(ends) if totals is None else totals
 
     def prepare(self, t: float) -> None:
         """Simulated inputs are there at once: nothing to acquire ahead."""

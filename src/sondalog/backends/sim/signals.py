@@ -62,11 +62,16 @@ class Clamp:
         return min(max(v, self.lo), self.hi)
 
 
-def signal_column(signal: Signal, times: list[float]) -> list[float]:
-    """``signal(t)`` for each of ``times``: the very floats, in one pass where the signal
-    offers a ``column`` method (issue 24: the simulation reads many instants at once)."""
+def signal_column(signal: Signal, times: list[float], shift: float | None = None) -> list[float]:
+    """``signal(t)`` (``signal(t - shift)`` with a shift) for each of ``times``: the very
+    floats, in one pass where the signal offers a ``column`` method (issue 24: the simulation
+    reads many instants at once)."""
     many = getattr(signal, "column", None)
-    return [signal(t) for t in times] if many is None else many(times)
+    if many is not None:
+        return many(times, shift)  # type: ignore[no-any-return]
+    if shift is None:
+        return [signal(t) for t in times]
+    return [signal(t - shift) for t in times]
 
 
 class Constant:
@@ -80,7 +85,7 @@ class Constant:
     def __call__(self, t: float) -> float:
         return self.value
 
-    def column(self, times: list[float]) -> list[float]:
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
         return [self.value] * len(times)
 
 
@@ -105,10 +110,14 @@ class Sine:
             _TWO_PI * (t - self.origin - self.phase) / self.period
         )
 
-    def column(self, times: list[float]) -> list[float]:
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
         mean, amplitude, period, sin = self.mean, self.amplitude, self.period, math.sin
         origin, phase = self.origin, self.phase
-        return [mean + amplitude * sin(_TWO_PI * (t - origin - phase) / period) for t in times]
+        if shift is None:
+            return [mean + amplitude * sin(_TWO_PI * (t - origin - phase) / period) for t in times]
+        return [
+            mean + amplitude * sin(_TWO_PI * (t - shift - origin - phase) / period) for t in times
+        ]
 
 
 def sine(mean: float, amplitude: float, period: float, phase: float, origin: float) -> Signal:
@@ -129,14 +138,16 @@ class Ramp:
     def __call__(self, t: float) -> float:
         return self.clamp(self.start + self.rate * (t - self.origin))
 
-    def column(self, times: list[float]) -> list[float]:
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
         start, rate, origin, clamp = self.start, self.rate, self.origin, self.clamp
+        if shift is None:
+            values = [start + rate * (t - origin) for t in times]
+        else:
+            values = [start + rate * (t - shift - origin) for t in times]
         if not isinstance(clamp, Clamp):
-            return [clamp(start + rate * (t - origin)) for t in times]
+            return [clamp(v) for v in values]
         lo, hi = clamp.lo, clamp.hi  # min(max(v, lo), hi) written out, NaN and zeros alike
-        values = [start + rate * (t - origin) for t in times]
-        values = [lo if lo > v else v for v in values]
-        return [hi if hi < v else v for v in values]
+        return [hi if hi < (w := lo if lo > v else v) else w for v in values]
 
 
 def ramp(start: float, rate: float, origin: float, clamp: Callable[[float], float]) -> Signal:
@@ -155,9 +166,10 @@ class Shifted:
     def __call__(self, t: float) -> float:
         return self.signal(t - self.start)
 
-    def column(self, times: list[float]) -> list[float]:
-        start = self.start
-        return signal_column(self.signal, [t - start for t in times])
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        if shift is not None:
+            times = [t - shift for t in times]
+        return signal_column(self.signal, times, self.start)
 
 
 def shifted(signal: Signal, start: float) -> Signal:
@@ -196,15 +208,21 @@ class RandomWalk:
             self._extend(index)
         return values[index] if index > 0 else values[0]
 
-    def column(self, times: list[float]) -> list[float]:
-        """:meth:`__call__` at each of ``times``."""
-        origin, interval = self._origin, self._interval
-        index = [int((t - origin) // interval) for t in times]
-        values = self._values
-        if index and max(index) >= len(values):
-            self._extend(max(index))
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        """:meth:`__call__` at each of ``times`` (``t - shift``)."""
+        if not times:
+            return []
+        origin, interval, values = self._origin, self._interval, self._values
+        late = max(times) if shift is None else max(times) - shift
+        top = int((late - origin) // interval)  # (the index grows with the time)
+        if top >= len(values):
+            self._extend(top)
         first = values[0]
-        return [values[i] if i > 0 else first for i in index]
+        if shift is None:
+            return [values[i] if (i := int((t - origin) // interval)) > 0 else first for t in times]
+        return [
+            values[i] if (i := int((t - shift - origin) // interval)) > 0 else first for t in times
+        ]
 
     def _extend(self, index: int) -> None:
         """Steps up to ``index`` and a batch beyond. Each step is ``random.Random(seed)``'s

@@ -74,7 +74,15 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
     same_writes = change <= _ZERO  # (runs._changed of two equal non-empty texts)
     numbers: dict[str, Decimal] = {}  # (Decimal(text) of the texts met, as runs.decimal_of)
     last: Decimal | None = None  # the number the recorded text shows, once needed
-    for k, text in enumerate(texts):
+    n = len(texts)
+    starts: Sequence[int]
+    if len(set(texts)) * 4 < n:  # long runs of one text (events, a steady signal): each
+        starts = [0, *(k for k in range(1, n) if texts[k] != texts[k - 1])]  # decided once
+        ends: Sequence[int] = [*starts[1:], n]
+    else:
+        starts, ends = range(n), range(1, n + 1)
+    for k, end in zip(starts, ends, strict=True):
+        text = texts[k]
         since += 1
         write: str | None = None
         if events:  # §6.5.16.1
@@ -109,6 +117,19 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
             recorded, since = write, 0
             last = numbers.get(write)
             out.append((k, write))
+        if end - k > 1:  # the same text again up to ``end``
+            if active if events else (same_writes and text and text == recorded):
+                out += [(j, text) for j in range(k + 1, end)]  # each one written
+                recorded, since = text, 0
+                last = numbers.get(text)
+            else:  # (no condition changes: only the samples condition writes)
+                first = k + max(1, samples - since)
+                if samples > 0 and first < end:
+                    out += [(j, text) for j in range(first, end, samples)]
+                    recorded, last = text, numbers.get(text)
+                    since = end - 1 - out[-1][0]
+                else:
+                    since += end - k - 1
     run.recorded, run.since_write, run.event_active = recorded, since, active
     return out
 

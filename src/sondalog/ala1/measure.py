@@ -362,8 +362,22 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
     if rendered is None:
         rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
     get = rendered.get  # (None for a value not rendered lately, None and NaN included)
+    decimals, width = fmt.decimals, fmt.width
+
+    def new(value: float | None) -> str:
+        if value is None or not -_VALUE_LIMIT < value < _VALUE_LIMIT:
+            return format_value(cfg, value)  # ("": no value, a NaN, beyond the limit)
+        text = _fixed(value, decimals)
+        if text is None:
+            return format_value(cfg, value)
+        text = text.rjust(width)
+        if len(rendered) >= _RENDERED_MAX:
+            rendered.clear()
+        rendered[value] = text
+        return text
+
     return [
-        text if (text := get(value)) is not None else format_value(cfg, value)  # type: ignore[arg-type]
+        text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
         for value in values
     ]
 
@@ -375,12 +389,17 @@ def _fixed(value: float, decimals: int) -> str | None:
     Below ``10**(14 - decimals)`` no rounding boundary (a number with ``decimals + 1``
     decimals ending in 5) lies between the two unless the repr is that boundary itself, and
     then the value shown with one more decimal ends in 5: such values are left to
-    :func:`_render` (tests/ala1/test_fast_sampling_render.py)."""
+    :func:`_render` (tests/ala1/test_fast_sampling_render.py). A value whose
+    ``value * 10**decimals`` is computed within 1e-6 (below 2**33) and is farther than 1e-4
+    from a half is far from every boundary."""
     size = abs(value)
     if size >= _FIXED_BELOW[decimals] or (size < 1e-4 and value):
         return None  # (large, or a repr with an exponent)
     finer, spec = _FIXED_SPECS[decimals]
-    if format(value, finer)[-1] == "5":
+    # Most values are far from a boundary (value * 10**decimals far from a half): no need to
+    # look closer. Below 2**33 the product is off by less than 1e-6, so is the repr.
+    near = size >= _NEAR_BELOW[decimals] or 0.4999 < value * _SCALES[decimals] % 1.0 < 0.5001
+    if near and format(value, finer)[-1] == "5":
         return None
     text = format(value, spec)
     if text[0] == "-" and not text.strip("-0."):
@@ -390,6 +409,8 @@ def _fixed(value: float, decimals: int) -> str | None:
 
 _FIXED_BELOW = [10.0 ** (14 - decimals) for decimals in range(10)]
 _FIXED_SPECS = [(f".{decimals + 1}f", f".{decimals}f") for decimals in range(10)]
+_NEAR_BELOW = [2.0**33 / 10.0**decimals for decimals in range(10)]
+_SCALES = [10.0**decimals for decimals in range(10)]
 
 
 def _render(shown: str, decimals: int) -> str | None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 import operator
 from collections.abc import Callable, Sequence
-from decimal import Decimal
+from decimal import ROUND_CEILING, Decimal
 
 from sondalog.ala1.columns import Column, Value
 from sondalog.ala1.measure import format_value, format_values
@@ -73,7 +73,10 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
     zero = format_value(cfg, 0.0) if events else ""
     same_writes = change <= _ZERO  # (runs._changed of two equal non-empty texts)
     numbers: dict[str, Decimal] = {}  # (Decimal(text) of the texts met, as runs.decimal_of)
-    last: Decimal | None = None  # the number the recorded text shows, once needed
+    decimals = cfg.format.decimals
+    # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
+    least = int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
+    last: int | Decimal | None = None  # the recorded text in units, once needed
     n = len(texts)
     starts: Sequence[int]
     if len(set(texts)) * 4 < n:  # long runs of one text (events, a steady signal): each
@@ -103,35 +106,41 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
                 write = text
         elif not text or not recorded:
             write = text
-        else:
-            x = numbers.get(text)
-            if x is None:
-                x = numbers[text] = Decimal(text)
+        else:  # |text - recorded| >= change, in units of the last decimal where it can
             if last is None:
-                last = Decimal(recorded)
-            if abs(x - last) >= change:
+                last = _units(recorded, decimals)
+            if isinstance(last, int):
+                units = int(text.replace(".", ""))  # (a text of the channel's format)
+                if abs(units - last) >= least:
+                    write = text
+            elif abs(Decimal(text) - Decimal(recorded)) >= change:
                 write = text
         if write is None and samples > 0 and since >= samples:
             write = text
         if write is not None:
-            recorded, since = write, 0
-            last = numbers.get(write)
+            recorded, since, last = write, 0, None
             out.append((k, write))
         if end - k > 1:  # the same text again up to ``end``
             if active if events else (same_writes and text and text == recorded):
                 out += [(j, text) for j in range(k + 1, end)]  # each one written
-                recorded, since = text, 0
-                last = numbers.get(text)
+                recorded, since, last = text, 0, None
             else:  # (no condition changes: only the samples condition writes)
                 first = k + max(1, samples - since)
                 if samples > 0 and first < end:
                     out += [(j, text) for j in range(first, end, samples)]
-                    recorded, last = text, numbers.get(text)
+                    recorded, last = text, None
                     since = end - 1 - out[-1][0]
                 else:
                     since += end - k - 1
     run.recorded, run.since_write, run.event_active = recorded, since, active
     return out
+
+
+def _units(text: str, decimals: int) -> int | Decimal:
+    """The number ``text`` shows in units of ``10**-decimals``: an int when it is whole (a
+    text of the channel's format), else the Decimal."""
+    scaled = Decimal(text).scaleb(decimals)
+    return int(scaled) if scaled == scaled.to_integral_value() else scaled
 
 
 def _plain_bulk(

@@ -4,8 +4,9 @@
 one value at a time. Here the same interpolation for a whole series of values (the readings of
 one channel over a stretch of sampling instants, :mod:`sondalog.ala1.series`) in list
 comprehensions: each segment's differences taken once, a value that repeats (an ADC has 4096
-levels, a DS18B20 steps by 1/16 °C) computed once. The very floats of the tables, and an
-exception where they raise (a NaN), for the caller to compute value by value.
+levels, a DS18B20 steps by 1/16 °C) computed once and remembered for the next stretches.
+The very floats of the tables, and an exception where they raise (a NaN), for the caller to
+compute value by value.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from sondalog.protocol.tables import Curve, Surface
 Value = float | None
 #: A table over a column (None stays None).
 CurveColumn = Callable[[list[Value]], list[Value]]
+#: Values remembered per table and channel (a fleet of loggers holds many: a bound).
+MEMO = 2048
 
 
 def curve_column(curve: Curve) -> CurveColumn:
@@ -43,8 +46,22 @@ def curve_column(curve: Curve) -> CurveColumn:
             for x, i in zip(values, at, strict=True)
         ]
 
+    memo: dict[float, float] = {}  # (kept from stretch to stretch: readings come back)
+
+    def remembered(values: list[float]) -> list[float]:
+        distinct = set(values)
+        if 0.0 in distinct:  # (0.0 and -0.0 are one key and may give different signs)
+            return direct(values)
+        new = [x for x in distinct if x not in memo]
+        if new:
+            if len(memo) + len(new) > MEMO:
+                memo.clear()
+                new = list(distinct)
+            memo.update(zip(new, direct(new), strict=True))  # (a NaN raises: not kept)
+        return [memo[x] for x in values]
+
     def column(values: list[Value]) -> list[Value]:
-        return _over_valid(lambda valid: _distinct(direct, valid), values)
+        return _over_valid(remembered, values)
 
     return column
 
@@ -109,14 +126,3 @@ def _over_valid(fn: Callable[[list[Any]], list[Any]], values: list[Value]) -> li
     for k, y in zip(index, fn([values[k] for k in index]), strict=True):
         out[k] = y
     return out
-
-
-def _distinct(fn: Callable[[list[Any]], list[Any]], values: list[Any]) -> list[Any]:
-    """``fn`` of each value, each distinct value computed once when values repeat. Zeros are
-    computed every time (0.0 and -0.0 are one key and may give values of different signs)."""
-    distinct = set(values)
-    if len(distinct) * 2 > len(values) or 0.0 in distinct:
-        return fn(values)
-    keys = list(distinct)
-    table = dict(zip(keys, fn(keys), strict=True))
-    return [table[x] for x in values]

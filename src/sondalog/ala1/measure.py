@@ -395,11 +395,20 @@ def _fixed(value: float, decimals: int) -> str | None:
     size = abs(value)
     if size >= _FIXED_BELOW[decimals] or (size < 1e-4 and value):
         return None  # (large, or a repr with an exponent)
+    if size < _NEAR_BELOW[decimals]:
+        # Most values are far from a boundary (value * 10**decimals far from a half): the
+        # nearest integer of the product is the rounding. Below 2**33 the product is off by
+        # less than 1e-6, so is the repr.
+        scaled = value * _SCALES[decimals]
+        if not 0.4999 < scaled % 1.0 < 0.5001:
+            units = round(scaled)
+            if not decimals:
+                return str(units)
+            digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
+            text = f"{digits[:-decimals]}.{digits[-decimals:]}"
+            return "-" + text if units < 0 else text
     finer, spec = _FIXED_SPECS[decimals]
-    # Most values are far from a boundary (value * 10**decimals far from a half): no need to
-    # look closer. Below 2**33 the product is off by less than 1e-6, so is the repr.
-    near = size >= _NEAR_BELOW[decimals] or 0.4999 < value * _SCALES[decimals] % 1.0 < 0.5001
-    if near and format(value, finer)[-1] == "5":
+    if format(value, finer)[-1] == "5":
         return None
     text = format(value, spec)
     if text[0] == "-" and not text.strip("-0."):

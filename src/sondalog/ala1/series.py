@@ -19,6 +19,7 @@ observer of instants without a series observer, or fewer than two instants befor
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable, Hashable
 from typing import Protocol
@@ -55,6 +56,8 @@ class Sampler(Protocol):
     faults: FaultLog
     runs: dict[int, ChannelRun]
     max_number: int
+    #: :func:`channel_column` by channel, with the configuration and tables it was made of.
+    columns: dict[int, tuple[ChannelConfig, object, Many | None]]
 
     @property
     def observer(self) -> object: ...
@@ -78,6 +81,42 @@ def _powered(runs: list[ChannelRun], t: int) -> dict[int, set[int]]:
             if n == t or (advance > 0 and n - advance < t):
                 on.setdefault(output, set()).add(number)
     return on
+
+
+def _groups(
+    switched: list[ChannelRun], cohorts: dict[tuple[int, int], list[int]], instants: list[int]
+) -> dict[frozenset[int], list[int]]:
+    """The ``instants`` grouped by the outputs on at each (:func:`_powered` of every instant):
+    an output is on at the instants its channels sample and within their switch-on delays
+    before each of their samples (none runs on past the last instant: :func:`_clean`)."""
+    masks = [0] * len(instants)
+    where = {t: i for i, t in enumerate(instants)}
+    right = bisect.bisect_right
+    for run in switched:
+        times = cohorts.get((run.next_t or 0, run.cfg.period))
+        if not times:
+            continue
+        for output, advance in run.cfg.switches:
+            bit = 1 << output
+            for t in times:
+                masks[where[t]] |= bit
+            if advance > 0:  # instants in (t - advance, t): the delay before sample t
+                ends = [w for t in times if (w := where[t]) and instants[w - 1] > t - advance]
+                for w in ends:
+                    for i in range(right(instants, instants[w] - advance), w):
+                        masks[i] |= bit
+    by_mask: dict[int, list[int]] = {}
+    for t, mask in zip(instants, masks, strict=True):
+        group = by_mask.get(mask)
+        if group is None:
+            by_mask[mask] = [t]
+        else:
+            group.append(t)
+    outputs = {output for run in switched for output, _ in run.cfg.switches}
+    return {
+        frozenset(output for output in outputs if mask >> output & 1): group
+        for mask, group in by_mask.items()
+    }
 
 
 def _clean(runs: list[ChannelRun], t: int) -> bool:
@@ -148,8 +187,7 @@ def _sample_series(
     if len(cohorts) == 1 and all(run.next_t == instants[0] for run in switched):
         groups[frozenset(_powered(switched, instants[0]))] = instants  # all due, always
     else:
-        for t in instants:
-            groups.setdefault(frozenset(_powered(switched, t)), []).append(t)
+        groups = _groups(switched, cohorts, instants)
     # every channel's sources and calculation; sources read once per cohort
     plans: dict[int, tuple[tuple[Source, ...], Calc]] = {}
     for run in runs:
@@ -187,7 +225,7 @@ def _sample_series(
         sources, calc = plans[run.cfg.number]
         window0 = _window0(run, key[0])
         got = [columns[key, (src.key, window0) if src.windowed else src.key] for src in sources]
-        values = _values(sources, calc, channel_column(sampler.measurer, run.cfg), got)
+        values = _values(sources, calc, _channel_column(sampler, run.cfg), got)
         samples[run.cfg.number] = (run.cfg, times, values.values)
         decided = decide_series(run, times, values, offset, sampler.faults.report)
         if run.cfg.number <= sampler.max_number:
@@ -201,6 +239,18 @@ def _sample_series(
         sink(t, [texts.get(t, "") for texts in fields])
     if sampler.series_observer is not None:
         sampler.series_observer(rows, samples)
+
+
+def _channel_column(sampler: Sampler, cfg: ChannelConfig) -> Many | None:
+    """:func:`channel_column` of ``cfg``, kept while the channel's configuration and the
+    tables stay (its tables remember the values they computed)."""
+    tables = sampler.measurer.tables
+    kept = sampler.columns.get(cfg.number)
+    if kept is not None and kept[0] == cfg and kept[1] is tables:
+        return kept[2]
+    many = channel_column(sampler.measurer, cfg)
+    sampler.columns[cfg.number] = (cfg, tables, many)
+    return many
 
 
 def _window0(run: ChannelRun, first: int) -> int:

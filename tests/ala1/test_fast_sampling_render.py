@@ -3,12 +3,13 @@ rounding half away from zero (§4.3.5), no ``-0``, any number of decimals."""
 
 from __future__ import annotations
 
+import math
 from decimal import Decimal
 
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.ala1.measure import _fixed, _render
+from sondalog.ala1.measure import ChannelConfig, Input, _fixed, _render, format_values
 from sondalog.ala1.tokens import NumberFormat
 
 values = st.one_of(
@@ -57,3 +58,35 @@ def test_render_by_format_is_the_decimal_rendering(value: float, decimals: int) 
     assert got is None or got == expected, (value, got, expected)
     if abs(value) < 10.0 ** (13 - decimals) and abs(value) >= 1e-4 and got is None:
         assert f"{value:.{decimals + 1}f}".endswith("5"), value  # declines only near ties
+
+
+ODD = [math.nan, -math.inf, 1e16, 0.0, -0.0, 5e-05]  # (no value shown, or the Decimal way)
+
+
+def _config(width: int, decimals: int) -> ChannelConfig:
+    nothing = Input(0, 0, "", 0, 1.0, 0.0, 1.0, 0.0, 0, 0)
+    return ChannelConfig(
+        1, 3, (nothing, nothing), "", "", 1.0, 0.0, NumberFormat(width, decimals), 60, "", 0,
+        Decimal(0), 0,
+    )  # fmt: skip
+
+
+@given(
+    values=st.lists(
+        st.one_of(values, st.none(), st.sampled_from([math.nan, -math.inf, 1e16])), max_size=30
+    ),
+    width=st.integers(0, 9),
+    decimals=st.integers(0, 9),
+)
+def test_a_series_formats_as_each_value_through_decimal(
+    values: list[float | None], width: int, decimals: int
+) -> None:
+    """``format_values`` (issue 24: the series path's texts, new values by their rounded
+    ``value * 10**decimals``) shows each value as ``NumberFormat.render`` of its repr does;
+    no value, a NaN and values beyond the limit as the empty field."""
+    fmt = NumberFormat(width, decimals)
+    expected = [
+        fmt.render(Decimal(repr(v))) if v is not None and math.isfinite(v) and abs(v) < 1e15 else ""
+        for v in values
+    ]
+    assert format_values(_config(width, decimals), values) == expected

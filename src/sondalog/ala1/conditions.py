@@ -88,6 +88,7 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
         text = texts[k]
         since += 1
         write: str | None = None
+        units: int | None = None  # (the text in units, when compared)
         if events:  # §6.5.16.1
             if text:
                 x = numbers.get(text)
@@ -118,7 +119,8 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
         if write is None and samples > 0 and since >= samples:
             write = text
         if write is not None:
-            recorded, since, last = write, 0, None
+            recorded, since = write, 0
+            last = units if write is text else None
             out.append((k, write))
         if end - k > 1:  # the same text again up to ``end``
             if active if events else (same_writes and text and text == recorded):
@@ -128,7 +130,8 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
                 first = k + max(1, samples - since)
                 if samples > 0 and first < end:
                     out += [(j, text) for j in range(first, end, samples)]
-                    recorded, last = text, None
+                    if recorded is not text:
+                        recorded, last = text, None
                     since = end - 1 - out[-1][0]
                 else:
                     since += end - k - 1

@@ -364,13 +364,21 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
     get = rendered.get  # (None for a value not rendered lately, None and NaN included)
     decimals, width = fmt.decimals, fmt.width
 
+    near, scale = _NEAR_BELOW[decimals], _SCALES[decimals]
+
     def new(value: float | None) -> str:
-        if value is None or not -_VALUE_LIMIT < value < _VALUE_LIMIT:
+        if value is None or not -near < value < near or -1e-4 < value < 1e-4:
             return format_value(cfg, value)  # ("": no value, a NaN, beyond the limit)
-        text = _fixed(value, decimals)
-        if text is None:
+        scaled = value * scale  # (_fixed's common case written out)
+        if 0.4999 < scaled % 1.0 < 0.5001:
             return format_value(cfg, value)
-        text = text.rjust(width)
+        units = round(scaled)
+        if decimals:
+            digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
+            text = f"{digits[:-decimals]}.{digits[-decimals:]}"
+            text = ("-" + text if units < 0 else text).rjust(width)
+        else:
+            text = str(units).rjust(width)
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
         rendered[value] = text

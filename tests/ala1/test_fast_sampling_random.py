@@ -329,3 +329,29 @@ def test_a_channel_reads_what_the_delays_of_other_periods_power(
     rows: list[str] = slow[-2]  # type: ignore[assignment]
     fields = [row.split(",")[3] for row in rows]
     assert "" in fields and any(fields), fields  # read inside and outside the delays
+
+
+def test_a_delay_running_when_the_clock_is_set_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The clock set back 15 minutes while a switch-on delay runs: the sensor stays powered
+    until its channel's next sample, a quarter of an hour later, and another channel reads
+    the input it powers meanwhile (found by the property test: the series path had switched
+    it off)."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.1", "mult": "1", "second_switch": 0, "period": 10}
+    channels = [
+        base | {"input": "supply", "start": 0, "switch": 0, "advance": 0},  # powered by 1
+        base | {"input": "analog", "start": 14, "switch": 1, "advance": 7},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 400), ("date", -900), ("advance", 1440)],
+        "watch": 1,
+        "function": "no",
+        "threshold": "1",
+        "hysteresis": "0",
+        "of_record": False,
+    }
+    fast, slow = run(case, True, monkeypatch), run(case, False, monkeypatch)
+    assert fast == slow
+    rows: list[str] = slow[-2]  # type: ignore[assignment]
+    assert any(row.startswith("20070101000000") and row.split(",")[2] for row in rows), rows

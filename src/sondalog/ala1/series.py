@@ -12,7 +12,8 @@ has begun, and the outputs written by hand. A stretch ends at an instant after w
 is running, so the event-by-event path goes on from exactly the state it would have reached.
 
 Falls back to the event-by-event path (returns False): a hold of an on-demand read is running
-(§6.9), a switch-on delay as long as its channel's period, hardware that is not
+(§6.9), a switch-on delay as long as its channel's period, a sensor powered by a delay that
+began before the clock was set back, hardware that is not
 ``pure_readings``, the interpreted reference measurement (``Measurer.fast`` False), an
 observer of instants without a series observer, or fewer than two instants before the target.
 """
@@ -119,6 +120,20 @@ def _groups(
     }
 
 
+def _stale(sampler: Sampler, t0: int) -> bool:
+    """An output powered for a channel whose switch-on delay did not begin by the schedule:
+    the clock was set back while it ran (§6.2). The event-by-event path keeps it on until
+    that channel's next sample; so does the series path, by leaving the instants to it."""
+    for output, numbers in sampler.outputs.scheduled.items():
+        for number in numbers:
+            run = sampler.runs.get(number)
+            n = None if run is None else run.next_t
+            advance = None if run is None else dict(run.cfg.switches).get(output)
+            if n is None or advance is None or not (n == t0 or (advance > 0 and n - advance < t0)):
+                return True
+    return False
+
+
 def _clean(runs: list[ChannelRun], t: int) -> bool:
     """No switch-on delay runs on after the sample at ``t`` (channels sampled at ``t``
     start theirs after it: an advance is shorter than the period)."""
@@ -145,6 +160,8 @@ def run_series(sampler: Sampler, t0: int, target: float, offset: float, sink: Ro
         return False
     runs = [run for run in sampler.runs.values() if run.next_t is not None]
     if any(advance >= run.cfg.period for run in runs for _, advance in run.cfg.switches):
+        return False
+    if _stale(sampler, t0):
         return False
     end = min(math.floor(target), t0 + min(run.cfg.period for run in runs) * CHUNK)
     cohorts: dict[tuple[int, int], list[int]] = {}

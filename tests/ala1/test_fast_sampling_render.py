@@ -9,7 +9,9 @@ from decimal import Decimal
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.ala1.measure import ChannelConfig, Input, _fixed, _render, format_values
+from sondalog.ala1.measure import ChannelConfig, Input, format_values
+from sondalog.ala1.rendering import fixed as _fixed
+from sondalog.ala1.rendering import render as _render
 from sondalog.ala1.tokens import NumberFormat
 
 values = st.one_of(

@@ -17,6 +17,7 @@ from typing import Protocol
 
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.model import View
+from sondalog.ala1.rendering import NEAR_BELOW, SCALES, fixed, render
 from sondalog.ala1.tokens import NUMBER_LIMIT, NumberFormat, period_seconds
 from sondalog.protocol.tables import Curve, Surface, TableError, TableSet
 
@@ -346,7 +347,7 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
         rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
     text = rendered.get(value)
     if text is None:
-        text = _fixed(value, fmt.decimals) or _render(repr(value), fmt.decimals)
+        text = fixed(value, fmt.decimals) or render(repr(value), fmt.decimals)
         text = fmt.render(Decimal(repr(value))) if text is None else text.rjust(fmt.width)
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
@@ -364,12 +365,12 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
     get = rendered.get  # (None for a value not rendered lately, None and NaN included)
     decimals, width = fmt.decimals, fmt.width
 
-    near, scale = _NEAR_BELOW[decimals], _SCALES[decimals]
+    near, scale = NEAR_BELOW[decimals], SCALES[decimals]
 
     def new(value: float | None) -> str:
         if value is None or not -near < value < near or -1e-4 < value < 1e-4:
             return format_value(cfg, value)  # ("": no value, a NaN, beyond the limit)
-        scaled = value * scale  # (_fixed's common case written out)
+        scaled = value * scale  # (rendering.fixed's common case written out)
         if 0.4999 < scaled % 1.0 < 0.5001:
             return format_value(cfg, value)
         units = round(scaled)
@@ -388,70 +389,6 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
         text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
         for value in values
     ]
-
-
-def _fixed(value: float, decimals: int) -> str | None:
-    """:func:`_render` of ``repr(value)`` by ``format`` (issue 24: averages rarely repeat), or
-    None where the two may differ. ``format`` rounds the float's exact binary value (half to
-    even), :func:`_render` the shortest decimal that reads back as it (half away from zero).
-    Below ``10**(14 - decimals)`` no rounding boundary (a number with ``decimals + 1``
-    decimals ending in 5) lies between the two unless the repr is that boundary itself, and
-    then the value shown with one more decimal ends in 5: such values are left to
-    :func:`_render` (tests/ala1/test_fast_sampling_render.py). A value whose
-    ``value * 10**decimals`` is computed within 1e-6 (below 2**33) and is farther than 1e-4
-    from a half is far from every boundary."""
-    size = abs(value)
-    if size >= _FIXED_BELOW[decimals] or (size < 1e-4 and value):
-        return None  # (large, or a repr with an exponent)
-    if size < _NEAR_BELOW[decimals]:
-        # Most values are far from a boundary (value * 10**decimals far from a half): the
-        # nearest integer of the product is the rounding. Below 2**33 the product is off by
-        # less than 1e-6, so is the repr.
-        scaled = value * _SCALES[decimals]
-        if not 0.4999 < scaled % 1.0 < 0.5001:
-            units = round(scaled)
-            if not decimals:
-                return str(units)
-            digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
-            text = f"{digits[:-decimals]}.{digits[-decimals:]}"
-            return "-" + text if units < 0 else text
-    finer, spec = _FIXED_SPECS[decimals]
-    if format(value, finer)[-1] == "5":
-        return None
-    text = format(value, spec)
-    if text[0] == "-" and not text.strip("-0."):
-        return text[1:]  # no "-0"
-    return text
-
-
-_FIXED_BELOW = [10.0 ** (14 - decimals) for decimals in range(10)]
-_FIXED_SPECS = [(f".{decimals + 1}f", f".{decimals}f") for decimals in range(10)]
-_NEAR_BELOW = [2.0**33 / 10.0**decimals for decimals in range(10)]
-_SCALES = [10.0**decimals for decimals in range(10)]
-
-
-def _render(shown: str, decimals: int) -> str | None:
-    """``NumberFormat.render(Decimal(shown))`` without the width, by the digits of the
-    float's repr (issue 24: averages rarely repeat, and the decimal context costs more than
-    the rest of a sample): round half away from zero, no ``-0``. None for an exponent."""
-    if "e" in shown:
-        return None
-    negative = shown[0] == "-"
-    whole, _, fraction = (shown[1:] if negative else shown).partition(".")
-    if len(fraction) <= decimals:
-        digits = whole + fraction + "0" * (decimals - len(fraction))
-        number = int(digits)
-    else:
-        number = int(whole + fraction[:decimals])
-        if fraction[decimals] >= "5":
-            number += 1
-        digits = str(number).rjust(decimals + 1, "0")
-    if number == 0:
-        negative = False
-    else:
-        digits = digits.lstrip("0").rjust(decimals + 1, "0")
-    text = f"{digits[:-decimals]}.{digits[-decimals:]}" if decimals else digits
-    return "-" + text if negative else text
 
 
 #: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the

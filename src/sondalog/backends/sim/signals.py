@@ -232,14 +232,12 @@ class RandomWalk:
         uniform, spare = self._rng.random, self._spare
         cos, sin, log, sqrt = math.cos, math.sin, math.log, math.sqrt
         count = index + _BATCH - len(values) + 1
-        steps: list[float] = []
-        if spare is not None:
-            steps.append(spare)
-        while len(steps) < count:
-            x2pi = uniform() * _TWO_PI
-            g2rad = sqrt(-2.0 * log(1.0 - uniform()))
-            steps.append(cos(x2pi) * g2rad)
-            steps.append(sin(x2pi) * g2rad)
+        steps: list[float] = [] if spare is None else [spare]
+        pairs = (count - len(steps) + 1) // 2
+        draws = [uniform() for _ in range(2 * pairs)]  # (x2pi's, g2rad's, alternately)
+        angles = [u * _TWO_PI for u in draws[0::2]]
+        radii = [sqrt(-2.0 * log(1.0 - u)) for u in draws[1::2]]
+        steps += [z for x, g in zip(angles, radii, strict=True) for z in (cos(x) * g, sin(x) * g)]
         spare = steps.pop() if len(steps) > count else None
         last = values[-1]
         append = values.append

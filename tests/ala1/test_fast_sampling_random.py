@@ -5,12 +5,15 @@ compiled measurements and :mod:`sondalog.ala1.series`), once on the reference pa
 (``Measurer.fast = False``: instant by instant, every channel interpreted). Random channel
 types (analog, switched analog, DS18B20, supply, pulses, events, 2-D, GSM), periods, starts,
 switches with switch-on delays (some as long as the period), manual outputs, averaging,
-record conditions, 1-D, 2-D, second and missing tables, a message on a threshold and a
-message of the record; on-demand reads, manual outputs and the clock set between random
-clock steps. The two must agree on every byte: the record memory, every answer, and every
-sending of the message outbox. (Checked by breaking the series path on purpose: ignoring the
-switch-on delays of channels not sampled at an instant, or taking every first pulse window
-as a whole period, fails it.)
+record conditions, 1-D, 2-D, second and missing tables, calibrations of the device, the
+input and the channel, a message on a threshold and a message of the record; on-demand
+reads, manual outputs and the clock set between random clock steps; every signal model the
+simulation reads as a column (shifted to the start as a site file's, clamped). The two must
+agree on every byte: the record memory, every answer, and every sending of the message
+outbox. (Checked by breaking the series path on purpose: ignoring the switch-on delays of
+channels not sampled at an instant, taking every first pulse window as a whole period,
+ignoring the delays of other periods when grouping instants by the outputs on, or moving
+the samples condition of a run of one text by a sample, fails it.)
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from sondalog.ala1 import series
 from sondalog.ala1.hardware import rom_code
 from sondalog.ala1.measure import Measurer
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware, Thermometer
-from sondalog.backends.sim.signals import RandomWalk, constant, ramp, sine
+from sondalog.backends.sim.signals import Clamp, RandomWalk, Schedule, constant, ramp, shifted, sine
 from sondalog.protocol.tables import build_files
 
 ROM_A, ROM_B = rom_code(0x1234), rom_code(0x5678)
@@ -40,6 +43,8 @@ INPUTS = {  # what a channel reads: the parts of its configuration
     "analog": "type 3|device 1|address 16",
     "powered": "type 3|device 1|address 17",  # powered by output 2 in the world
     "external": "type 3|device 1|address 33",
+    "walk": "type 3|device 1|address 19",  # powered by output 3 in the world
+    "schedule": "type 3|device 1|address 20",  # powered by output 1
     "ds_rom": f"type 3|device 3|address x {ROM_A:X}",
     "ds_only": "type 3|device 3|address 0",  # alone on its pin while output 3 is off
     "supply": "type 1|device 1|address 21",
@@ -54,13 +59,18 @@ INPUTS = {  # what a channel reads: the parts of its configuration
 
 
 def world() -> SimHardware:
+    """Every signal model the series path reads as a column: shifted to the start as a site
+    file's are, clamped by a lambda or by the site's Clamp, and a schedule read value by
+    value."""
     clamp = lambda v: min(2.4, max(0.0, v))  # noqa: E731
     return SimHardware(
-        supply=sine(12.4, 0.3, 7200.0, 0.0, T0),
+        supply=shifted(sine(12.4, 0.3, 7200.0, 0.0, 0.0), T0),
         supply_power=1,
         analog=[
             Analog(16, RandomWalk(1.0, 0.05, 30.0, 3, T0, clamp)),
             Analog(17, sine(1.2, 1.1, 3000.0, 0.0, T0), power=2),
+            Analog(19, shifted(RandomWalk(0.5, 0.2, 45.0, 4, 0.0, Clamp(0.0, 1.5)), T0), 3),
+            Analog(20, Schedule([(0.0, 0.3), (900.0, 1.9), (2000.0, 0.0)], T0, True, True), 1),
         ],
         pulses=[
             PulseSource(True, 0, burst_rate=0.004, burst=3, seed=5, origin=T0),
@@ -70,7 +80,10 @@ def world() -> SimHardware:
             Thermometer(4, ROM_A, sine(18.0, 6.0, 5000.0, 0.0, T0)),
             Thermometer(4, ROM_B, constant(4.5), power=3),
         ],
-        gsm={"signal": constant(21.0), "credit": ramp(300.0, -0.01, T0, lambda v: v)},
+        gsm={
+            "signal": shifted(constant(21.0), T0),
+            "credit": shifted(ramp(300.0, -0.05, 0.0, Clamp(290.0, 299.0)), T0),
+        },
     )
 
 
@@ -89,6 +102,8 @@ channel = st.fixed_dictionaries(
         "table2": st.sampled_from(["", "", "big", "t2"]),
         "format": st.sampled_from(["0.0", "0.1", "0.2", "5.3"]),
         "mult": st.sampled_from(["1", "1", "-2.5", "1000"]),
+        "add": st.sampled_from(["0", "0", "0.25"]),
+        "cal2": st.sampled_from([("1", "0"), ("1", "0"), ("2", "-0.5")]),
     }
 )
 step = st.one_of(
@@ -107,6 +122,8 @@ setup = st.fixed_dictionaries(
         "threshold": st.sampled_from(["0", "0.5", "1", "18", "100"]),
         "hysteresis": st.sampled_from(["0", "0.2", "3"]),
         "of_record": st.booleans(),
+        # the device calibrations (§6.4.4): the ADC's and the timer's
+        "device_cal": st.sampled_from([("1", "0"), ("1", "0"), ("0.5", "0.01")]),
     }
 )
 
@@ -120,6 +137,9 @@ def configure(m: Module, case: dict[str, Any]) -> None:
     m.engine.state.write_file("list", listing)
     m.engine.state.write_file("data", data)
     m.ok("write device 3 type ds18b20 write device 3 address 4 write device 4 type msp430ta")
+    mult, add = case.get("device_cal", ("1", "0"))
+    for device in (1, 4):
+        m.ok(f"write device {device} cal mult {mult} write device {device} cal add {add}")
     m.ok("write output 2 device 1 write output 2 address 6")
     m.ok("write output 3 device 1 write output 3 address 5")
     for ch, c in enumerate(channels, 1):
@@ -129,6 +149,9 @@ def configure(m: Module, case: dict[str, Any]) -> None:
             f"switch advance all {c['advance']},{c['advance'] // 2}",
             f"format {c['format']}",
             f"cal mult value {c['mult']}",
+            f"cal add value {c.get('add', '0')}",
+            f"cal2 mult {c.get('cal2', ('1', '0'))[0]}",
+            f"cal2 add {c.get('cal2', ('1', '0'))[1]}",
             f"average samples {c['average']}",
             f"record change {c['change']}",
             f"record samples {c['samples']}",
@@ -277,3 +300,58 @@ def test_a_stretch_ends_before_channels_that_start_later(monkeypatch: pytest.Mon
         "of_record": False,
     }
     assert run(case, True, monkeypatch) == run(case, False, monkeypatch)
+
+
+def test_a_channel_reads_what_the_delays_of_other_periods_power(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Channels of different periods: an input powered by output 3 is read by a channel that
+    switches nothing, at instants inside the switch-on delay of another channel switching
+    output 3 (a value) and outside it (none); the series path groups the instants by the
+    outputs on as the event-by-event path switches them."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.3", "mult": "1", "second_switch": 0}
+    channels = [
+        base | {"input": "analog", "period": 20, "start": 0, "switch": 3, "advance": 12},
+        base | {"input": "walk", "period": 15, "start": 0, "switch": 0, "advance": 0},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 3600)],
+        "watch": 2,
+        "function": "no",
+        "threshold": "1",
+        "hysteresis": "0",
+        "of_record": False,
+    }
+    fast, slow = run(case, True, monkeypatch), run(case, False, monkeypatch)
+    assert fast == slow
+    rows: list[str] = slow[-2]  # type: ignore[assignment]
+    fields = [row.split(",")[3] for row in rows]
+    assert "" in fields and any(fields), fields  # read inside and outside the delays
+
+
+def test_a_delay_running_when_the_clock_is_set_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The clock set back 15 minutes while a switch-on delay runs: the sensor stays powered
+    until its channel's next sample, a quarter of an hour later, and another channel reads
+    the input it powers meanwhile (found by the property test: the series path had switched
+    it off)."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.1", "mult": "1", "second_switch": 0, "period": 10}
+    channels = [
+        base | {"input": "supply", "start": 0, "switch": 0, "advance": 0},  # powered by 1
+        base | {"input": "analog", "start": 14, "switch": 1, "advance": 7},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 400), ("date", -900), ("advance", 1440)],
+        "watch": 1,
+        "function": "no",
+        "threshold": "1",
+        "hysteresis": "0",
+        "of_record": False,
+    }
+    fast, slow = run(case, True, monkeypatch), run(case, False, monkeypatch)
+    assert fast == slow
+    rows: list[str] = slow[-2]  # type: ignore[assignment]
+    assert any(row.startswith("20070101000000") and row.split(",")[2] for row in rows), rows

@@ -3,12 +3,15 @@ rounding half away from zero (§4.3.5), no ``-0``, any number of decimals."""
 
 from __future__ import annotations
 
+import math
 from decimal import Decimal
 
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.ala1.measure import _render
+from sondalog.ala1.measure import ChannelConfig, Input, format_values
+from sondalog.ala1.rendering import fixed as _fixed
+from sondalog.ala1.rendering import render as _render
 from sondalog.ala1.tokens import NumberFormat
 
 values = st.one_of(
@@ -31,3 +34,61 @@ def test_render_by_digits_is_the_decimal_rendering(value: float, decimals: int) 
     expected = NumberFormat(0, decimals).render(Decimal(repr(value)))
     got = _render(repr(value), decimals)
     assert got is None if "e" in repr(value) else got == expected, (value, got, expected)
+
+
+@given(value=values, decimals=st.integers(0, 9))
+@example(value=0.05, decimals=1)
+@example(value=-0.05, decimals=1)
+@example(value=-0.04, decimals=1)
+@example(value=-0.0, decimals=2)
+@example(value=0.0, decimals=0)
+@example(value=2.675, decimals=2)
+@example(value=1.005, decimals=2)  # 1.00499999999999989...: format says 1.00, the repr 1.01
+@example(value=0.125, decimals=2)  # exact in binary: format rounds half to even
+@example(value=9.995, decimals=2)
+@example(value=-999.5, decimals=0)
+@example(value=0.5, decimals=0)
+@example(value=99999.99999, decimals=9)
+@example(value=0.12450000001, decimals=2)  # near a boundary, not on it
+@example(value=0.1245, decimals=3)
+@example(value=-2.0000499999999, decimals=4)
+@example(value=8589934.5915, decimals=3)  # just above 2**33 / 10**3
+def test_render_by_format_is_the_decimal_rendering(value: float, decimals: int) -> None:
+    """``_fixed`` (issue 24) renders as :func:`_render` and ``Decimal`` do, or declines."""
+    expected = NumberFormat(0, decimals).render(Decimal(repr(value)))
+    got = _fixed(value, decimals)
+    assert got is None or got == expected, (value, got, expected)
+    if abs(value) < 10.0 ** (13 - decimals) and abs(value) >= 1e-4 and got is None:
+        assert f"{value:.{decimals + 1}f}".endswith("5"), value  # declines only near ties
+
+
+ODD = [math.nan, -math.inf, 1e16, 0.0, -0.0, 5e-05]  # (no value shown, or the Decimal way)
+
+
+def _config(width: int, decimals: int) -> ChannelConfig:
+    nothing = Input(0, 0, "", 0, 1.0, 0.0, 1.0, 0.0, 0, 0)
+    return ChannelConfig(
+        1, 3, (nothing, nothing), "", "", 1.0, 0.0, NumberFormat(width, decimals), 60, "", 0,
+        Decimal(0), 0,
+    )  # fmt: skip
+
+
+@given(
+    values=st.lists(
+        st.one_of(values, st.none(), st.sampled_from([math.nan, -math.inf, 1e16])), max_size=30
+    ),
+    width=st.integers(0, 9),
+    decimals=st.integers(0, 9),
+)
+def test_a_series_formats_as_each_value_through_decimal(
+    values: list[float | None], width: int, decimals: int
+) -> None:
+    """``format_values`` (issue 24: the series path's texts, new values by their rounded
+    ``value * 10**decimals``) shows each value as ``NumberFormat.render`` of its repr does;
+    no value, a NaN and values beyond the limit as the empty field."""
+    fmt = NumberFormat(width, decimals)
+    expected = [
+        fmt.render(Decimal(repr(v))) if v is not None and math.isfinite(v) and abs(v) < 1e15 else ""
+        for v in values
+    ]
+    assert format_values(_config(width, decimals), values) == expected

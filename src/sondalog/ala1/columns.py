@@ -21,6 +21,7 @@ from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from sondalog.ala1.curves import curve_column, surface_column
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.measure import TIMER_MAX_HZ, ChannelConfig, Input, Measurer
 from sondalog.protocol.tables import Curve, Surface, TableError
@@ -70,9 +71,17 @@ def _calibrated(
     raw: Callable[[list[float]], list[Value]], mult: float, add: float
 ) -> Callable[[list[float]], list[Value]]:
     def column(times: list[float]) -> list[Value]:
-        return [None if r is None else r * mult + add for r in raw(times)]
+        return affine(raw(times), mult, add)
 
     return column
+
+
+def affine(values: list[Value], mult: float, add: float) -> list[Value]:
+    """``v * mult + add`` of each value (None stays None), a new list: the values themselves
+    where that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
+    if mult == 1.0 and add == 0.0 and 0.0 not in values:
+        return list(values)
+    return [None if v is None else v * mult + add for v in values]
 
 
 def mapped(fn: Callable[..., Value], *columns: Sequence[Value]) -> Column:
@@ -180,10 +189,19 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
         def counts(times: list[float], windows: list[int]) -> list[Value]:
             starts = [t - window for t, window in zip(times, windows, strict=True)]
             got = many_pulses(device, address, timer, starts, times)
-            limited = [min(c, floor(limit * w)) for c, w in zip(got, windows, strict=True)]
-            return [c * dm + da for c in limited] if timer else [float(c) for c in limited]
+            caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
+            if timer:  # (min(c, cap) * dm + da)
+                return [
+                    (cap if (cap := caps[w]) < c else c) * dm + da
+                    for c, w in zip(got, windows, strict=True)
+                ]
+            return [
+                float(cap if (cap := caps[w]) < c else c) for c, w in zip(got, windows, strict=True)
+            ]
 
-    return Source(("pulses", cfg.number, number), counted, windowed=True, counts=counts)
+    # (channels of a cohort with the same window count the same pulses: the series adds it)
+    key = ("pulses", device, address, timer, limit, dm, da)
+    return Source(key, counted, windowed=True, counts=counts)
 
 
 def _supplied(
@@ -271,15 +289,62 @@ def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, 
     return (one,), remembered(tabled)
 
 
-def plain_column(cfg: ChannelConfig) -> Callable[[list[Value]], list[Value]] | None:
-    """The values of a one-input channel without tables (not GSM) from its readings, as one
-    list comprehension (``plain`` of :func:`channel_plan` without a call per value)."""
-    if cfg.type in (9, 11, 12) or cfg.table1 or cfg.table2:
+#: A channel's values from its inputs' readings (one list per input), a whole series at once.
+Many = Callable[..., list[Value]]
+
+
+def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
+    """The values of channel ``cfg`` from its sources' readings (:func:`channel_plan`) as
+    list comprehensions, without a call per value: the very floats of its calculation, or an
+    exception (the caller then computes value by value). None: a channel whose tables are
+    missing or of the wrong kind (value by value, as :func:`channel_plan`)."""
+    kind = cfg.type
+    tables = measurer.tables
+    table1 = tables.get(cfg.table1) if cfg.table1 else None
+    table2 = tables.get(cfg.table2) if cfg.table2 else None
+    if (table1 is not None and not isinstance(table1, Curve | Surface)) or (
+        table2 is not None and not isinstance(table2, Curve)
+    ):
         return None
-    first = cfg.inputs[0]
-    m1, a1, mult, add = first.cal2_mult, first.cal2_add, cfg.mult, cfg.add
+    mult, add = cfg.mult, cfg.add
+    second = None if table2 is None else curve_column(table2)
 
-    def column(readings: list[Value]) -> list[Value]:
-        return [None if r is None else (r * m1 + a1) * mult + add for r in readings]
+    def finish(ys: list[Value]) -> list[Value]:  # (channel_plan's finish)
+        ys = affine(ys, mult, add)
+        return ys if second is None else second(ys)
 
-    return column
+    if kind == 11 or kind == 12:  # (gsm_value: a 1-D table, or none)
+        if isinstance(table1, Surface):
+            return None
+        if table1 is None:
+            return finish
+        gsm_table = curve_column(table1)
+        return lambda xs: finish(gsm_table(xs))
+    m1, a1 = cfg.inputs[0].cal2_mult, cfg.inputs[0].cal2_add
+    if kind == 9:
+        if not isinstance(table1, Surface):
+            return None
+        m2, a2 = cfg.inputs[1].cal2_mult, cfg.inputs[1].cal2_add
+        surface = surface_column(table1)
+
+        def two_d(rs: list[Value], r2s: list[Value]) -> list[Value]:
+            return finish(surface(affine(rs, m1, a1), affine(r2s, m2, a2)))
+
+        return two_d
+    if isinstance(table1, Surface):
+        return None
+    first = None if table1 is None else curve_column(table1)
+
+    def one_d(rs: list[Value]) -> list[Value]:
+        xs = affine(rs, m1, a1)
+        return finish(xs if first is None else first(xs))
+
+    if first is None and second is None:
+
+        def plain(rs: list[Value]) -> list[Value]:  # (channel_plan's plain)
+            if m1 == 1.0 and a1 == 0.0 and 0.0 not in rs:
+                return affine(rs, mult, add)  # (r * 1.0 + 0.0 is r, but for -0.0)
+            return [None if r is None else (r * m1 + a1) * mult + add for r in rs]
+
+        return plain
+    return one_d

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from decimal import Decimal
 from typing import Protocol
 
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.model import View
+from sondalog.ala1.rendering import NEAR_BELOW, SCALES, fixed, render
 from sondalog.ala1.tokens import NUMBER_LIMIT, NumberFormat, period_seconds
 from sondalog.protocol.tables import Curve, Surface, TableError, TableSet
 
@@ -346,7 +347,7 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
         rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
     text = rendered.get(value)
     if text is None:
-        text = _render(repr(value), fmt.decimals)
+        text = fixed(value, fmt.decimals) or render(repr(value), fmt.decimals)
         text = fmt.render(Decimal(repr(value))) if text is None else text.rjust(fmt.width)
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
@@ -354,28 +355,40 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
     return text
 
 
-def _render(shown: str, decimals: int) -> str | None:
-    """``NumberFormat.render(Decimal(shown))`` without the width, by the digits of the
-    float's repr (issue 24: averages rarely repeat, and the decimal context costs more than
-    the rest of a sample): round half away from zero, no ``-0``. None for an exponent."""
-    if "e" in shown:
-        return None
-    negative = shown[0] == "-"
-    whole, _, fraction = (shown[1:] if negative else shown).partition(".")
-    if len(fraction) <= decimals:
-        digits = whole + fraction + "0" * (decimals - len(fraction))
-        number = int(digits)
-    else:
-        number = int(whole + fraction[:decimals])
-        if fraction[decimals] >= "5":
-            number += 1
-        digits = str(number).rjust(decimals + 1, "0")
-    if number == 0:
-        negative = False
-    else:
-        digits = digits.lstrip("0").rjust(decimals + 1, "0")
-    text = f"{digits[:-decimals]}.{digits[-decimals:]}" if decimals else digits
-    return "-" + text if negative else text
+def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
+    """:func:`format_value` of each of ``values`` (issue 24: a series of samples), the texts
+    rendered lately looked up without a call."""
+    fmt = cfg.format
+    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
+    if rendered is None:
+        rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
+    get = rendered.get  # (None for a value not rendered lately, None and NaN included)
+    decimals, width = fmt.decimals, fmt.width
+
+    near, scale = NEAR_BELOW[decimals], SCALES[decimals]
+
+    def new(value: float | None) -> str:
+        if value is None or not -near < value < near or -1e-4 < value < 1e-4:
+            return format_value(cfg, value)  # ("": no value, a NaN, beyond the limit)
+        scaled = value * scale  # (rendering.fixed's common case written out)
+        if 0.4999 < scaled % 1.0 < 0.5001:
+            return format_value(cfg, value)
+        units = round(scaled)
+        if decimals:
+            digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
+            text = f"{digits[:-decimals]}.{digits[-decimals:]}"
+            text = ("-" + text if units < 0 else text).rjust(width)
+        else:
+            text = str(units).rjust(width)
+        if len(rendered) >= _RENDERED_MAX:
+            rendered.clear()
+        rendered[value] = text
+        return text
+
+    return [
+        text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
+        for value in values
+    ]
 
 
 #: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the

@@ -138,7 +138,7 @@ def record(run: ChannelRun, text: str) -> str | None:
     elif change != _NEVER:
         if cfg.type == 6:
             # §6.5.16.1: events per period; one 0 when the condition stops holding
-            if text and _decimal(text) >= change:
+            if text and decimal_of(text) >= change:
                 write, run.event_active = text, True
             elif run.event_active:
                 write, run.event_active = format_value(cfg, 0.0), False
@@ -157,10 +157,10 @@ def _changed(old: str, new: str, change: Decimal) -> bool:
         return old != new
     if old == new:  # (most samples: no arithmetic needed)
         return change <= _ZERO
-    return abs(_decimal(new) - _decimal(old)) >= change
+    return abs(decimal_of(new) - decimal_of(old)) >= change
 
 
-def _decimal(text: str) -> Decimal:
+def decimal_of(text: str) -> Decimal:
     """``Decimal(text)``, remembered: recorded texts repeat (issue 24)."""
     number = _PARSED.get(text)
     if number is None:

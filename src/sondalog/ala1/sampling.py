@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from sondalog.ala1.columns import Many
 from sondalog.ala1.measure import ChannelConfig, Measurer
 from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide
 from sondalog.ala1.series import SeriesObserver, run_series
@@ -37,6 +38,8 @@ class Sampler:
         #: The observer's view of many instants at once (:mod:`sondalog.ala1.series`); a
         #: sampler with an observer but without this one samples instant by instant.
         self.series_observer: SeriesObserver | None = None
+        #: The series path's channel calculations, kept while configuration and tables stay.
+        self.columns: dict[int, tuple[ChannelConfig, object, Many | None]] = {}
 
     def configure(self, configs: list[ChannelConfig], max_number: int, now: int) -> None:
         """New channel parameters; channels whose sampling changed restart their schedule."""

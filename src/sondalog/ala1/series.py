@@ -12,23 +12,32 @@ has begun, and the outputs written by hand. A stretch ends at an instant after w
 is running, so the event-by-event path goes on from exactly the state it would have reached.
 
 Falls back to the event-by-event path (returns False): a hold of an on-demand read is running
-(§6.9), a switch-on delay as long as its channel's period, hardware that is not
+(§6.9), a switch-on delay as long as its channel's period, a sensor powered by a delay that
+began before the clock was set back, hardware that is not
 ``pure_readings``, the interpreted reference measurement (``Measurer.fast`` False), an
 observer of instants without a series observer, or fewer than two instants before the target.
 """
 
 from __future__ import annotations
 
-import functools
+import bisect
 import math
-import operator
 from collections.abc import Callable, Hashable
-from decimal import Decimal
 from typing import Protocol
 
-from sondalog.ala1.columns import Column, Source, Value, channel_plan, mapped, plain_column
-from sondalog.ala1.measure import ChannelConfig, Measurer, format_value
-from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide, record
+from sondalog.ala1.columns import (
+    Calc,
+    Column,
+    Many,
+    Source,
+    Value,
+    channel_column,
+    channel_plan,
+    mapped,
+)
+from sondalog.ala1.conditions import decide_series
+from sondalog.ala1.measure import ChannelConfig, Measurer
+from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs
 
 #: Instants of the most frequent channel in one stretch (bounds the memory of a stretch).
 CHUNK = 4096
@@ -48,6 +57,8 @@ class Sampler(Protocol):
     faults: FaultLog
     runs: dict[int, ChannelRun]
     max_number: int
+    #: :func:`channel_column` by channel, with the configuration and tables it was made of.
+    columns: dict[int, tuple[ChannelConfig, object, Many | None]]
 
     @property
     def observer(self) -> object: ...
@@ -71,6 +82,56 @@ def _powered(runs: list[ChannelRun], t: int) -> dict[int, set[int]]:
             if n == t or (advance > 0 and n - advance < t):
                 on.setdefault(output, set()).add(number)
     return on
+
+
+def _groups(
+    switched: list[ChannelRun], cohorts: dict[tuple[int, int], list[int]], instants: list[int]
+) -> dict[frozenset[int], list[int]]:
+    """The ``instants`` grouped by the outputs on at each (:func:`_powered` of every instant):
+    an output is on at the instants its channels sample and within their switch-on delays
+    before each of their samples (none runs on past the last instant: :func:`_clean`)."""
+    masks = [0] * len(instants)
+    where = {t: i for i, t in enumerate(instants)}
+    right = bisect.bisect_right
+    for run in switched:
+        times = cohorts.get((run.next_t or 0, run.cfg.period))
+        if not times:
+            continue
+        for output, advance in run.cfg.switches:
+            bit = 1 << output
+            for t in times:
+                masks[where[t]] |= bit
+            if advance > 0:  # instants in (t - advance, t): the delay before sample t
+                ends = [w for t in times if (w := where[t]) and instants[w - 1] > t - advance]
+                for w in ends:
+                    for i in range(right(instants, instants[w] - advance), w):
+                        masks[i] |= bit
+    by_mask: dict[int, list[int]] = {}
+    for t, mask in zip(instants, masks, strict=True):
+        group = by_mask.get(mask)
+        if group is None:
+            by_mask[mask] = [t]
+        else:
+            group.append(t)
+    outputs = {output for run in switched for output, _ in run.cfg.switches}
+    return {
+        frozenset(output for output in outputs if mask >> output & 1): group
+        for mask, group in by_mask.items()
+    }
+
+
+def _stale(sampler: Sampler, t0: int) -> bool:
+    """An output powered for a channel whose switch-on delay did not begin by the schedule:
+    the clock was set back while it ran (§6.2). The event-by-event path keeps it on until
+    that channel's next sample; so does the series path, by leaving the instants to it."""
+    for output, numbers in sampler.outputs.scheduled.items():
+        for number in numbers:
+            run = sampler.runs.get(number)
+            n = None if run is None else run.next_t
+            advance = None if run is None else dict(run.cfg.switches).get(output)
+            if n is None or advance is None or not (n == t0 or (advance > 0 and n - advance < t0)):
+                return True
+    return False
 
 
 def _clean(runs: list[ChannelRun], t: int) -> bool:
@@ -99,6 +160,8 @@ def run_series(sampler: Sampler, t0: int, target: float, offset: float, sink: Ro
         return False
     runs = [run for run in sampler.runs.values() if run.next_t is not None]
     if any(advance >= run.cfg.period for run in runs for _, advance in run.cfg.switches):
+        return False
+    if _stale(sampler, t0):
         return False
     end = min(math.floor(target), t0 + min(run.cfg.period for run in runs) * CHUNK)
     cohorts: dict[tuple[int, int], list[int]] = {}
@@ -141,13 +204,13 @@ def _sample_series(
     if len(cohorts) == 1 and all(run.next_t == instants[0] for run in switched):
         groups[frozenset(_powered(switched, instants[0]))] = instants  # all due, always
     else:
-        for t in instants:
-            groups.setdefault(frozenset(_powered(switched, t)), []).append(t)
+        groups = _groups(switched, cohorts, instants)
     # every channel's sources and calculation; sources read once per cohort
-    plans: dict[int, tuple[tuple[Source, ...], Callable[..., Value]]] = {}
+    plans: dict[int, tuple[tuple[Source, ...], Calc]] = {}
     for run in runs:
         plans[run.cfg.number] = channel_plan(sampler.measurer, run.cfg)
     columns: dict[tuple[tuple[int, int], Hashable], Column] = {}
+    hosts = {key: [t - offset for t in times] for key, times in cohorts.items()}
     for on_outputs, group in groups.items():
         scheduled = outputs.scheduled
         for output in set(scheduled) | on_outputs:
@@ -160,11 +223,13 @@ def _sample_series(
             times = cohorts.get(key)
             if not times:
                 continue
-            window0 = key[0] - run.last_t if run.last_t is not None else run.cfg.period
+            window0 = _window0(run, key[0])
             for src in plans[run.cfg.number][0]:
-                if (key, src.key) not in done:
-                    done.add((key, src.key))
-                    _read(columns, key, src, times, members, offset, window0, run.cfg.period)
+                name = (src.key, window0) if src.windowed else src.key
+                if (key, name) not in done:
+                    done.add((key, name))
+                    at = (times, hosts[key], members)
+                    _read(columns, (key, name), src, at, offset, window0, run.cfg.period)
     for numbers in outputs.scheduled.values():
         numbers.clear()
     samples: Samples = {}
@@ -175,11 +240,13 @@ def _sample_series(
         if not times:
             continue
         sources, calc = plans[run.cfg.number]
-        got = [columns[key, src.key] for src in sources]
-        many = plain_column(run.cfg)
-        values = _values(sources, calc, got) if many is None else _plain(many, calc, got[0])
+        window0 = _window0(run, key[0])
+        got = [columns[key, (src.key, window0) if src.windowed else src.key] for src in sources]
+        values = _values(sources, calc, _channel_column(sampler, run.cfg), got)
         samples[run.cfg.number] = (run.cfg, times, values.values)
-        written[run.cfg.number] = _decide_all(sampler, run, times, values, offset)
+        decided = decide_series(run, times, values, offset, sampler.faults.report)
+        if run.cfg.number <= sampler.max_number:
+            written[run.cfg.number] = decided
         run.last_t = times[-1]
         run.next_t = times[-1] + run.cfg.period
     outputs.update(float(instants[-1]), offset)
@@ -191,29 +258,47 @@ def _sample_series(
         sampler.series_observer(rows, samples)
 
 
+def _channel_column(sampler: Sampler, cfg: ChannelConfig) -> Many | None:
+    """:func:`channel_column` of ``cfg``, kept while the channel's configuration and the
+    tables stay (its tables remember the values they computed)."""
+    tables = sampler.measurer.tables
+    kept = sampler.columns.get(cfg.number)
+    if kept is not None and kept[0] == cfg and kept[1] is tables:
+        return kept[2]
+    many = channel_column(sampler.measurer, cfg)
+    sampler.columns[cfg.number] = (cfg, tables, many)
+    return many
+
+
+def _window0(run: ChannelRun, first: int) -> int:
+    """The counting window of ``run``'s first sample at ``first`` (pulses): whole seconds
+    since its last sample."""
+    return first - run.last_t if run.last_t is not None else run.cfg.period
+
+
 def _read(
     columns: dict[tuple[tuple[int, int], Hashable], Column],
-    cohort: tuple[int, int],
+    name: tuple[tuple[int, int], Hashable],
     src: Source,
-    times: list[int],
-    members: set[int] | None,
+    at: tuple[list[int], list[float], set[int] | None],
     offset: float,
     window0: int,
     period: int,
 ) -> None:
-    """Read ``src`` at the cohort's ``times`` that belong to the current group (all when
-    ``members`` is None) into ``columns``."""
+    """Read ``src`` into ``columns[name]`` at the cohort's times (module and host times) that
+    belong to the current group (all when its members are None)."""
+    times, all_hosts, members = at
     read = src.read
     if read is None:
-        if (cohort, src.key) not in columns:
-            columns[cohort, src.key] = Column([src.constant] * len(times))
+        if name not in columns:
+            columns[name] = Column([src.constant] * len(times))
         return
     if members is None:
         index: list[int] | range = range(len(times))
-        hosts = [t - offset for t in times]
+        hosts = all_hosts
     else:
         index = [k for k, t in enumerate(times) if t in members]
-        hosts = [times[k] - offset for k in index]
+        hosts = [all_hosts[k] for k in index]
     windows = [window0 if k == 0 else period for k in index] if src.windowed else []
     try:
         if src.counts is not None:
@@ -224,38 +309,32 @@ def _read(
             got = mapped(read, hosts, windows) if src.windowed else mapped(read, hosts)
     except Exception:  # (a reading that raises: read one by one, it is that one's fault)
         got = mapped(read, hosts, windows) if src.windowed else mapped(read, hosts)
-    column = columns.get((cohort, src.key))
+    column = columns.get(name)
     if column is None:
         if members is None:
-            columns[cohort, src.key] = got
+            columns[name] = got
             return
-        column = columns[cohort, src.key] = Column([None] * len(times))
+        column = columns[name] = Column([None] * len(times))
     for i, k in enumerate(index):
         column.values[k] = got.values[i]
         if i in got.faults:
             column.faults[k] = got.faults[i]
 
 
-def _plain(
-    many: Callable[[list[Value]], list[Value]], calc: Callable[..., Value], got: Column
+def _values(
+    sources: tuple[Source, ...], calc: Calc, many: Many | None, got: list[Column]
 ) -> Column:
-    """:func:`_values` of a one-input channel without tables, in one comprehension."""
-    try:
-        result = Column(many(got.values))
-    except Exception:  # (computed one by one: that value's fault)
-        result = mapped(calc, got.values)
-    for k, exc in got.faults.items():
-        result.faults[k] = exc
-        result.values[k] = None
-    for k in result.faults:
-        result.values[k] = None
-    return result
-
-
-def _values(sources: tuple[Source, ...], calc: Callable[..., Value], got: list[Column]) -> Column:
-    """The channel's values from its sources' columns; a fault of a source is the channel's
-    fault (type 9: the second input counts only when the first has a value)."""
-    result = mapped(calc, *(column.values for column in got))
+    """The channel's values from its sources' columns (at once by ``many`` where it can, else
+    value by value); a fault of a source is the channel's fault (type 9: the second input
+    counts only when the first has a value)."""
+    result: Column | None = None
+    if many is not None:
+        try:
+            result = Column(many(*(column.values for column in got)))
+        except Exception:  # (computed one by one: that value's fault)
+            result = None
+    if result is None:
+        result = mapped(calc, *(column.values for column in got))
     faults = result.faults
     first = got[0]
     for k, exc in first.faults.items():
@@ -267,138 +346,3 @@ def _values(sources: tuple[Source, ...], calc: Callable[..., Value], got: list[C
     for k in faults:
         result.values[k] = None
     return result
-
-
-def _decide_all(
-    sampler: Sampler, run: ChannelRun, times: list[int], values: Column, offset: float
-) -> dict[int, str]:
-    """§6.5.15-§6.5.16 for every sample of ``run``: the texts written, by instant (as
-    :meth:`Sampler._measure_due` does sample by sample)."""
-    cfg = run.cfg
-    if cfg.average > 0:
-        return _averaged(sampler, run, times, values, offset)
-    report = sampler.faults.report
-    faults = values.faults
-    written: dict[int, str] = {}
-    sample: Value = None
-    texts: list[str | None]
-    try:
-        texts = _texts(cfg, values.values)
-    except Exception:  # (decide meets it again below, sample by sample)
-        texts = [None] * len(values.values)
-    quiet = _Quiet(cfg)
-    samples = cfg.samples
-    for k, value in enumerate(values.values):
-        sample = value
-        shown = texts[k]
-        if (
-            shown
-            and shown in quiet
-            and run.recorded is not None
-            and not run.event_active
-            and (cfg.type == 6 or shown == run.recorded)
-            and not (faults and k in faults)
-            and not (samples > 0 and run.since_write + 1 >= samples)
-        ):
-            run.since_write += 1  # runs.record of a value that writes nothing, without the call
-            continue
-        if faults and k in faults:
-            # (Sampler._measure_due's except branch)
-            report(cfg.number, faults[k], times[k] - offset)
-            try:
-                text = decide(run, None)
-            except Exception:
-                text = None
-        else:
-            try:
-                shown = texts[k]
-                text = decide(run, value) if shown is None else record(run, shown)
-            except Exception as exc:
-                report(cfg.number, exc, times[k] - offset)
-                sample = None
-                try:
-                    text = decide(run, None)
-                except Exception:
-                    text = None
-        if text is not None and cfg.number <= sampler.max_number:
-            written[times[k]] = text
-    run.sample, run.sampled = sample, True
-    return written
-
-
-class _Quiet:
-    """Texts for which :func:`runs.record` writes nothing by the change condition: for a
-    type 6 channel those below the change (while no event is active), for the others any
-    text equal to the last recorded one when the change is positive (§6.5.16.1)."""
-
-    def __init__(self, cfg: ChannelConfig) -> None:
-        self.cfg = cfg
-        change = cfg.change
-        self.events = cfg.type == 6 and change > 0
-        self.same = cfg.type != 6 and change > 0
-        self._below: dict[str, bool] = {}
-
-    def __contains__(self, text: object) -> bool:
-        if self.same:
-            return True  # (the caller compares with the recorded text)
-        if not self.events or not isinstance(text, str):
-            return False
-        below = self._below.get(text)
-        if below is None:
-            below = self._below[text] = Decimal(text) < self.cfg.change
-        return below
-
-
-def _texts(cfg: ChannelConfig, values: list[Value]) -> list[str | None]:
-    """``format_value`` of each value; repeated values (events, a steady signal) looked up."""
-    shown: dict[Value, str] = {}
-    return [
-        shown[value] if value in shown else shown.setdefault(value, format_value(cfg, value))
-        for value in values
-    ]
-
-
-def _averaged(
-    sampler: Sampler, run: ChannelRun, times: list[int], values: Column, offset: float
-) -> dict[int, str]:
-    """:func:`_decide_all` of an averaging channel (§6.5.15): a sample without a valid value
-    does not count, and :func:`decide` of one is a no-op; the samples of each average are
-    summed in order as the event-by-event path adds them, then :func:`decide` adds the last
-    one and decides on the average."""
-    cfg, report = run.cfg, sampler.faults.report
-    for k, exc in values.faults.items():
-        report(cfg.number, exc, times[k] - offset)
-    samples = values.values
-    if None in samples:
-        index = [k for k, value in enumerate(samples) if value is not None]
-        valid = [samples[k] for k in index]
-    else:
-        index, valid = list(range(len(samples))), samples
-    written: dict[int, str] = {}
-    last = len(samples) - 1
-    sample = samples[-1]
-    i = 0
-    while True:
-        need = cfg.average - run.avg_n
-        if i + need > len(valid):
-            break
-        run.avg_sum = functools.reduce(operator.add, valid[i : i + need - 1], run.avg_sum)
-        run.avg_n = cfg.average - 1
-        k = index[i + need - 1]
-        try:
-            text = decide(run, valid[i + need - 1])
-        except Exception as exc:
-            report(cfg.number, exc, times[k] - offset)
-            if k == last:
-                sample = None
-            try:
-                text = decide(run, None)
-            except Exception:
-                text = None
-        if text is not None and cfg.number <= sampler.max_number:
-            written[times[k]] = text
-        i += need
-    run.avg_sum = functools.reduce(operator.add, valid[i:], run.avg_sum)
-    run.avg_n += len(valid) - i
-    run.sample, run.sampled = sample, True
-    return written

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 
 from sondalog.ala1.interpreter import Answer, Interpreter
-from sondalog.ala1.measure import format_value
+from sondalog.ala1.measure import format_value, format_values
 from sondalog.ala1.messages.config import MessageConfig, destinations, is_local, load, off
 from sondalog.ala1.messages.crossing import Crossing
 from sondalog.ala1.messages.schedule import next_due
@@ -159,13 +159,9 @@ class Messages:
             got = samples.get(message.config.channel)
             if crossing is not None and got is not None:
                 cfg, times, values = got
-                shown: dict[float | None, str] = {}
-                for t, value in zip(times, values, strict=True):
-                    text = shown.get(value)
-                    if text is None:
-                        text = shown[value] = format_value(cfg, value)
-                    if crossing.sample(text) and (first is None or t < first):
-                        first = t
+                k = crossing.first_of(format_values(cfg, values))
+                if k is not None and (first is None or times[k] < first):
+                    first = times[k]
             if first is not None:
                 self.trigger(number, first - offset)
 

@@ -21,7 +21,7 @@ from sondalog.ala1.hardware import (
     normalise,
     pin_of,
 )
-from sondalog.backends.sim.signals import Signal, constant
+from sondalog.backends.sim.signals import Signal, constant, signal_column
 
 
 @dataclass
@@ -73,8 +73,14 @@ class PulseSource:
             return [0] * len(ends)
         self._extend(max(ends))
         events, burst, left = self._events, self.burst, bisect.bisect_left
+        at_ends = [left(events, t1) for t1 in ends]
+        if starts[1:] == ends[:-1]:  # (windows one after the other: each start an end before)
+            at_starts = [left(events, starts[0]), *at_ends[:-1]]
+        else:
+            at_starts = [left(events, t0) for t0 in starts]
         return [
-            0 if t1 <= t0 else (left(events, t1) - left(events, t0)) * burst for t0, t1 in windows
+            0 if t1 <= t0 else (b - a) * burst
+            for t0, t1, a, b in zip(starts, ends, at_starts, at_ends, strict=True)
         ]
 
     def _extend(self, until: float) -> None:
@@ -222,46 +228,66 @@ class SimHardware:
             source, reference = self.analog.get(address), INTERNAL_REFERENCE
         if source is None or (source.power is not None and not self.outputs.get(source.power)):
             return [None] * len(times)
-        signal, levels = source.signal, ADC_LEVELS
-        out: list[float | None] = []
-        for t in times:
-            fraction = signal(t) / reference
-            if fraction <= 0.0:
-                out.append(0.0)
-            else:
-                out.append(1.0 if fraction >= 1.0 else round(fraction * levels) / levels)
-        return out
+        levels = ADC_LEVELS
+        # (a NaN raises in round(), as in :meth:`adc`)
+        return [
+            0.0 if (f := x / reference) <= 0.0 else 1.0 if f >= 1.0 else round(f * levels) / levels
+            for x in signal_column(source.signal, times)
+        ]
 
     def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[float | None]:
         """The normalised reading of :meth:`ds18b20` at each of ``times``."""
         sensor = self._thermometer(pin, rom)
         if sensor is None or sensor.crc_error:
             return [None] * len(times)
-        signal = sensor.signal
-        return [round(min(125.0, max(-55.0, signal(t))) * 16) / 16 / DS18B20_SCALE for t in times]
+        scale = DS18B20_SCALE
+        celsius = signal_column(sensor.signal, times)
+        distinct = set(celsius)  # (a sensor's temperature repeats: each converted once)
+        # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
+        if len(distinct) * 2 > len(celsius):
+            return [
+                round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+                for c in celsius
+            ]
+        reading = {
+            c: round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+            for c in distinct
+        }
+        return [reading[c] for c in celsius]
 
     def supply_column(self, times: list[float]) -> list[float | None]:
         """:meth:`supply` at each of ``times``."""
         signal = self.supply_signal
         if signal is None or not self.powered(self.supply_power):
             return [None] * len(times)
-        return [normalise(signal(t) / SUPPLY_DIVIDER) for t in times]
+        levels, reference = ADC_LEVELS, INTERNAL_REFERENCE  # normalise() written out
+        return [
+            1.0
+            if (f := x / SUPPLY_DIVIDER / reference) >= 1.0
+            else round(f * levels) / levels
+            if f > 0.0
+            else 0.0
+            for x in signal_column(signal, times)
+        ]
 
     def gsm_column(self, what: str, times: list[float]) -> list[float | None]:
         """:meth:`gsm` at each of ``times``."""
         signal = self.gsm_signals.get(what)
-        return [None] * len(times) if signal is None else [signal(t) for t in times]
+        return [None] * len(times) if signal is None else list(signal_column(signal, times))
 
     def pulses_column(
         self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]
     ) -> list[int]:
         """:meth:`pulses` of each window ``[starts[i], ends[i])``."""
-        totals = [0] * len(ends)
+        totals: list[int] | None = None
         for source in self.pulse_sources:
             if source.timer == timer and (timer or pin_of(source.address) == pin_of(address)):
                 counted = source.counts(starts, ends)
-                totals = [a + b for a, b in zip(totals, counted, strict=True)]
-        return totals
+                if totals is None:
+                    totals = counted
+                else:
+                    totals = [a + b for a, b in zip(totals, counted, strict=True)]
+        return [0] * len(ends) if totals is None else totals
 
     def prepare(self, t: float) -> None:
         """Simulated inputs are there at once: nothing to acquire ahead."""

@@ -42,7 +42,7 @@ from pathlib import Path
 
 from sondalog.ala1.hardware import ANALOG_ADDRESSES, INTERNAL_REFERENCE, pin_of, rom_code, rom_valid
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware, Thermometer
-from sondalog.backends.sim.signals import Signal, constant, read_signal
+from sondalog.backends.sim.signals import Signal, constant, read_signal, shifted
 from sondalog.config import Table, load
 
 #: The keys of ``[logger]``; ``backend`` and ``serve`` are read by ``sondalog serve``.
@@ -80,7 +80,7 @@ class SignalPlan:
         signal = self.signal
         if not self.relative or start == 0.0:
             return signal
-        return lambda t: signal(t - start)
+        return shifted(signal, start)  # (a column of many times at once, issue 24)
 
 
 @dataclass(frozen=True, slots=True)

@@ -38,36 +38,147 @@ from pathlib import Path
 from sondalog.config import ConfigError, Table, of
 
 Signal = Callable[[float], float]
+_TWO_PI = 2.0 * math.pi  # (as :mod:`random`'s TWOPI; the same float as ``2 * math.pi``)
 
 
-def _clamp(t: Table) -> Callable[[float], float]:
+def _clamp(t: Table) -> Clamp:
     low, high = t.opt_number("min"), t.opt_number("max")
     lo = -math.inf if low is None else low
     hi = math.inf if high is None else high
     if lo > hi:
         raise t.fail("min", f"min {lo} is above max {hi}")
-    return lambda v: min(max(v, lo), hi)
+    return Clamp(lo, hi)
+
+
+class Clamp:
+    """``min(max(v, lo), hi)``."""
+
+    __slots__ = ("hi", "lo")
+
+    def __init__(self, lo: float, hi: float) -> None:
+        self.lo, self.hi = lo, hi
+
+    def __call__(self, v: float) -> float:
+        return min(max(v, self.lo), self.hi)
+
+
+def signal_column(signal: Signal, times: list[float], shift: float | None = None) -> list[float]:
+    """``signal(t)`` (``signal(t - shift)`` with a shift) for each of ``times``: the very
+    floats, in one pass where the signal offers a ``column`` method (issue 24: the simulation
+    reads many instants at once)."""
+    many = getattr(signal, "column", None)
+    if many is not None:
+        return many(times, shift)  # type: ignore[no-any-return]
+    if shift is None:
+        return [signal(t) for t in times]
+    return [signal(t - shift) for t in times]
+
+
+class Constant:
+    """A value that never changes."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def __call__(self, t: float) -> float:
+        return self.value
+
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        return [self.value] * len(times)
 
 
 def constant(value: float) -> Signal:
     """A value that never changes."""
-    return lambda t: value
+    return Constant(value)
+
+
+class Sine:
+    """``mean + amplitude * sin(2π (t - origin - phase) / period)``."""
+
+    __slots__ = ("amplitude", "mean", "origin", "period", "phase")
+
+    def __init__(
+        self, mean: float, amplitude: float, period: float, phase: float, origin: float
+    ) -> None:
+        self.mean, self.amplitude, self.period = mean, amplitude, period
+        self.phase, self.origin = phase, origin
+
+    def __call__(self, t: float) -> float:
+        return self.mean + self.amplitude * math.sin(
+            _TWO_PI * (t - self.origin - self.phase) / self.period
+        )
+
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        mean, amplitude, period, sin = self.mean, self.amplitude, self.period, math.sin
+        origin, phase = self.origin, self.phase
+        if shift is None:
+            return [mean + amplitude * sin(_TWO_PI * (t - origin - phase) / period) for t in times]
+        return [
+            mean + amplitude * sin(_TWO_PI * (t - shift - origin - phase) / period) for t in times
+        ]
 
 
 def sine(mean: float, amplitude: float, period: float, phase: float, origin: float) -> Signal:
     """``mean + amplitude * sin(2π (t - origin - phase) / period)``."""
-    sin, two_pi = math.sin, 2 * math.pi  # (the same floats as computed in place)
-    return lambda t: mean + amplitude * sin(two_pi * (t - origin - phase) / period)
+    return Sine(mean, amplitude, period, phase, origin)
+
+
+class Ramp:
+    """``start + rate * (t - origin)``, clamped."""
+
+    __slots__ = ("clamp", "origin", "rate", "start")
+
+    def __init__(
+        self, start: float, rate: float, origin: float, clamp: Callable[[float], float]
+    ) -> None:
+        self.start, self.rate, self.origin, self.clamp = start, rate, origin, clamp
+
+    def __call__(self, t: float) -> float:
+        return self.clamp(self.start + self.rate * (t - self.origin))
+
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        start, rate, origin, clamp = self.start, self.rate, self.origin, self.clamp
+        if shift is None:
+            values = [start + rate * (t - origin) for t in times]
+        else:
+            values = [start + rate * (t - shift - origin) for t in times]
+        if not isinstance(clamp, Clamp):
+            return [clamp(v) for v in values]
+        lo, hi = clamp.lo, clamp.hi  # min(max(v, lo), hi) written out, NaN and zeros alike
+        return [hi if hi < (w := lo if lo > v else v) else w for v in values]
 
 
 def ramp(start: float, rate: float, origin: float, clamp: Callable[[float], float]) -> Signal:
     """``start + rate * (t - origin)``, clamped."""
-    return lambda t: clamp(start + rate * (t - origin))
+    return Ramp(start, rate, origin, clamp)
+
+
+class Shifted:
+    """``signal(t - start)``: a signal whose times count from the start of a simulation."""
+
+    __slots__ = ("signal", "start")
+
+    def __init__(self, signal: Signal, start: float) -> None:
+        self.signal, self.start = signal, start
+
+    def __call__(self, t: float) -> float:
+        return self.signal(t - self.start)
+
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        if shift is not None:
+            times = [t - shift for t in times]
+        return signal_column(self.signal, times, self.start)
+
+
+def shifted(signal: Signal, start: float) -> Signal:
+    """``signal(t - start)`` for every ``t``."""
+    return Shifted(signal, start)
 
 
 #: Steps of a random walk made ahead of need.
 _BATCH = 1024
-_TWO_PI = 2.0 * math.pi  # (as :mod:`random`'s TWOPI)
 
 
 class RandomWalk:
@@ -97,6 +208,22 @@ class RandomWalk:
             self._extend(index)
         return values[index] if index > 0 else values[0]
 
+    def column(self, times: list[float], shift: float | None = None) -> list[float]:
+        """:meth:`__call__` at each of ``times`` (``t - shift``)."""
+        if not times:
+            return []
+        origin, interval, values = self._origin, self._interval, self._values
+        late = max(times) if shift is None else max(times) - shift
+        top = int((late - origin) // interval)  # (the index grows with the time)
+        if top >= len(values):
+            self._extend(top)
+        first = values[0]
+        if shift is None:
+            return [values[i] if (i := int((t - origin) // interval)) > 0 else first for t in times]
+        return [
+            values[i] if (i := int((t - shift - origin) // interval)) > 0 else first for t in times
+        ]
+
     def _extend(self, index: int) -> None:
         """Steps up to ``index`` and a batch beyond. Each step is ``random.Random(seed)``'s
         next ``gauss(0, step)``: its Box-Muller pairs are made here, in the same order
@@ -104,17 +231,27 @@ class RandomWalk:
         values, clamp, step = self._values, self._clamp, self._step
         uniform, spare = self._rng.random, self._spare
         cos, sin, log, sqrt = math.cos, math.sin, math.log, math.sqrt
+        count = index + _BATCH - len(values) + 1
+        steps: list[float] = [] if spare is None else [spare]
+        pairs = (count - len(steps) + 1) // 2
+        draws = [uniform() for _ in range(2 * pairs)]  # (x2pi's, g2rad's, alternately)
+        angles = [u * _TWO_PI for u in draws[0::2]]
+        radii = [sqrt(-2.0 * log(1.0 - u)) for u in draws[1::2]]
+        steps += [z for x, g in zip(angles, radii, strict=True) for z in (cos(x) * g, sin(x) * g)]
+        spare = steps.pop() if len(steps) > count else None
         last = values[-1]
-        for _ in range(index + _BATCH - len(values) + 1):
-            if spare is None:
-                x2pi = uniform() * _TWO_PI
-                g2rad = sqrt(-2.0 * log(1.0 - uniform()))
-                z = cos(x2pi) * g2rad
-                spare = sin(x2pi) * g2rad
-            else:
-                z, spare = spare, None
-            last = clamp(last + (0.0 + z * step))
-            values.append(last)
+        append = values.append
+        if isinstance(clamp, Clamp):  # min(max(v, lo), hi) written out
+            lo, hi = clamp.lo, clamp.hi
+            for z in steps:
+                v = last + (0.0 + z * step)
+                v = lo if lo > v else v
+                last = hi if hi < v else v
+                append(last)
+        else:
+            for z in steps:
+                last = clamp(last + (0.0 + z * step))
+                append(last)
         self._spare = spare
 
 

@@ -1,0 +1,275 @@
+"""What a series of samples makes of the record (issue 24; §6.5.15-§6.5.16).
+
+:func:`runs.decide` takes one sample: averaging (§6.5.15), then the change and samples
+conditions (§6.5.16). Here the same decisions for all the samples of one channel in a stretch
+(:mod:`sondalog.ala1.series`) at once: the averages summed in the order the event-by-event path
+adds them, each average formatted, then the record conditions over the texts, with the very
+texts, the very rows and the very state (:class:`~sondalog.ala1.runs.ChannelRun`) after them.
+
+The bulk computation touches the run's state only when it is done; anything unexpected (a
+sample that raises) takes the sample-by-sample way from the same state.
+"""
+
+from __future__ import annotations
+
+import functools
+import operator
+from collections.abc import Callable, Sequence
+from decimal import ROUND_CEILING, Decimal
+
+from sondalog.ala1.columns import Column, Value
+from sondalog.ala1.measure import format_value, format_values
+from sondalog.ala1.runs import ChannelRun, decide
+
+#: ``FaultLog.report``: a channel's internal error at a host time.
+Report = Callable[[int, Exception, float], None]
+
+_ZERO = Decimal(0)
+_NEVER = Decimal(-1)
+
+
+def decide_series(
+    run: ChannelRun, times: list[int], values: Column, offset: float, report: Report
+) -> dict[int, str]:
+    """:func:`runs.decide` of every sample of ``run`` at ``times``: the texts written, by
+    instant (as :meth:`Sampler._measure_due` does sample by sample); faults are reported."""
+    cfg = run.cfg
+    try:
+        if cfg.average > 0:
+            written = _averaged_bulk(run, times, values, offset, report)
+        else:
+            written = _plain_bulk(run, times, values, offset, report)
+    except Exception:  # (sample by sample: the failing one is that sample's fault)
+        written = None
+    if written is not None:
+        return written
+    if cfg.average > 0:
+        return _averaged(run, times, values, offset, report)
+    return _one_by_one(run, times, values, offset, report)
+
+
+def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
+    """:func:`runs.record` of each of ``texts`` in order: the indexes and texts written. The
+    run's state changes only at the end (nothing is written when anything raises)."""
+    cfg = run.cfg
+    change, samples = cfg.change, cfg.samples
+    if not texts:
+        return []
+    if change == _ZERO:  # every text written
+        run.recorded, run.since_write = texts[-1], 0
+        return list(enumerate(texts))
+    since = run.since_write
+    out: list[tuple[int, str]] = []
+    if change == _NEVER:  # only the samples condition writes
+        if samples > 0:
+            out = [(k, texts[k]) for k in range(max(0, samples - since - 1), len(texts), samples)]
+        if out:
+            run.recorded, run.since_write = out[-1][1], len(texts) - 1 - out[-1][0]
+        else:
+            run.since_write = since + len(texts)
+        return out
+    recorded, active = run.recorded, run.event_active
+    events = cfg.type == 6
+    zero = format_value(cfg, 0.0) if events else ""
+    same_writes = change <= _ZERO  # (runs._changed of two equal non-empty texts)
+    numbers: dict[str, Decimal] = {}  # (Decimal(text) of the texts met, as runs.decimal_of)
+    decimals = cfg.format.decimals
+    # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
+    least = int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
+    last: int | Decimal | None = None  # the recorded text in units, once needed
+    n = len(texts)
+    starts: Sequence[int]
+    if len(set(texts)) * 4 < n:  # long runs of one text (events, a steady signal): each
+        starts = [0, *(k for k in range(1, n) if texts[k] != texts[k - 1])]  # decided once
+        ends: Sequence[int] = [*starts[1:], n]
+    else:
+        starts, ends = range(n), range(1, n + 1)
+    for k, end in zip(starts, ends, strict=True):
+        text = texts[k]
+        since += 1
+        write: str | None = None
+        units: int | None = None  # (the text in units, when compared)
+        if events:  # §6.5.16.1
+            if text:
+                x = numbers.get(text)
+                if x is None:
+                    x = numbers[text] = Decimal(text)
+                if x >= change:
+                    write, active = text, True
+                elif active:
+                    write, active = zero, False
+            elif active:
+                write, active = zero, False
+        elif recorded is None:
+            write = text
+        elif text == recorded:
+            if same_writes and text:
+                write = text
+        elif not text or not recorded:
+            write = text
+        else:  # |text - recorded| >= change, in units of the last decimal where it can
+            if last is None:
+                last = _units(recorded, decimals)
+            if isinstance(last, int):
+                units = int(text.replace(".", ""))  # (a text of the channel's format)
+                if abs(units - last) >= least:
+                    write = text
+            elif abs(Decimal(text) - Decimal(recorded)) >= change:
+                write = text
+        if write is None and samples > 0 and since >= samples:
+            write = text
+        if write is not None:
+            recorded, since = write, 0
+            last = units if write is text else None
+            out.append((k, write))
+        if end - k > 1:  # the same text again up to ``end``
+            if active if events else (same_writes and text and text == recorded):
+                out += [(j, text) for j in range(k + 1, end)]  # each one written
+                recorded, since, last = text, 0, None
+            else:  # (no condition changes: only the samples condition writes)
+                first = k + max(1, samples - since)
+                if samples > 0 and first < end:
+                    out += [(j, text) for j in range(first, end, samples)]
+                    if recorded is not text:
+                        recorded, last = text, None
+                    since = end - 1 - out[-1][0]
+                else:
+                    since += end - k - 1
+    run.recorded, run.since_write, run.event_active = recorded, since, active
+    return out
+
+
+def _units(text: str, decimals: int) -> int | Decimal:
+    """The number ``text`` shows in units of ``10**-decimals``: an int when it is whole (a
+    text of the channel's format), else the Decimal."""
+    scaled = Decimal(text).scaleb(decimals)
+    return int(scaled) if scaled == scaled.to_integral_value() else scaled
+
+
+def _plain_bulk(
+    run: ChannelRun, times: list[int], values: Column, offset: float, report: Report
+) -> dict[int, str]:
+    """A channel without averaging: a sample without a valid value (a fault too) is the
+    empty text, as :func:`runs.decide` formats it."""
+    cfg = run.cfg
+    texts = format_values(cfg, values.values)  # (a fault's value is None: "")
+    written = record_all(run, texts)
+    for k, exc in sorted(values.faults.items()):
+        report(cfg.number, exc, times[k] - offset)
+    run.sample, run.sampled = values.values[-1], True
+    return {times[k]: text for k, text in written}
+
+
+def _averaged_bulk(
+    run: ChannelRun, times: list[int], values: Column, offset: float, report: Report
+) -> dict[int, str] | None:
+    """:func:`_averaged` at once: each average ``(((s + v0) + v1) + ...) / n`` as
+    :func:`runs.decide` sums it (``s`` the run's partial sum for the first, 0.0 after)."""
+    cfg = run.cfg
+    n, have, partial = cfg.average, run.avg_n, run.avg_sum
+    need = n - have
+    if need < 1:
+        return None
+    samples = values.values
+    if None in samples:
+        index = [k for k, value in enumerate(samples) if value is not None]
+        valid = [samples[k] for k in index]
+    else:
+        index, valid = list(range(len(samples))), samples
+    add, reduce = operator.add, functools.reduce
+    averages: list[float] = []
+    if len(valid) >= need:
+        averages.append(reduce(add, valid[:need], partial) / n)
+        averages += [
+            reduce(add, valid[j : j + n], 0.0) / n for j in range(need, len(valid) - n + 1, n)
+        ]
+        used = need + (len(averages) - 1) * n
+        partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
+    else:
+        partial, have = reduce(add, valid, partial), have + len(valid)
+    texts = format_values(cfg, averages)
+    written = record_all(run, texts)
+    run.avg_sum, run.avg_n = partial, have
+    for k, exc in values.faults.items():
+        report(cfg.number, exc, times[k] - offset)
+    run.sample, run.sampled = samples[-1], True
+    return {times[index[need - 1 + m * n]]: text for m, text in written}
+
+
+def _one_by_one(
+    run: ChannelRun, times: list[int], values: Column, offset: float, report: Report
+) -> dict[int, str]:
+    """:func:`decide_series` of a channel without averaging, sample by sample."""
+    cfg = run.cfg
+    faults = values.faults
+    written: dict[int, str] = {}
+    sample: Value = None
+    for k, value in enumerate(values.values):
+        sample = value
+        if faults and k in faults:
+            # (Sampler._measure_due's except branch)
+            report(cfg.number, faults[k], times[k] - offset)
+            try:
+                text = decide(run, None)
+            except Exception:
+                text = None
+        else:
+            try:
+                text = decide(run, value)
+            except Exception as exc:
+                report(cfg.number, exc, times[k] - offset)
+                sample = None
+                try:
+                    text = decide(run, None)
+                except Exception:
+                    text = None
+        if text is not None:
+            written[times[k]] = text
+    run.sample, run.sampled = sample, True
+    return written
+
+
+def _averaged(
+    run: ChannelRun, times: list[int], values: Column, offset: float, report: Report
+) -> dict[int, str]:
+    """:func:`decide_series` of an averaging channel (§6.5.15), one average after the other:
+    a sample without a valid value does not count, and :func:`decide` of one is a no-op; the
+    samples of each average are summed in order as the event-by-event path adds them, then
+    :func:`decide` adds the last one and decides on the average."""
+    cfg = run.cfg
+    for k, exc in values.faults.items():
+        report(cfg.number, exc, times[k] - offset)
+    samples = values.values
+    if None in samples:
+        index = [k for k, value in enumerate(samples) if value is not None]
+        valid = [samples[k] for k in index]
+    else:
+        index, valid = list(range(len(samples))), samples
+    written: dict[int, str] = {}
+    last = len(samples) - 1
+    sample = samples[-1]
+    i = 0
+    while True:
+        need = cfg.average - run.avg_n
+        if i + need > len(valid):
+            break
+        run.avg_sum = functools.reduce(operator.add, valid[i : i + need - 1], run.avg_sum)
+        run.avg_n = cfg.average - 1
+        k = index[i + need - 1]
+        try:
+            text = decide(run, valid[i + need - 1])
+        except Exception as exc:
+            report(cfg.number, exc, times[k] - offset)
+            if k == last:
+                sample = None
+            try:
+                text = decide(run, None)
+            except Exception:
+                text = None
+        if text is not None:
+            written[times[k]] = text
+        i += need
+    run.avg_sum = functools.reduce(operator.add, valid[i:], run.avg_sum)
+    run.avg_n += len(valid) - i
+    run.sample, run.sampled = sample, True
+    return written

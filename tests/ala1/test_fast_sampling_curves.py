@@ -1,0 +1,91 @@
+"""Conversion tables over columns (issue 24, :mod:`sondalog.ala1.curves`) give the very floats
+of :class:`Curve` and :class:`Surface` value by value, and raise where one of them raises (a
+NaN), on random tables and random columns with repeats, zeros of both signs, None and
+infinities."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from sondalog.ala1.curves import curve_column, surface_column
+from sondalog.protocol.tables import Curve, Surface
+
+finite = st.floats(-1e6, 1e6, allow_nan=False)
+special = st.sampled_from([0.0, -0.0, math.inf, -math.inf, 1e-300, -2.5])
+some = st.one_of(finite, special, st.none())
+points = st.lists(finite, min_size=1, max_size=6, unique=True).map(sorted)
+
+
+@st.composite
+def curves(draw: st.DrawFn) -> Curve:
+    xs = draw(points)
+    ys = draw(st.lists(st.one_of(finite, special), min_size=len(xs), max_size=len(xs)))
+    return Curve(tuple(xs), tuple(ys))
+
+
+def _same(a: list[float | None], b: list[float | None]) -> bool:
+    """Equal floats bit for bit (the sign of a zero too)."""
+    pack = lambda v: None if v is None else struct.pack("d", v)  # noqa: E731
+    return [pack(v) for v in a] == [pack(v) for v in b]
+
+
+def _one_by_one(fn: object, *columns: list[float | None]) -> list[float | None] | None:
+    out: list[float | None] = []
+    for items in zip(*columns, strict=True):
+        if any(v is None for v in items):
+            out.append(None)
+            continue
+        try:
+            out.append(fn(*items))  # type: ignore[operator]
+        except Exception:
+            return None  # (the column raises too)
+    return out
+
+
+@given(
+    curve=curves(),
+    pool=st.lists(some, min_size=1, max_size=8),
+    picks=st.lists(st.integers(0, 7), max_size=40),
+    nan=st.booleans(),
+)
+def test_a_curve_column_is_the_curve_value_by_value(
+    curve: Curve, pool: list[float | None], picks: list[int], nan: bool
+) -> None:
+    values = [pool[k % len(pool)] for k in picks] + ([math.nan] if nan else [])
+    expected = _one_by_one(curve, values)
+    try:
+        got = curve_column(curve)(values)
+    except (IndexError, ValueError):
+        assert expected is None
+        return
+    assert expected is not None and _same(got, expected), (values, got, expected)
+
+
+@given(
+    params=points,
+    data=st.data(),
+    pairs=st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5)), max_size=40),
+    xs=st.lists(some, min_size=6, max_size=6),
+    ps=st.lists(st.one_of(finite, special, st.none(), st.just(math.nan)), min_size=6, max_size=6),
+)
+def test_a_surface_column_is_the_surface_value_by_value(
+    params: list[float],
+    data: st.DataObject,
+    pairs: list[tuple[int, int]],
+    xs: list[float | None],
+    ps: list[float | None],
+) -> None:
+    surface = Surface(tuple(params), tuple(data.draw(curves()) for _ in params))
+    column_x = [xs[i] for i, _ in pairs]
+    column_p = [ps[j] for _, j in pairs]
+    expected = _one_by_one(surface, column_x, column_p)
+    try:
+        got = surface_column(surface)(column_x, column_p)
+    except (IndexError, ValueError):
+        assert expected is None
+        return
+    assert expected is not None and _same(got, expected), (column_x, column_p, got, expected)

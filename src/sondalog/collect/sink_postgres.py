@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import psycopg
 from psycopg import conninfo
 
+from sondalog.collect import blocks_sql
 from sondalog.collect.model import Reading, SinkUnavailable
 from sondalog.collect.schema import SCHEMA_VERSION
 from sondalog.collect.sinks import register_sink
@@ -203,6 +204,7 @@ class PostgresSink:
                         self.inserted += max(cur.rowcount, 0)
                     else:
                         self.inserted += len(rows)
+                    await blocks_sql.after_batch_postgres(cur, batch)  # the block extremes
             except (psycopg.OperationalError, psycopg.InterfaceError) as e:
                 await self._drop()
                 raise SinkUnavailable(f"postgres: {e}".strip()) from e

@@ -23,6 +23,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from sondalog.collect import blocks_sql
 from sondalog.collect.model import Reading, SinkUnavailable, utc_text
 from sondalog.collect.schema import (
     SCHEMA_VERSION,
@@ -201,6 +202,7 @@ class SqliteStore:
     def _insert(self, batch: Iterable[Reading]) -> None:
         if self.keep_readings:
             self.db.executemany(_INSERT, [row_of(r) for r in batch])
+            blocks_sql.after_batch_sqlite(self.db, batch)  # the dashboard's block extremes
 
     def commit_chunk(
         self, source: str, batch: Sequence[Reading], cursor: str | None, **state: Any

@@ -11,9 +11,10 @@ series' usual step (``step``, sent along for the live rows the browser appends):
 is put there so the line breaks instead of bridging it. Each series carries its own times
 (``t``, seconds on the logger's clock read as UTC) and values (``v``); the browser joins them.
 
-The buckets' extremes come from :func:`.blocks.extremes`: from the per-block extremes kept
-at ingest when the store has them (a year in well under a second), else from the rows;
-the same answer either way, on SQLite and PostgreSQL.
+The buckets (:func:`.blocks.plan`: on the grid of a block size for a long range) and their
+extremes come from :func:`.blocks.rows`: from the per-block extremes the sinks keep
+where they are complete (a year in tens of milliseconds), else from the rows; the same
+answer either way, on SQLite and PostgreSQL.
 """
 
 from __future__ import annotations
@@ -133,36 +134,37 @@ def _downsampled(
     buckets: int,
     by_ch: dict[int, Series],
 ) -> float:
-    edges, width = blocks.bucket_edges(lo, hi, buckets)
-    cells: dict[int, dict[int, dict[int, tuple[float | None, int]]]] = {}
-    for i, ch, which, value, time in blocks.extremes(db, logger, edges):
-        cells.setdefault(ch, {}).setdefault(i, {})[which] = (value, time)
-    for ch, per_bucket in cells.items():
+    p = blocks.plan(lo, hi, buckets)
+    got = blocks.rows(db, logger, p)  # by channel and bucket
+    start = 0
+    while start < len(got):
+        ch = got[start][1]
+        end = start
+        while end < len(got) and got[end][1] == ch:
+            end += 1
         s = by_ch.setdefault(ch, Series(store.Channel(ch, None, None)))
         bars = s.channel.kind == "bars"
         index: list[int] = []
-        for i in sorted(per_bucket):
-            for x, value in _extremes(per_bucket[i], bars):
+        for k, _, vmin, tmin, vmax, tmax in got[start:end]:
+            for x, value in _extremes(vmin, tmin, vmax, tmax, bars):
                 s.t.append(x)
                 s.v.append(value)
-                index.append(i)
+                index.append(k)
         # a pause is broken only across an empty bucket, so the nulls keep within 2 per bucket
         may = [k == 0 or index[k] - index[k - 1] > 1 for k in range(len(index))]
         s.step = break_gaps(s.t, s.v, may)
-    return float(width)
+        start = end
+    return float(p.width)
 
 
 def _extremes(
-    cell: dict[int, tuple[float | None, int]], bars: bool
+    vmin: float | None, tmin: int, vmax: float | None, tmax: int, bars: bool
 ) -> list[tuple[float, float | None]]:
     """A bucket's points: its smallest and largest value at the times of readings that
     have them, in time order (so every point lies in the range, where a reading was);
     bars: the largest only."""
-    vmax, tmax = cell[1]
-    if bars or cell[0][0] == vmax:
+    if bars or vmin == vmax:
         return [(tmax, vmax)]
-    vmin, tmin = cell[0]
-    a, b = tmin, tmax
-    if a == b:  # two rows of one second (counters): a millisecond apart, as raw rows are
-        return [(a, vmin), (b + 0.001, vmax)]
-    return sorted([(a, vmin), (b, vmax)])
+    if tmin == tmax:  # two rows of one second (counters): a millisecond apart, as raw rows are
+        return [(tmin, vmin), (tmax + 0.001, vmax)]
+    return [(tmin, vmin), (tmax, vmax)] if tmin < tmax else [(tmax, vmax), (tmin, vmin)]

@@ -143,30 +143,20 @@ def _pair(pg: bool, source_min: str, source_max: str, keys: str, k: str) -> str:
     )
 
 
-def _statement(db: Db, p: Plan) -> tuple[str, list[object]]:
-    """One statement of the buckets of ``p`` from its blocks (``k, ch, vmin, tmin, vmax,
-    tmax`` by channel and bucket; the first and the last bucket may come twice: their blocks
-    and their ends) and the parameters of its ``?`` other than the logger's (see
-    :func:`_markers`)."""
+def _ends(db: Db, p: Plan) -> tuple[str, list[object]]:
+    """One statement of the two ends of ``p`` (before its first whole block, after its last:
+    finer blocks and raw rows; ``k, ch, vmin, tmin, vmax, tmax``), and the parameters of
+    its ``?`` other than the logger's (see :func:`_markers`); "" without ends."""
     pg = db.dialect.postgres
     args: list[object] = []
-
-    def source(which: str) -> str:
-        return (
-            f"SELECT (start - {p.a}) / {p.size} * {p.m} / {p.n} AS k, channel, v{which} AS v, "
-            f"t{which} AS t FROM {TABLE} WHERE logger = ? AND size = {p.size} "
-            f"AND start >= {p.a} AND start < {p.b}"
-        )
-
-    parts = [_pair(pg, source("min"), source("max"), "k, channel", "a.k")]
+    parts = []
     finer = [s for s in SIZES if s < p.size]
     for k, lo, hi in ((0, p.edges[0], p.a), (p.m - 1, p.b, p.edges[-1])):
         if lo < hi:
             (smin, smax), more = _span(db, finer, lo, hi)
             parts.append(_pair(pg, smin, smax, "channel", str(k)))
             args += more + more
-    union = " UNION ALL ".join(f"SELECT * FROM ({x}) u{i}" for i, x in enumerate(parts))
-    return union + " ORDER BY 2, 1", args
+    return " UNION ALL ".join(f"SELECT * FROM ({x}) u{i}" for i, x in enumerate(parts)), args
 
 
 def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> list[Row]:
@@ -174,20 +164,56 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
     bucket: the channel's smallest and largest value in the bucket, each with the earliest
     time (seconds) of a reading that has it (every value NULL: NULL and the latest time);
     from the blocks where they are complete (``use_blocks`` None) or when told, else from
-    the rows (the same answer)."""
+    the rows (the same answer).
+
+    From the blocks: one statement reads the whole blocks of the range in time order (a
+    year: 1,460 a channel), and each bucket's are merged here as they come (measured half
+    the CPU of grouping them in SQL and reading the groups); one more reads the two ends."""
     blocks = usable(db, logger, p.edges[0]) if use_blocks is None else use_blocks
     if not (blocks and p.size):
         return _by_rows(db, logger, p)
-    sql, args = _statement(db, p)
-    rest = iter(args)  # every '?' is the logger's (``logger = ?``) or the next of args
-    params = [logger if mine else next(rest) for mine in _markers(sql)]
-    out: list[Row] = []
-    for row in db.conn.execute(db.dialect.sql(sql), params):
-        if out and out[-1][:2] == row[:2]:  # an end of the first or last bucket
-            out[-1] = _both(out[-1], row)
-        else:
-            out.append(row)
-    return out
+    a, size, m, n = p.a, p.size, p.m, p.n
+    per: dict[int, list[list[Any]]] = {}
+    sql = (
+        f"SELECT channel, start, vmin, tmin, vmax, tmax FROM {TABLE} WHERE logger = ? "
+        "AND size = ? AND start >= ? AND start < ? ORDER BY start, channel"
+    )
+    for ch, start, vmin, tmin, vmax, tmax in db.conn.execute(
+        db.dialect.sql(sql), (logger, size, a, p.b)
+    ):
+        k = (start - a) // size * m // n
+        mine = per.get(ch)
+        if mine is None:
+            per[ch] = [[k, ch, vmin, tmin, vmax, tmax]]
+            continue
+        c = mine[-1]
+        if c[0] != k:
+            mine.append([k, ch, vmin, tmin, vmax, tmax])
+            continue
+        # the rule of _better, inlined (blocks in time order: a tie keeps the earlier)
+        if vmin is not None:
+            if c[2] is None or vmin < c[2]:
+                c[2], c[3] = vmin, tmin
+        elif c[2] is None:
+            c[3] = tmin
+        if vmax is not None:
+            if c[4] is None or vmax > c[4]:
+                c[4], c[5] = vmax, tmax
+        elif c[4] is None:
+            c[5] = tmax
+    ends, args = _ends(db, p)
+    if ends:
+        rest = iter(args)  # every '?' is the logger's (``logger = ?``) or the next of args
+        params = [logger if mine else next(rest) for mine in _markers(ends)]
+        for row in db.conn.execute(db.dialect.sql(ends), params):
+            k, ch = row[0], row[1]
+            mine = per.setdefault(ch, [])
+            at = 0 if k == 0 else len(mine) - 1  # the first or the last bucket
+            if mine and mine[at][0] == k:
+                mine[at] = list(_both(tuple(mine[at]), row))
+            else:
+                mine.insert(0 if k == 0 else len(mine), list(row))
+    return [tuple(r) for ch in sorted(per) for r in per[ch]]
 
 
 def _markers(sql: str) -> Iterator[bool]:

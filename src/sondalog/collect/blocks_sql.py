@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import itertools
 import sqlite3
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from datetime import UTC, datetime
 from typing import Any
 
@@ -146,8 +146,7 @@ def statements(postgres: bool) -> list[tuple[str, int, int]]:
     return out
 
 
-_SQLITE = [(sql, size, finer) for sql, size, finer in statements(False)]
-_POSTGRES = [(sql.replace("?", "%s"), size, finer) for sql, size, finer in statements(True)]
+_SQLITE = statements(False)
 
 
 def _epoch(at: datetime) -> int:
@@ -186,6 +185,61 @@ def params(logger: str, lo: Any, hi: Any, lo_s: int, hi_s: int) -> list[list[obj
             a, b = lo_s // size * size, (hi_s // size + 1) * size
             out.append([logger, logger, a, b, logger, a, b])
     return out
+
+
+def _take(c: list[Any], v: float | None, t: int, at: int, better: int) -> None:
+    """``c[at], c[at + 1]`` (value, time) take ``(v, t)`` by the rule of the blocks (a
+    smaller, ``better`` -1, or larger value; on a tie the earlier time; NULL loses, and
+    between NULLs the later time)."""
+    old = c[at]
+    if v is None:
+        if old is None and t > c[at + 1]:
+            c[at + 1] = t
+    elif old is None or (v - old) * better > 0 or (v == old and t < c[at + 1]):
+        c[at], c[at + 1] = v, t
+
+
+def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:
+    """The blocks of every size of ``batch``'s readings (channels > 0) as rows of the table:
+    exact for a batch whose every row was stored (none ignored as a duplicate)."""
+    fine: dict[tuple[str, int, int], list[Any]] = {}
+    size = SIZES[0]
+    last: datetime | None = None
+    sec = start = 0
+    for r in batch:
+        if r.channel <= 0:
+            continue
+        if r.time != last:
+            last, sec = r.time, _epoch(r.time)
+            start = sec - sec % size
+        key = (r.logger, start, r.channel)
+        c = fine.get(key)
+        v = r.value
+        if c is None:
+            fine[key] = [v, sec, v, sec]
+        else:
+            _take(c, v, sec, 0, -1)
+            _take(c, v, sec, 2, 1)
+    out = [(lg, size, st, ch, *c) for (lg, st, ch), c in fine.items()]
+    for coarse in SIZES[1:]:
+        blocks: dict[tuple[str, int, int], list[Any]] = {}
+        for (lg, st, ch), c in fine.items():
+            key = (lg, st - st % coarse, ch)
+            b = blocks.get(key)
+            if b is None:
+                blocks[key] = list(c)
+            else:
+                _take(b, c[0], c[1], 0, -1)
+                _take(b, c[2], c[3], 2, 1)
+        out += [(lg, coarse, st, ch, *c) for (lg, st, ch), c in blocks.items()]
+    return out
+
+
+_UPSERT = f"INSERT INTO {TABLE} ({_COLS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?) {_CONFLICT}{MERGE}"
+_PG_UPSERT = (
+    f"INSERT INTO {TABLE} ({_COLS}) SELECT * FROM unnest(%s::text[], %s::int[], %s::bigint[], "
+    f"%s::int[], %s::float8[], %s::bigint[], %s::float8[], %s::bigint[]) {_CONFLICT}{MERGE}"
+)
 
 
 # -- SQLite -----------------------------------------------------------------------------------
@@ -238,13 +292,20 @@ def ensure_sqlite(conn: sqlite3.Connection) -> bool:
     return True
 
 
-def after_batch_sqlite(conn: sqlite3.Connection, batch: Iterable[Reading]) -> None:
+def after_batch_sqlite(
+    conn: sqlite3.Connection, batch: Sequence[Reading], stored: int | None = None
+) -> None:
     """The blocks of ``batch``'s spans brought up to date (the sink calls this in the
-    batch's transaction, after ``INSERT OR IGNORE`` of its rows)."""
+    batch's transaction, after ``INSERT OR IGNORE`` of its rows; ``stored``: how many it
+    stored). Every row stored: merged from the batch (:func:`aggregate`, one statement);
+    else from the rows read back (what is stored counts)."""
     found = spans(batch)
     if not found:
         return
     ensure_sqlite(conn)
+    if stored == len(batch):
+        conn.executemany(_UPSERT, aggregate(batch))
+        return
     for logger, (lo, hi) in found.items():
         update_sqlite(conn, logger, lo.isoformat(timespec="seconds"), _epoch(lo), _epoch(hi))
 
@@ -307,9 +368,77 @@ def ensure_postgres_sync(cur: Any) -> bool:
     return True
 
 
+def _pg_agg(source: str, size: int, v: tuple[str, str], t: tuple[str, str], keep: str) -> str:
+    """The blocks of ``size`` of ``source`` (``logger, s, channel`` and the candidates'
+    values ``v`` and times ``t`` of each extreme) put in the table (``keep``: the ``SET``)."""
+
+    def first(value: str, time: str, order: str) -> str:
+        ties = f"CASE WHEN {value} IS NULL THEN {time} END DESC, {time}"
+        return f"(array_agg({time} ORDER BY {value}{order} NULLS LAST, {ties}))[1]"
+
+    return (
+        f"INSERT INTO {TABLE} ({_COLS}) SELECT logger, {size}, s, channel, "
+        f"min({v[0]}), {first(v[0], t[0], '')}, max({v[1]}), {first(v[1], t[1], ' DESC')} "
+        f"FROM ({source}) q GROUP BY logger, s, channel {_CONFLICT}{keep}"
+    )
+
+
+_PG_RANGES = "unnest(%s::text[], %s::timestamp[], %s::timestamp[]) AS r(logger, lo, hi)"
+_PG_STARTS = "unnest(%s::text[], %s::bigint[], %s::bigint[]) AS r(logger, lo, hi)"
+
+
+def _pg_statements() -> list[tuple[str, int]]:
+    """Per batch on PostgreSQL: every logger's spans in one statement per size."""
+    size = SIZES[0]
+    at = epoch_sql(True, "x.time")
+    rows = (
+        f"SELECT x.logger, {at} / {size} * {size} AS s, x.channel, x.value, {at} AS t "
+        f"FROM {_PG_RANGES} JOIN readings x ON x.logger = r.logger AND x.time >= r.lo "
+        "AND x.time <= r.hi WHERE x.channel > 0"
+    )
+    out = [(_pg_agg(rows, size, ("value", "value"), ("t", "t"), MERGE), 0)]
+    for finer, coarse in itertools.pairwise(SIZES):
+        blocks = (
+            f"SELECT e.logger, e.start / {coarse} * {coarse} AS s, e.channel, e.vmin, e.tmin, "
+            f"e.vmax, e.tmax FROM {_PG_STARTS} JOIN {TABLE} e ON e.logger = r.logger "
+            f"AND e.size = {finer} AND e.start >= r.lo AND e.start < r.hi"
+        )
+        out.append((_pg_agg(blocks, coarse, ("vmin", "vmax"), ("tmin", "tmax"), _REPLACE), coarse))
+    return out
+
+
+_PG_BATCH = _pg_statements()
+#: Whether the sink's batch went through its temporary table (some rows were there already).
+_PG_SKIPPED = "SELECT EXISTS (SELECT FROM readings_in)"
+
+
+def _pg_params(found: dict[str, tuple[int, int]]) -> list[list[object]]:
+    loggers = list(found)
+    spans_s = list(found.values())
+    out: list[list[object]] = [
+        [
+            loggers,
+            [datetime.fromtimestamp(a, UTC).replace(tzinfo=None) for a, _ in spans_s],
+            [datetime.fromtimestamp(b, UTC).replace(tzinfo=None) for _, b in spans_s],
+        ]
+    ]
+    for _, size in _PG_BATCH[1:]:
+        out.append(
+            [
+                loggers,
+                [a // size * size for a, _ in spans_s],
+                [(b // size + 1) * size for _, b in spans_s],
+            ]
+        )
+    return out
+
+
 async def after_batch_postgres(cur: Any, batch: Iterable[Reading]) -> None:
     """As :func:`after_batch_sqlite` for the PostgreSQL sink (``cur``: its psycopg async
-    cursor, in the batch's transaction after the rows are stored)."""
+    cursor, in the batch's transaction after the rows are stored). The batch was copied
+    straight into ``readings`` (every row new) when its temporary table ``readings_in`` is
+    empty: then merged from the batch in one statement; else every logger's rows read back,
+    one statement per size."""
     found = spans(batch)
     if not found:
         return
@@ -324,16 +453,16 @@ async def after_batch_postgres(cur: Any, batch: Iterable[Reading]) -> None:
         for key in [k for k, c in _ENSURED.items() if c.closed]:
             del _ENSURED[key]
         _ENSURED[id(conn)] = conn
-    for logger, (lo, hi) in found.items():
-        lo_s, hi_s = _epoch(lo), _epoch(hi)
-        hi_t = datetime.fromtimestamp(hi_s, UTC).replace(tzinfo=None)
-        for (sql, _, _), args in zip(_POSTGRES, params(logger, lo, hi_t, lo_s, hi_s), strict=True):
-            await cur.execute(sql, args)
+    if not (await (await cur.execute(_PG_SKIPPED)).fetchone())[0]:
+        rows = aggregate(batch)
+        await cur.execute(_PG_UPSERT, [list(col) for col in zip(*rows, strict=True)])
+        return
+    secs = {logger: (_epoch(lo), _epoch(hi)) for logger, (lo, hi) in found.items()}
+    for (sql, _), args in zip(_PG_BATCH, _pg_params(secs), strict=True):
+        await cur.execute(sql, args)
 
 
 def update_postgres_sync(cur: Any, logger: str, lo_s: int, hi_s: int) -> None:
     """As :func:`update_sqlite` on a server, with a psycopg (sync) cursor."""
-    lo = datetime.fromtimestamp(lo_s, UTC).replace(tzinfo=None)
-    hi = datetime.fromtimestamp(hi_s, UTC).replace(tzinfo=None)
-    for (sql, _, _), args in zip(_POSTGRES, params(logger, lo, hi, lo_s, hi_s), strict=True):
+    for (sql, _), args in zip(_PG_BATCH, _pg_params({logger: (lo_s, hi_s)}), strict=True):
         cur.execute(sql, args)

@@ -199,10 +199,10 @@ class SqliteStore:
             self._db.close()
             self._db = None
 
-    def _insert(self, batch: Iterable[Reading]) -> None:
+    def _insert(self, batch: Sequence[Reading]) -> None:
         if self.keep_readings:
-            self.db.executemany(_INSERT, [row_of(r) for r in batch])
-            blocks_sql.after_batch_sqlite(self.db, batch)  # the dashboard's block extremes
+            done = self.db.executemany(_INSERT, [row_of(r) for r in batch]).rowcount
+            blocks_sql.after_batch_sqlite(self.db, batch, done)  # the dashboard's extremes
 
     def commit_chunk(
         self, source: str, batch: Sequence[Reading], cursor: str | None, **state: Any

@@ -56,25 +56,12 @@ _LOCK_ID = 0x50D4_B10D  # advisory lock of the PostgreSQL tables' making
 _COLS = "logger, size, start, channel, vmin, tmin, vmax, tmax"
 
 
-def epoch_sql(postgres: bool, column: str) -> str:
-    """Whole seconds since 1970 of ``column`` (a ``time``) read as UTC."""
-    return f"extract(epoch FROM {column})::bigint" if postgres else f"unixepoch({column})"
-
-
-def pick(postgres: bool, which: str, source: str, keys: str) -> str:
-    """Per group of ``keys`` of ``source`` (rows of ``keys..., v, t`` in time order): its
-    smallest (``which`` = ``min``) or largest ``v`` with the earliest ``t`` that has it, or,
-    with every ``v`` NULL, NULL and the latest ``t``. Gives ``keys..., v, t``. SQLite says
-    it with a bare column beside ``min``/``max``; PostgreSQL with ``DISTINCT ON``."""
-    if which not in ("min", "max"):
-        raise ValueError(f"which must be min or max, not {which!r}")
-    if not postgres:
-        return f"SELECT {keys}, {which}(v) AS v, t FROM ({source}) GROUP BY {keys}"
-    order = "" if which == "min" else " DESC"
-    return (
-        f"SELECT DISTINCT ON ({keys}) {keys}, v, t FROM ({source}) p ORDER BY {keys}, "
-        f"v{order} NULLS LAST, CASE WHEN v IS NULL THEN t END DESC, t"
-    )
+def _pick(which: str, source: str) -> str:
+    """SQLite: per ``(s, channel)`` of ``source`` (rows of ``s, channel, v, t`` in time
+    order) its smallest (``which`` = ``min``) or largest ``v`` with the earliest ``t`` that
+    has it, or, with every ``v`` NULL, NULL and the latest ``t``: the bare column beside a
+    lone ``min``/``max`` (PostgreSQL: :func:`_pg_agg`)."""
+    return f"SELECT s, channel, {which}(v) AS v, t FROM ({source}) GROUP BY s, channel"
 
 
 def _merge(v: str, t: str, better: str) -> str:
@@ -100,32 +87,30 @@ _REPLACE = "vmin = excluded.vmin, tmin = excluded.tmin, vmax = excluded.vmax, tm
 _CONFLICT = "ON CONFLICT (logger, size, start, channel) DO UPDATE SET "
 
 
-def _both(postgres: bool, source_min: str, source_max: str, size: int) -> str:
+def _both(source_min: str, source_max: str, size: int) -> str:
     """``logger, size, start, channel, vmin, tmin, vmax, tmax`` of the groups ``(s,
     channel)`` of two sources (``s, channel, v, t``: the candidates of each extreme)."""
-    lo = pick(postgres, "min", source_min, "s, channel")
-    hi = pick(postgres, "max", source_max, "s, channel")
+    lo, hi = _pick("min", source_min), _pick("max", source_max)
     return (
         f"SELECT ?, {size}, a.s, a.channel, a.v, a.t, b.v, b.t FROM ({lo}) a "
         f"JOIN ({hi}) b ON a.s = b.s AND a.channel = b.channel WHERE a.s IS NOT NULL"
     )
 
 
-def _fine(postgres: bool) -> str:
-    """The finest blocks of a logger's stored rows in ``[?, ?]`` (texts or timestamps),
-    merged into the table."""
+def _fine() -> str:
+    """SQLite: the finest blocks of a logger's stored rows in ``[?, ?]``, merged in."""
     size = SIZES[0]
-    at = epoch_sql(postgres, "time")
     rows = (
-        f"SELECT {at} / {size} * {size} AS s, channel, value AS v, {at} AS t FROM readings "
+        f"SELECT unixepoch(time) / {size} * {size} AS s, channel, value AS v, "
+        "unixepoch(time) AS t FROM readings "
         "WHERE logger = ? AND time >= ? AND time <= ? AND channel > 0"
     )
-    select = _both(postgres, rows, rows, size)
+    select = _both(rows, rows, size)
     return f"INSERT INTO {TABLE} ({_COLS}) {select} {_CONFLICT}{MERGE}"
 
 
-def _coarse(postgres: bool, size: int, finer: int) -> str:
-    """The blocks of ``size`` over a logger's blocks of ``finer`` with ``start`` in
+def _coarse(size: int, finer: int) -> str:
+    """SQLite: the blocks of ``size`` over a logger's blocks of ``finer`` with ``start`` in
     ``[?, ?)``, made again from them."""
 
     def source(which: str) -> str:
@@ -134,19 +119,14 @@ def _coarse(postgres: bool, size: int, finer: int) -> str:
             f"FROM {TABLE} WHERE logger = ? AND size = {finer} AND start >= ? AND start < ?"
         )
 
-    select = _both(postgres, source("min"), source("max"), size)
+    select = _both(source("min"), source("max"), size)
     return f"INSERT INTO {TABLE} ({_COLS}) {select} {_CONFLICT}{_REPLACE}"
 
 
-def statements(postgres: bool) -> list[tuple[str, int, int]]:
-    """The statements that bring one logger's blocks up to date with its rows in a span:
-    ``(sql, size, finer)`` (the finest: ``finer`` 0), in order, ``?`` markers."""
-    out = [(_fine(postgres), SIZES[0], 0)]
-    out += [(_coarse(postgres, s, f), s, f) for f, s in itertools.pairwise(SIZES)]
-    return out
-
-
-_SQLITE = statements(False)
+#: SQLite: the statements that bring one logger's blocks up to date with its rows in a
+#: span, ``(sql, size, finer)`` (the finest: ``finer`` 0), in order.
+_SQLITE = [(_fine(), SIZES[0], 0)]
+_SQLITE += [(_coarse(s, f), s, f) for f, s in itertools.pairwise(SIZES)]
 
 
 def _epoch(at: datetime) -> int:
@@ -177,8 +157,7 @@ def params(logger: str, lo: Any, hi: Any, lo_s: int, hi_s: int) -> list[list[obj
     """The parameters of :func:`statements` for ``logger``'s rows in ``[lo, hi]`` (the
     store's times) whose seconds are ``lo_s .. hi_s``."""
     out: list[list[object]] = []
-    for sql, size, finer in _SQLITE:
-        del sql
+    for _, size, finer in _SQLITE:
         if finer == 0:
             out.append([logger, logger, lo, hi, logger, lo, hi])
         else:
@@ -390,7 +369,7 @@ _PG_STARTS = "unnest(%s::text[], %s::bigint[], %s::bigint[]) AS r(logger, lo, hi
 def _pg_statements() -> list[tuple[str, int]]:
     """Per batch on PostgreSQL: every logger's spans in one statement per size."""
     size = SIZES[0]
-    at = epoch_sql(True, "x.time")
+    at = "extract(epoch FROM x.time)::bigint"
     rows = (
         f"SELECT x.logger, {at} / {size} * {size} AS s, x.channel, x.value, {at} AS t "
         f"FROM {_PG_RANGES} JOIN readings x ON x.logger = r.logger AND x.time >= r.lo "

@@ -9,9 +9,10 @@ channel), the plot request of the whole year, a month and a week
   the CPU time of the request's threads (``cpu``), which other processes' load on a shared
   machine does not inflate (a PostgreSQL server's own CPU is not in it);
 - end to end over HTTP, best;
-- each store with its per-block extremes (``readings_blocks``, :mod:`sondalog.web.blocks`)
-  and, for the year, without them (the rows' path, the one before issue 24), with the time
-  the blocks took to be filled from the stored rows once.
+- each store with its per-block extremes (``readings_extremes``, kept by the sinks per batch,
+  :mod:`sondalog.collect.blocks_sql`) and, for the year, without them (the rows' path), with
+  the time the background filler (:mod:`sondalog.collect.blocks_fill`) took over the rows
+  stored without them, and its longest step (how long a writer waits for it at most).
 
 Run: ``.venv/bin/python benchmarks/bench_web_long.py [--sqlite FILE] [--dsn DSN] [--runs N]``.
 An existing ``--sqlite`` file with readings is reused; without ``--dsn`` a throwaway
@@ -35,13 +36,14 @@ import tempfile
 import threading
 import time
 import urllib.request
+from collections.abc import Callable
 from datetime import datetime, timedelta
 from pathlib import Path
 
 import psycopg
 
-from sondalog.collect import sink_postgres
-from sondalog.web import blocks, create_app, serve
+from sondalog.collect import blocks_fill, sink_postgres
+from sondalog.web import create_app, serve
 
 START = datetime(2025, 1, 1)
 MINUTES = 365 * 1440
@@ -144,11 +146,28 @@ def drop_sqlite_blocks(path: Path) -> Path:
     if not plain.exists():
         shutil.copy(path, plain)
         conn = sqlite3.connect(plain)
-        conn.execute("DROP TRIGGER IF EXISTS readings_blocks_add")
-        conn.execute("DROP TABLE IF EXISTS readings_blocks")
+        conn.execute("DROP TABLE IF EXISTS readings_extremes")
+        conn.execute("DROP TABLE IF EXISTS readings_extremes_todo")
         conn.commit()
         conn.close()
     return plain
+
+
+def fill(label: str, step: Callable[[], bool]) -> None:
+    """Run the background filler's steps until done; its time and longest step."""
+    t0, steps, worst = time.perf_counter(), 0, 0.0
+    while True:
+        t1 = time.perf_counter()
+        if not step():
+            break
+        worst = max(worst, time.perf_counter() - t1)
+        steps += 1
+    if steps:
+        print(
+            f"{label}: {steps} days of blocks filled from the rows in "
+            f"{time.perf_counter() - t0:.1f} s, longest step {worst * 1e3:.0f} ms",
+            flush=True,
+        )
 
 
 def main() -> None:
@@ -170,9 +189,7 @@ def main() -> None:
         if not args.no_rows_path:
             measure("sqlite, rows (before)", create_app(drop_sqlite_blocks(path)), 3, ("year",))
         conn = sqlite3.connect(path, isolation_level=None)
-        t0 = time.perf_counter()
-        if blocks.install_sqlite(conn):
-            print(f"sqlite: blocks filled from the rows in {time.perf_counter() - t0:.1f} s")
+        fill("sqlite", lambda: blocks_fill.fill_step_sqlite(conn))
         conn.close()
         measure("sqlite, blocks", create_app(path), args.runs, ranges)
     if not args.skip_postgres:
@@ -193,14 +210,12 @@ def main() -> None:
             fill_postgres(dsn)
             if not args.no_rows_path:
                 with psycopg.connect(dsn, autocommit=True) as conn:
-                    has = conn.execute("SELECT to_regclass('readings_blocks')").fetchone()
+                    has = conn.execute("SELECT to_regclass('readings_extremes')").fetchone()
                 if has is None or has[0] is None:
                     app = create_app(None, readings_dsn=dsn)
                     measure("postgres, rows (no blocks)", app, 3, ("year",))
-            t0 = time.perf_counter()
             with psycopg.connect(dsn, autocommit=True) as conn:
-                if blocks.install_postgres(conn):
-                    print(f"postgres: blocks filled in {time.perf_counter() - t0:.1f} s")
+                fill("postgres", lambda: blocks_fill.fill_step_postgres(conn))
             measure("postgres, blocks", create_app(None, readings_dsn=dsn), args.runs, ranges)
         finally:
             if server is not None:

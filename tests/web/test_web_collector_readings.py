@@ -4,7 +4,8 @@ and the per-block extremes the wiring makes there before serving.
 A real collector (``run_collector``, its source unreachable: no contact needed) with its
 dashboard on a free port: with ``[sqlite] readings = false`` and a ``[postgres]`` sink the
 dashboard shows the readings written to the server (the file has none), and the server got
-``readings_blocks`` with its trigger; with the file as store of record the file got them.
+the per-block extremes (``readings_extremes``, filled in the background from the rows stored
+before); with the file as store of record the file got them.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from sondalog.collect import sink_postgres
 from sondalog.collect.config import load_config, parse_config
 from sondalog.collect.model import Reading
 from sondalog.collect.runner import Collector
+from sondalog.collect.store_sqlite import SqliteStore
 from sondalog.collect.web_config import readings_on_server
 from sondalog.config import ConfigError, loads
 
@@ -122,14 +124,15 @@ def test_readings_setting_chooses_the_store() -> None:
 
 def test_collector_dashboard_reads_the_server_of_record(tmp_path: Path, pg_dsn: str) -> None:
     asyncio.run(_write(pg_dsn, 5000))  # more than 2,000 points: downsampled
-    config = _file(
-        tmp_path, f'blocks = true\n[sqlite]\nreadings = false\n[postgres]\ndsn = "{pg_dsn}"\n'
-    )
+    config = _file(tmp_path, f'[sqlite]\nreadings = false\n[postgres]\ndsn = "{pg_dsn}"\n')
     url, stop, thread, _ = _serve(config)
     try:
-        for _ in range(100):  # the wiring makes the blocks in the background
+        for _ in range(100):  # the wiring fills the blocks in the background
             with psycopg.connect(pg_dsn) as conn:
-                if conn.execute("SELECT to_regclass('readings_blocks')").fetchone()[0]:
+                if conn.execute(
+                    "SELECT to_regclass('readings_extremes_todo') IS NOT NULL "
+                    "AND NOT EXISTS (SELECT FROM readings_extremes_todo)"
+                ).fetchone()[0]:
                     break
             threading.Event().wait(0.1)
         data = _series(url, "?from=2026-03-01&to=2026-03-05")
@@ -137,11 +140,8 @@ def test_collector_dashboard_reads_the_server_of_record(tmp_path: Path, pg_dsn: 
         (s,) = data["series"]
         assert (min(v for v in s["v"] if v is not None), max(s["v"] or [0])) == (0.0, 16.0)
         with psycopg.connect(pg_dsn) as conn:
-            n = conn.execute("SELECT count(*) FROM readings_blocks").fetchone()[0]
-            trig = conn.execute(
-                "SELECT count(*) FROM pg_trigger WHERE tgname = 'readings_blocks_add'"
-            ).fetchone()[0]
-        assert n > 0 and trig == 1
+            n = conn.execute("SELECT count(*) FROM readings_extremes").fetchone()[0]
+        assert n > 0
     finally:
         stop.set()
         thread.join(30)
@@ -150,18 +150,20 @@ def test_collector_dashboard_reads_the_server_of_record(tmp_path: Path, pg_dsn: 
 
 
 def test_collector_dashboard_on_its_file_makes_the_blocks_there(tmp_path: Path) -> None:
-    config = _file(tmp_path, "blocks = true\n")  # in [web]
+    config = _file(tmp_path, "")  # in [web]
     url, stop, thread, _ = _serve(config)
     try:
         file = sqlite3.connect(tmp_path / "collector.sqlite")
-        names = {r[0] for r in file.execute("SELECT name FROM sqlite_master")}
-        assert {"readings_blocks", "readings_blocks_add"} <= names
-        with file:
-            file.execute(
-                "INSERT INTO readings (logger, channel, time, counter, type, value) "
-                "VALUES ('L', 1, '2026-03-01T00:00:00', 0, 1, 4.5)"
-            )
-        assert file.execute("SELECT vmax FROM readings_blocks").fetchall() == [(4.5,), (4.5,)]
+        for _ in range(100):  # the filler makes the tables (nothing to fill in a new file)
+            names = {r[0] for r in file.execute("SELECT name FROM sqlite_master")}
+            if {"readings_extremes", "readings_extremes_todo"} <= names:
+                break
+            threading.Event().wait(0.1)
+        sink = SqliteStore(tmp_path / "collector.sqlite").open_sync()  # as the collector writes
+        asyncio.run(sink.write([Reading("L", 1, datetime(2026, 3, 1), 0, 1, 4.5)]))
+        sink.close_sync()
+        got = file.execute("SELECT size, vmax FROM readings_extremes ORDER BY size").fetchall()
+        assert got == [(1800, 4.5), (7200, 4.5), (21600, 4.5), (86400, 4.5)]
         file.close()
         assert _series(url)["series"][0]["v"] == [4.5]
     finally:
@@ -175,15 +177,9 @@ def test_postgres_readings_without_a_postgres_sink_is_refused(tmp_path: Path) ->
         _serve(config)
 
 
-@pytest.mark.parametrize("setting", ["blocks = false\n", ""])  # false is the default
-def test_blocks_false_leaves_the_file_as_it_is(tmp_path: Path, setting: str) -> None:
-    config = _file(tmp_path, setting)  # in [web]
-    _url, stop, thread, _ = _serve(config)
-    try:
-        file = sqlite3.connect(tmp_path / "collector.sqlite")
-        names = {r[0] for r in file.execute("SELECT name FROM sqlite_master")}
-        file.close()
-        assert "readings_blocks" not in names and "readings_blocks_add" not in names
-    finally:
-        stop.set()
-        thread.join(30)
+def test_blocks_false_is_refused(tmp_path: Path) -> None:
+    """``[web] blocks = false`` (the switch while the blocks cost ingest twice its time) is
+    refused with the reason: they are always kept now."""
+    config = _file(tmp_path, "blocks = false\n")  # in [web]
+    with pytest.raises(ConfigError, match=r"blocks.*always kept now"):
+        load_config(config)

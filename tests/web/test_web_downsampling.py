@@ -9,8 +9,10 @@ from datetime import datetime, timedelta
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sondalog.collect import blocks_fill, blocks_sql
+from sondalog.collect.model import Reading
 from sondalog.collect.schema import SQLITE_DDL
-from sondalog.web import blocks, series, store
+from sondalog.web import series, store
 from sondalog.web.series import break_gaps
 from sondalog.web.times import to_epoch
 
@@ -23,15 +25,17 @@ values = st.one_of(st.none(), st.floats(-1e6, 1e6, allow_nan=False))
     vals=st.lists(values, min_size=400, max_size=400),
     channels=st.integers(1, 3),
     max_points=st.sampled_from([10, 40, 100, 2000]),
-    kept=st.sampled_from(["rows", "blocks by trigger", "blocks filled"]),
+    kept=st.sampled_from(["rows", "blocks by batch", "blocks filled"]),
 )
 def test_budget_extremes_and_gaps(
     steps: list[int], vals: list[float | None], channels: int, max_points: int, kept: str
 ) -> None:
     conn = sqlite3.connect(":memory:", isolation_level=None)
     conn.executescript(SQLITE_DDL)
-    if kept == "blocks by trigger":
-        blocks.install_sqlite(conn)
+    if kept == "blocks by batch":
+        with conn:
+            conn.execute("BEGIN")
+            blocks_sql.ensure_sqlite(conn)  # an empty store: nothing to fill
     t = datetime(2026, 1, 1)
     rows = []
     for i, step in enumerate(steps):
@@ -45,8 +49,15 @@ def test_budget_extremes_and_gaps(
         "value, text, name, unit) VALUES (?,?,?,?,?,?,?,?,?)",
         rows,
     )
+    if kept == "blocks by batch":
+        conn.execute("BEGIN")
+        blocks_sql.after_batch_sqlite(
+            conn, [Reading(r[0], r[1], datetime.fromisoformat(r[2]), 0, 1, r[5]) for r in rows]
+        )
+        conn.execute("COMMIT")
     if kept == "blocks filled":
-        blocks.install_sqlite(conn)
+        while blocks_fill.fill_step_sqlite(conn):
+            pass
     db = store.of_file(conn)
     assert db.has_blocks == (kept != "rows")
     lo, hi = "2026-01-01T00:00:00", t.strftime("%Y-%m-%dT%H:%M:%S")

@@ -12,9 +12,9 @@ fail for it. A busy port the file asks for is an error (:class:`WebUnavailable`)
 
 The dashboard reads the readings from the store of record that ``[web] readings`` names
 (:func:`~sondalog.collect.web_config.readings_on_server`: the file, or the ``[postgres]``
-server). Before it serves, the per-block extremes of its long ranges are made there once
-(:mod:`sondalog.web.blocks`: a table filled from the stored rows, then kept by a trigger at
-ingest); a server that cannot be reached yet is tried again every :data:`BLOCKS_RETRY_S`.
+server). The sinks keep the per-block extremes of its long ranges for every batch
+(:mod:`sondalog.collect.blocks_sql`); beside it a task fills those of the rows stored before
+(:mod:`sondalog.collect.blocks_fill`, a day at a time, in the background).
 """
 
 from __future__ import annotations
@@ -22,22 +22,19 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import sqlite3
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from sondalog.collect.alarm_loop import alarm_store
+from sondalog.collect.blocks_fill import fill_file, fill_server
 from sondalog.collect.config import load_config
 from sondalog.collect.runner import Collector
 from sondalog.collect.web_config import readings_on_server
-from sondalog.web import blocks, create_app, serve
+from sondalog.web import create_app, serve
 from sondalog.web.server import bind
 
 log = logging.getLogger(__name__)
-#: Seconds between tries to make the per-block extremes on a server not reachable yet.
-BLOCKS_RETRY_S = 60.0
 
 
 class WebUnavailable(OSError):
@@ -77,12 +74,8 @@ async def run_collector(
             )
         else:
             dsn = readings_dsn(collector)
-            if not web.blocks:
-                pass  # [web] blocks = false: the store is left as it is
-            elif dsn is None:
-                await asyncio.to_thread(_blocks_in_file, collector.config.store)
-            else:
-                helpers.append(asyncio.create_task(_blocks_on_server(dsn), name="blocks"))
+            fill = fill_file(collector.config.store) if dsn is None else fill_server(dsn)
+            helpers.append(asyncio.create_task(fill, name="blocks"))
             app = create_app(
                 collector.config.store,
                 token=web.token,
@@ -128,39 +121,6 @@ def readings_dsn(collector: Collector) -> str | None:
     except ValueError as exc:
         raise WebUnavailable(f"{config.path}: web.readings: {exc}") from None
     return str(postgres.dsn) if on_server else None
-
-
-def _blocks_in_file(path: Path) -> None:
-    """The per-block extremes in the collector's file (once; its writer waits meanwhile)."""
-    began = time.monotonic()
-    conn = sqlite3.connect(path, isolation_level=None, timeout=60.0)
-    try:
-        if blocks.install_sqlite(conn):
-            log.info("dashboard: long-range extremes made in %.1f s", time.monotonic() - began)
-    except sqlite3.Error as exc:  # the dashboard reads the rows instead (slower)
-        log.warning("dashboard: no long-range extremes in %s: %s", path, exc)
-    finally:
-        conn.close()
-
-
-async def _blocks_on_server(dsn: str) -> None:
-    """The per-block extremes on the server, tried until made (or the collector stops)."""
-    import psycopg
-
-    def once() -> bool:
-        """Made, there already, or never (a hypertable): True; no ``readings`` yet: False."""
-        with psycopg.connect(dsn, autocommit=True, connect_timeout=10) as conn:
-            blocks.install_postgres(conn)
-            row = conn.execute("SELECT to_regclass('readings')").fetchone()
-            return row is not None and row[0] is not None
-
-    while True:
-        try:
-            if await asyncio.to_thread(once):
-                return
-        except psycopg.Error as exc:
-            log.warning("dashboard: long-range extremes not made on the server yet: %s", exc)
-        await asyncio.sleep(BLOCKS_RETRY_S)
 
 
 def _report(task: asyncio.Task[None]) -> None:

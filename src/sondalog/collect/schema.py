@@ -106,3 +106,11 @@ CREATE TABLE IF NOT EXISTS config_state (
 """
 #: Columns added to additive tables after they first shipped: (table, column, type).
 SQLITE_ADDITIVE_COLUMNS = (("channels", "format", "TEXT"),)
+
+#: The per-block extremes the sinks keep for the dashboard's long ranges (issue 24; the
+#: tables and statements: :mod:`sondalog.collect.blocks_sql`): their table, the table of the
+#: loggers whose rows stored before are not in it yet, and the block lengths (seconds),
+#: finest first, each dividing the next and the day.
+EXTREMES = "readings_extremes"
+EXTREMES_TODO = "readings_extremes_todo"
+EXTREMES_SIZES = (1800, 7200, 21600, 86400)

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import psycopg
 from psycopg import conninfo
 
+from sondalog.collect import blocks_sql
 from sondalog.collect.model import Reading, SinkUnavailable
 from sondalog.collect.schema import SCHEMA_VERSION
 from sondalog.collect.sinks import register_sink
@@ -244,7 +245,8 @@ async def store_part(conn: Conn, batch: Sequence[Reading], direct: bool) -> tupl
             async with conn.transaction(), conn.cursor() as cur:
                 new = await insert_rows(cur, rows, direct)
                 # Here the part is written and not yet committed: what must change with the
-                # readings (per-batch maintenance) runs here, in the same transaction.
+                # readings runs here, in the same transaction: the dashboard's extremes.
+                await blocks_sql.after_batch_postgres(cur, batch)
             return new, conflicted or new < len(rows)
         except psycopg.errors.UniqueViolation:
             direct, conflicted = False, True  # rolled back: again, skipping the stored rows

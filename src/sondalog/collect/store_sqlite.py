@@ -33,6 +33,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from sondalog.collect import blocks_sql
 from sondalog.collect.model import Reading, SinkUnavailable, utc_text
 from sondalog.collect.schema import (
     SCHEMA_VERSION,
@@ -286,9 +287,11 @@ class SqliteStore:
                 self._db.close()
             self._db = None
 
-    def _insert(self, batch: Iterable[Reading]) -> None:
+    def _insert(self, batch: Sequence[Reading]) -> None:
         if self.keep_readings:
-            self._conn().executemany(_INSERT, [row_of(r) for r in batch])
+            conn = self._conn()
+            done = conn.executemany(_INSERT, [row_of(r) for r in batch]).rowcount
+            blocks_sql.after_batch_sqlite(conn, batch, done)  # the dashboard's extremes
 
     def commit_chunk(
         self, source: str, batch: Sequence[Reading], cursor: str | None, **state: Any

@@ -8,7 +8,6 @@
     token = "..."               # ... and then a token is required (or $SONDALOG_WEB_TOKEN)
     enabled = true              # false: no dashboard
     readings = "auto"           # where it reads the readings: "sqlite", "postgres", "auto"
-    blocks = false              # true: per-block extremes kept at ingest (fast long ranges)
 
 Without a ``[web]`` table the collector serves the dashboard on ``127.0.0.1:8080``. An address
 beyond loopback is refused here, at configuration time, unless ``allow_remote = true`` and a
@@ -19,10 +18,10 @@ token is set: the same rule as :func:`sondalog.web.server.check_listen`, checked
 docs/decisions.md): ``sqlite`` the collector's file, ``postgres`` the server of the
 ``[postgres]`` sink, ``auto`` (the default) the file unless it keeps no readings
 (``[sqlite] readings = false``) and a ``[postgres]`` sink is configured. Sources, events,
-channel types always come from the file (only it has them). ``blocks`` (default false; true makes
-the per-block extremes there) (:mod:`sondalog.web.blocks`): a year's plot in a fraction of
-the time, each stored reading costing a little more; false leaves a store as it is (an
-existing table and trigger stay).
+channel types always come from the file (only it has them). ``blocks``, the switch of the
+per-block extremes while they cost ingest twice its time, is gone: the sinks keep them per
+batch now (:mod:`sondalog.collect.blocks_sql`); ``blocks = true`` is still accepted, and
+``blocks = false`` is refused with that reason.
 """
 
 from __future__ import annotations
@@ -56,8 +55,6 @@ class WebConfig:
     explicit: bool = False
     #: The store of record the dashboard reads the readings from (:data:`READINGS`).
     readings: str = "auto"
-    #: Make the per-block extremes where the dashboard reads (``[web] blocks``).
-    blocks: bool = False
 
 
 def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
@@ -88,8 +85,13 @@ def parse_web(table: Table, env: Mapping[str, str]) -> WebConfig:
                 f"(or ${TOKEN_ENV}); requests then need 'Authorization: Bearer <token>'",
             )
     readings = table.text("readings", "auto", choices=READINGS)
-    blocks = table.flag("blocks", False)
-    return WebConfig(enabled, host, port, remote, token, "listen" in table, readings, blocks)
+    if not table.flag("blocks", True):
+        raise table.fail(
+            "blocks",
+            "the per-block extremes are always kept now (issue 24: they cost each batch "
+            "little); remove the line",
+        )
+    return WebConfig(enabled, host, port, remote, token, "listen" in table, readings)
 
 
 def readings_on_server(web: WebConfig, *, file_keeps_readings: bool, has_postgres: bool) -> bool:

@@ -1,240 +1,76 @@
-"""Each channel's extremes per block of time, kept at ingest, for the plot's long ranges (issue 24).
+"""The plot's buckets of a long range and their extremes, from the per-block extremes the
+sinks keep (:mod:`sondalog.collect.blocks_sql`, issue 24) or from the rows.
 
-A plot of a long range sends, per bucket, each channel's smallest and largest value with the
-time of a reading that has it (:mod:`.series`). Read from ``readings`` that is every row of
-the range (a year of 12 channels at 1 minute: 6.3 million); the table ``readings_blocks``
-keeps the same answer for fixed blocks of time, so a bucket is read as its blocks plus the
-raw readings at its two ends::
+A plot of ``[lo, hi]`` in at most ``B`` buckets (:mod:`.series`) picks the coarsest block
+size ``L`` (:data:`SIZES`) no longer than the range's ``B``-th part, and cuts the range on
+the grid of ``L``: the whole blocks ``[a, b)`` inside it, ``n`` of them, go ``n / B`` (one or
+more) to a bucket (block ``j`` to bucket ``j * m // n``, ``m = min(B, n)``), the part before
+``a`` into the first bucket and the part after ``b`` into the last. So a bucket's extremes
+are those of its whole blocks, and one statement reads them all (a year of 12 channels:
+1,460 six-hour blocks a channel); the two ends (shorter than ``L``) are read as finer
+blocks and raw rows in the same statement. Without a size that fits (a range under
+``B`` half-hours) the buckets are ``B`` equal ones, as always.
 
-    readings_blocks (
-        logger  TEXT    NOT NULL,  -- as readings.logger
-        size    INTEGER NOT NULL,  -- the block's length: 300 or 3600 seconds (SIZES)
-        start   INTEGER NOT NULL,  -- its start: seconds since 1970 of the logger's clock
-                                   -- read as UTC (as the plot's x), a multiple of size
-        channel INTEGER NOT NULL,  -- > 0 (text rows have no value)
-        vmin    REAL,              -- the smallest value, NULL when every value is NULL
-        tmin    TEXT    NOT NULL,  -- the earliest time with vmin; every value NULL: the latest time
-        vmax    REAL,              -- the largest value, likewise
-        tmax    TEXT    NOT NULL,
-        PRIMARY KEY (logger, size, start, channel)
-    )
-
-(on PostgreSQL ``double precision``, ``timestamp`` and ``bigint`` as in its ``readings``).
-The rule of ``tmin``/``tmax`` is SQLite's own for a bare column beside a lone ``min``/``max``
-(the first row in key order that has the value; the last row when all are NULL), which the
-dashboard has always shown, so a bucket made of blocks is exactly the bucket made of rows.
-Combining two of them (a block and a new reading, or two blocks) keeps the rule: see
-:data:`MERGE`.
-
-The table is filled at ingest by a trigger on ``readings`` (SQLite: per row; PostgreSQL: per
-statement, over its transition table, so one ``COPY``-fed ``INSERT`` of a batch merges the
-batch once); ``INSERT OR IGNORE``/``ON CONFLICT DO NOTHING`` of a row already stored fires
-nothing. :func:`install_sqlite`/:func:`install_postgres` create table and trigger and fill
-the table from the stored rows in one transaction (idempotent; the collector's dashboard
-wiring calls them, ``sondalog.app.collector``). The dashboard itself only reads: a store
-without the table is read from its rows (slower, same answer). A TimescaleDB hypertable
-takes no transition-table trigger: there the table is not made.
+What a bucket shows is the extremes of its rows, whichever way they are read: where a
+logger's blocks are not complete yet (``readings_extremes_todo``: the rows stored before the
+blocks were kept, filled in the background), or the store has none (an older collector's,
+a read-only copy), the same buckets are read from the rows (slower; tested equal).
 """
 
 from __future__ import annotations
 
 import math
-import sqlite3
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any
 
+from sondalog.collect.schema import EXTREMES as TABLE
+from sondalog.collect.schema import EXTREMES_SIZES as SIZES
+from sondalog.collect.schema import EXTREMES_TODO as TODO
+
 from .db import Db
-from .times import from_epoch
+from .times import from_epoch, to_epoch
 
-#: Block lengths (seconds), finest first.
-SIZES = (300, 3600)
-#: A block size serves buckets at least this many times as long.
-WORTH = 4
-_LOCK_ID = 0x50D4_B10C  # advisory lock of the PostgreSQL install
+__all__ = ["SIZES", "Plan", "pieces", "plan", "rows"]
+
+Row = tuple[int, int, float | None, int, float | None, int]
 
 
-def _merge(v: str, t: str, better: str) -> str:
-    """``SET`` of one extreme: the stored block (``readings_blocks``) takes the new one
-    (``excluded``; a reading is a block of one) when its value is ``better`` (``<``, ``>``),
-    and on a tie the earlier time; NULL values lose to any value, and between blocks of
-    NULLs only the later time wins."""
-    old_v, old_t = f"readings_blocks.{v}", f"readings_blocks.{t}"
-    new_v, new_t = f"excluded.{v}", f"excluded.{t}"
-    takes = f"{old_v} IS NULL OR {new_v} {better} {old_v}"
-    return (
-        f"{v} = CASE WHEN {new_v} IS NULL THEN {old_v} WHEN {takes} THEN {new_v} "
-        f"ELSE {old_v} END, "
-        f"{t} = CASE WHEN {new_v} IS NULL THEN "
-        f"CASE WHEN {old_v} IS NULL AND {new_t} > {old_t} THEN {new_t} ELSE {old_t} END "
-        f"WHEN {takes} THEN {new_t} "
-        f"WHEN {new_v} = {old_v} AND {new_t} < {old_t} THEN {new_t} ELSE {old_t} END"
-    )
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """The buckets of one plot: ``edges`` (seconds; bucket ``i`` is ``[edges[i],
+    edges[i + 1])``), their usual ``width``, and the blocks of ``size`` (0: none) that make
+    them: ``[a, b)``, ``n`` blocks in ``m`` buckets."""
+
+    edges: list[int]
+    width: int
+    size: int = 0
+    a: int = 0
+    b: int = 0
+    n: int = 0
+
+    @property
+    def m(self) -> int:
+        return len(self.edges) - 1
+
+    def texts(self) -> list[str]:
+        return [from_epoch(e) for e in self.edges]
 
 
-#: How a stored block takes a new one (:func:`_merge`); the same SQL on both servers.
-MERGE = _merge("vmin", "tmin", "<") + ", " + _merge("vmax", "tmax", ">")
-_INSERT = "INSERT INTO readings_blocks (logger, size, start, channel, vmin, tmin, vmax, tmax) "
-_SIZES_SQLITE = " UNION ALL ".join(f"SELECT {s} AS size" for s in SIZES)
-
-SQLITE_DDL = """
-CREATE TABLE IF NOT EXISTS readings_blocks (
-    logger  TEXT    NOT NULL,
-    size    INTEGER NOT NULL,
-    start   INTEGER NOT NULL,
-    channel INTEGER NOT NULL,
-    vmin    REAL,
-    tmin    TEXT    NOT NULL,
-    vmax    REAL,
-    tmax    TEXT    NOT NULL,
-    PRIMARY KEY (logger, size, start, channel)
-) WITHOUT ROWID
-"""
-
-
-def _sqlite_rows(source: str, where: str) -> str:
-    """Each row of ``source`` as a block of one per size (upsert-from-select needs a WHERE)."""
-    return (
-        _INSERT
-        + f"SELECT x.logger, s.size, unixepoch(x.time) / s.size * s.size, x.channel, x.value, "
-        f"x.time, x.value, x.time FROM {source}, ({_SIZES_SQLITE}) s WHERE {where} "
-        f"ON CONFLICT (logger, size, start, channel) DO UPDATE SET {MERGE}"
-    )
-
-
-#: Per size one plain upsert of the new row (no compound SELECT per row: cheaper at ingest).
-SQLITE_TRIGGER = (
-    "CREATE TRIGGER IF NOT EXISTS readings_blocks_add AFTER INSERT ON readings "
-    "WHEN new.channel > 0 AND unixepoch(new.time) IS NOT NULL BEGIN "
-    + "".join(
-        _INSERT + f"VALUES (new.logger, {size}, unixepoch(new.time) / {size} * {size}, "
-        "new.channel, new.value, new.time, new.value, new.time) "
-        f"ON CONFLICT (logger, size, start, channel) DO UPDATE SET {MERGE}; "
-        for size in SIZES
-    )
-    + "END"
-)
-SQLITE_FILL = _sqlite_rows("readings x", "x.channel > 0 AND unixepoch(x.time) IS NOT NULL")
-
-
-def installed_sqlite(conn: sqlite3.Connection) -> bool:
-    found = {
-        (r[0], r[1])
-        for r in conn.execute(
-            "SELECT type, name FROM sqlite_master WHERE name IN "
-            "('readings_blocks', 'readings_blocks_add')"
-        )
-    }
-    return found == {("table", "readings_blocks"), ("trigger", "readings_blocks_add")}
-
-
-def install_sqlite(conn: sqlite3.Connection) -> bool:
-    """Make table and trigger in the collector's file and fill the table from its rows, in
-    one ``BEGIN IMMEDIATE`` transaction; nothing when both are there. True when made now."""
-    if installed_sqlite(conn):
-        return False
-    conn.execute("BEGIN IMMEDIATE")
-    try:
-        if installed_sqlite(conn):
-            conn.execute("ROLLBACK")
-            return False
-        conn.execute("DROP TRIGGER IF EXISTS readings_blocks_add")
-        conn.execute("DROP TABLE IF EXISTS readings_blocks")
-        conn.execute(SQLITE_DDL)
-        conn.execute(SQLITE_TRIGGER)
-        conn.execute(SQLITE_FILL)
-        conn.execute("COMMIT")
-    except BaseException:
-        if conn.in_transaction:
-            conn.execute("ROLLBACK")
-        raise
-    return True
-
-
-POSTGRES_DDL = """
-CREATE TABLE IF NOT EXISTS readings_blocks (
-    logger  text             NOT NULL,
-    size    integer          NOT NULL,
-    start   bigint           NOT NULL,
-    channel integer          NOT NULL,
-    vmin    double precision,
-    tmin    timestamp        NOT NULL,
-    vmax    double precision,
-    tmax    timestamp        NOT NULL,
-    PRIMARY KEY (logger, size, start, channel)
-)
-"""
-_PG_SIZES = ", ".join(f"({s})" for s in SIZES)
-
-
-def _postgres_merge(source: str) -> str:
-    """The blocks of the rows of ``source``, merged into the table (one statement)."""
-    nulls_last = "CASE WHEN value IS NULL THEN time END DESC, time"
-    return (
-        _INSERT + "SELECT logger, size, start, channel, "
-        f"min(value), (array_agg(time ORDER BY value NULLS LAST, {nulls_last}))[1], "
-        f"max(value), (array_agg(time ORDER BY value DESC NULLS LAST, {nulls_last}))[1] "
-        "FROM (SELECT x.logger, s.size, "
-        "(floor(extract(epoch FROM x.time) / s.size) * s.size)::bigint AS start, "
-        f"x.channel, x.value, x.time FROM {source} x CROSS JOIN (VALUES {_PG_SIZES}) s(size) "
-        "WHERE x.channel > 0) n GROUP BY logger, size, start, channel "
-        f"ON CONFLICT (logger, size, start, channel) DO UPDATE SET {MERGE}"
-    )
-
-
-POSTGRES_FUNCTION = (
-    "CREATE OR REPLACE FUNCTION sondalog_readings_blocks_add() RETURNS trigger "
-    "LANGUAGE plpgsql AS $body$ BEGIN " + _postgres_merge("new_rows") + "; RETURN NULL; END $body$"
-)
-POSTGRES_TRIGGER = (
-    "CREATE TRIGGER readings_blocks_add AFTER INSERT ON readings "
-    "REFERENCING NEW TABLE AS new_rows FOR EACH STATEMENT "
-    "EXECUTE FUNCTION sondalog_readings_blocks_add()"
-)
-
-
-def install_postgres(conn: Any) -> bool:
-    """As :func:`install_sqlite` on the ``[postgres]`` server (``conn``: a psycopg
-    connection in autocommit mode), under an advisory lock and with ``readings`` locked
-    against inserts while it is filled. Nothing on a TimescaleDB hypertable (False), or
-    before the sink made ``readings`` (False: call again later)."""
-    with conn.transaction():
-        conn.execute("SELECT pg_advisory_xact_lock(%s)", (_LOCK_ID,))
-        if conn.execute("SELECT to_regclass('readings')").fetchone()[0] is None:
-            return False
-        hyper = conn.execute(
-            "SELECT value FROM meta WHERE key = 'layout'"
-            if conn.execute("SELECT to_regclass('meta')").fetchone()[0] is not None
-            else "SELECT NULL"
-        ).fetchone()
-        if hyper and hyper[0] == "hypertable":
-            return False
-        there = conn.execute(
-            "SELECT count(*) FROM pg_trigger WHERE tgname = 'readings_blocks_add' "
-            "AND tgrelid = 'readings'::regclass"
-        ).fetchone()[0]
-        if there and conn.execute("SELECT to_regclass('readings_blocks')").fetchone()[0]:
-            return False
-        conn.execute("LOCK TABLE readings IN SHARE ROW EXCLUSIVE MODE")
-        conn.execute("DROP TRIGGER IF EXISTS readings_blocks_add ON readings")
-        conn.execute("DROP TABLE IF EXISTS readings_blocks")
-        conn.execute(POSTGRES_DDL)
-        conn.execute(POSTGRES_FUNCTION)
-        conn.execute(POSTGRES_TRIGGER)
-        conn.execute(_postgres_merge("readings"))
-    return True
-
-
-# -- reading: a bucket as raw rows, blocks, raw rows ------------------------------------------
-
-_RAW = "SELECT channel, value AS v, time AS t FROM readings WHERE logger = ? AND time >= ? "
-_RAW += "AND time < ? AND channel > 0"
-
-
-def _blocks(size: int, which: str) -> str:
-    return (
-        f"SELECT channel, v{which} AS v, t{which} AS t FROM readings_blocks "
-        f"WHERE logger = ? AND size = {size} AND start >= ? AND start < ?"
-    )
+def plan(lo: str, hi: str, buckets: int) -> Plan:
+    """The buckets of ``[lo, hi]`` (whole seconds, ``hi`` included), at most ``buckets``."""
+    start, end = to_epoch(lo), to_epoch(hi) + 1
+    for size in reversed(SIZES):
+        a, b = -(-start // size) * size, end // size * size
+        n = (b - a) // size
+        if size * buckets > end - start or n < 1:
+            continue
+        m = min(buckets, n)
+        inner = [a + -(-k * n // m) * size for k in range(1, m)]
+        return Plan([start, *inner, end], math.ceil((end - start) / m), size, a, b, n)
+    width = max(1, math.ceil((end - start) / buckets))
+    count = math.ceil((end - start) / width)
+    return Plan([start + i * width for i in range(count + 1)], width)
 
 
 def pieces(a: int, b: int, sizes: Sequence[int] = SIZES) -> list[tuple[int, int, int]]:
@@ -251,80 +87,184 @@ def pieces(a: int, b: int, sizes: Sequence[int] = SIZES) -> list[tuple[int, int,
     return [*pieces(a, lo, rest), (size, lo, hi), *pieces(hi, b, rest)]
 
 
-def _query(dialect: Any, layout: tuple[int, ...]) -> str:
-    """The SQL of a bucket whose pieces are ``layout`` (their sizes, 0: raw)."""
-    out = []
-    for which in ("min", "max"):
-        arms = [_RAW if size == 0 else _blocks(size, which) for size in layout]
-        inner = dialect.extreme(which, " UNION ALL ".join(arms))
-        at = dialect.epoch("t")  # seconds, as the plot's x: no conversion per point in Python
-        out.append(f"SELECT channel, {0 if which == 'min' else 1}, v, {at} FROM ({inner}) e{which}")
-    return " UNION ALL ".join(out)
+def usable(db: Db, logger: str, since: int) -> bool:
+    """Whether ``logger``'s blocks from ``since`` (seconds) on are complete."""
+    if not db.has_blocks:
+        return False
+    row = db.first(f"SELECT below FROM {TODO} WHERE logger = ?", (logger,))
+    return row is None or since >= int(row[0])
 
 
-def extremes(
-    db: Db, logger: str, edges: Sequence[str], *, use_blocks: bool | None = None
-) -> Iterator[tuple[int, int, int, float | None, int]]:
-    """``(bucket, channel, which, value, time)`` as :func:`~.store.bucketed` gives them, for
-    buckets ``[edges[i], edges[i+1])`` (whole seconds), on either store, but ``time`` in
-    seconds since 1970 (:func:`~.times.to_epoch` of the text); from the blocks when the
-    store has them (``use_blocks`` None) or when told. A block size is used only for
-    buckets at least :data:`WORTH` times as long (shorter ones read fewer rows raw)."""
-    from .times import to_epoch
-
-    blocks = db.has_blocks if use_blocks is None else use_blocks
-    queries: dict[tuple[int, ...], list[tuple[int, list[object]]]] = {}
-    at = [to_epoch(e) for e in edges]
-    width = at[1] - at[0] if len(at) > 1 else 0
-    sizes = tuple(s for s in SIZES if blocks and width >= WORTH * s)
-    for i in range(len(edges) - 1):
-        parts = pieces(at[i], at[i + 1], sizes)
-        params: list[object] = []
-        for size, lo, hi in parts:
-            params += [logger, from_epoch(lo), from_epoch(hi)] if size == 0 else [logger, lo, hi]
-        queries.setdefault(tuple(p[0] for p in parts), []).append((i, params + params))
-    for layout, runs in queries.items():
-        if db.dialect.postgres:
-            yield from _lateral(db, layout, runs)
-            continue
-        sql = db.dialect.sql(_query(db.dialect, layout))
-        for i, params in runs:
-            for ch, which, value, time in db.conn.execute(sql, params):
-                yield i, ch, which, value, time
+def _span(db: Db, sizes: Sequence[int], lo: int, hi: int) -> tuple[list[str], list[object]]:
+    """Per extreme, the ``channel, v, t`` rows of ``[lo, hi)`` in time order, as blocks of
+    ``sizes`` and raw rows at the ends; and the parameters (the logger first each time)."""
+    arms: dict[str, list[str]] = {"min": [], "max": []}
+    args: list[object] = []
+    at = db.dialect.epoch("time")
+    for size, p, q in pieces(lo, hi, sizes):
+        if size == 0:
+            sql = f"SELECT channel, value AS v, {at} AS t FROM readings WHERE logger = ? "
+            sql += "AND time >= ? AND time < ? AND channel > 0"
+            args += [from_epoch(p), from_epoch(q)]
+            for which in arms:
+                arms[which].append(sql)
+        else:
+            for which in arms:
+                arms[which].append(
+                    f"SELECT channel, v{which} AS v, t{which} AS t FROM {TABLE} "
+                    f"WHERE logger = ? AND size = {size} AND start >= {p} AND start < {q}"
+                )
+    return [" UNION ALL ".join(arms[w]) for w in ("min", "max")], args
 
 
-def _lateral(
-    db: Db, layout: tuple[int, ...], runs: list[tuple[int, list[object]]]
-) -> Iterator[tuple[int, int, int, float | None, int]]:
-    """Every bucket of one layout in one statement on PostgreSQL: the buckets' parameters
-    as arrays (``unnest``), the bucket's query (the same text as on SQLite, its ``?`` now
-    the row's columns) run for each (``CROSS JOIN LATERAL``): one round trip, one plan."""
-    text = _query(db.dialect, layout)
-    parts = text.split("?")
-    half = (len(parts) - 1) // 2  # the min and the max half take the same parameters
-    sql = parts[0] + "".join(f"b.c{j % half}{rest}" for j, rest in enumerate(parts[1:]))
-    kinds = [
-        kind
-        for size in layout
-        for kind in ("text", *(("timestamp",) * 2 if size == 0 else ("bigint",) * 2))
-    ]
-    arrays = ", ".join(f"%s::{kind}[]" for kind in kinds)
-    columns = ", ".join(f"c{k}" for k in range(half))
-    query = (
-        f"SELECT b.i, e.* FROM unnest(%s::int[], {arrays}) AS b(i, {columns}) "
-        f"CROSS JOIN LATERAL ({sql}) e"
+def _pick(pg: bool, which: str, source: str, keys: str) -> str:
+    """Per group of ``keys`` of ``source`` (rows of ``keys..., v, t`` in time order): its
+    smallest (``which`` = ``min``) or largest ``v`` with the earliest ``t`` that has it, or,
+    with every ``v`` NULL, NULL and the latest ``t`` (as :mod:`.dialect` says it for one
+    channel: SQLite's bare column beside ``min``/``max``, PostgreSQL's ``DISTINCT ON``)."""
+    if not pg:
+        return f"SELECT {keys}, {which}(v) AS v, t FROM ({source}) GROUP BY {keys}"
+    order = "" if which == "min" else " DESC"
+    return (
+        f"SELECT DISTINCT ON ({keys}) {keys}, v, t FROM ({source}) p ORDER BY {keys}, "
+        f"v{order} NULLS LAST, CASE WHEN v IS NULL THEN t END DESC, t"
     )
-    params: list[object] = [[i for i, _ in runs]]
-    params += [[p[k] for _, p in runs] for k in range(half)]
-    yield from db.conn.execute(query, params)
 
 
-def bucket_edges(lo: str, hi: str, buckets: int) -> tuple[list[str], int]:
-    """The edges of ``buckets`` equal buckets over ``[lo, hi]`` and their width (seconds),
-    as the plot cuts a long range (:mod:`.series`)."""
-    from .times import to_epoch
+def _pair(pg: bool, source_min: str, source_max: str, keys: str, k: str) -> str:
+    """``k, ch, vmin, tmin, vmax, tmax`` per group of ``keys`` of the two sources (``keys...,
+    v, t``, the candidates of each extreme); ``k`` the bucket's expression."""
+    lo = _pick(pg, "min", source_min, keys)
+    hi = _pick(pg, "max", source_max, keys)
+    on = " AND ".join(f"a.{key.strip()} = b.{key.strip()}" for key in keys.split(","))
+    return (
+        f"SELECT {k} AS k, a.channel AS ch, a.v AS vmin, a.t AS tmin, b.v AS vmax, "
+        f"b.t AS tmax FROM ({lo}) a JOIN ({hi}) b ON {on}"
+    )
 
-    start, end = to_epoch(lo), to_epoch(hi) + 1
-    width = max(1, math.ceil((end - start) / buckets))
-    n = math.ceil((end - start) / width)
-    return [from_epoch(start + i * width) for i in range(n + 1)], width
+
+def _ends(db: Db, p: Plan) -> tuple[str, list[object]]:
+    """One statement of the two ends of ``p`` (before its first whole block, after its last:
+    finer blocks and raw rows; ``k, ch, vmin, tmin, vmax, tmax``), and the parameters of
+    its ``?`` other than the logger's (see :func:`_markers`); "" without ends."""
+    pg = db.dialect.postgres
+    args: list[object] = []
+    parts = []
+    finer = [s for s in SIZES if s < p.size]
+    for k, lo, hi in ((0, p.edges[0], p.a), (p.m - 1, p.b, p.edges[-1])):
+        if lo < hi:
+            (smin, smax), more = _span(db, finer, lo, hi)
+            parts.append(_pair(pg, smin, smax, "channel", str(k)))
+            args += more + more
+    return " UNION ALL ".join(f"SELECT * FROM ({x}) u{i}" for i, x in enumerate(parts)), args
+
+
+def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> list[Row]:
+    """``(bucket, channel, vmin, tmin, vmax, tmax)`` of the buckets of ``p`` by channel and
+    bucket: the channel's smallest and largest value in the bucket, each with the earliest
+    time (seconds) of a reading that has it (every value NULL: NULL and the latest time);
+    from the blocks where they are complete (``use_blocks`` None) or when told, else from
+    the rows (the same answer).
+
+    From the blocks: one statement reads the whole blocks of the range in time order (a
+    year: 1,460 a channel), and each bucket's are merged here as they come (measured half
+    the CPU of grouping them in SQL and reading the groups); one more reads the two ends."""
+    blocks = usable(db, logger, p.edges[0]) if use_blocks is None else use_blocks
+    if not (blocks and p.size):
+        return _by_rows(db, logger, p)
+    a, size, m, n = p.a, p.size, p.m, p.n
+    per: dict[int, list[list[Any]]] = {}
+    sql = (
+        f"SELECT channel, start, vmin, tmin, vmax, tmax FROM {TABLE} WHERE logger = ? "
+        "AND size = ? AND start >= ? AND start < ? ORDER BY start, channel"
+    )
+    for ch, start, vmin, tmin, vmax, tmax in db.conn.execute(
+        db.dialect.sql(sql), (logger, size, a, p.b)
+    ):
+        k = (start - a) // size * m // n
+        mine = per.get(ch)
+        if mine is None:
+            per[ch] = [[k, ch, vmin, tmin, vmax, tmax]]
+            continue
+        c = mine[-1]
+        if c[0] != k:
+            mine.append([k, ch, vmin, tmin, vmax, tmax])
+            continue
+        # the rule of _better, inlined (blocks in time order: a tie keeps the earlier)
+        if vmin is not None:
+            if c[2] is None or vmin < c[2]:
+                c[2], c[3] = vmin, tmin
+        elif c[2] is None:
+            c[3] = tmin
+        if vmax is not None:
+            if c[4] is None or vmax > c[4]:
+                c[4], c[5] = vmax, tmax
+        elif c[4] is None:
+            c[5] = tmax
+    ends, args = _ends(db, p)
+    if ends:
+        rest = iter(args)  # every '?' is the logger's (``logger = ?``) or the next of args
+        params = [logger if mine else next(rest) for mine in _markers(ends)]
+        for row in db.conn.execute(db.dialect.sql(ends), params):
+            k, ch = row[0], row[1]
+            mine = per.setdefault(ch, [])
+            at = 0 if k == 0 else len(mine) - 1  # the first or the last bucket
+            if mine and mine[at][0] == k:
+                mine[at] = list(_both(tuple(mine[at]), row))
+            else:
+                mine.insert(0 if k == 0 else len(mine), list(row))
+    return [tuple(r) for ch in sorted(per) for r in per[ch]]
+
+
+def _markers(sql: str) -> Iterator[bool]:
+    """For each ``?`` of ``sql``: whether it is a logger's (``logger = ?``)."""
+    parts = sql.split("?")
+    for before in parts[:-1]:
+        yield before.rstrip().endswith("logger =")
+
+
+def _both(one: Row, two: Row) -> Row:
+    """One bucket's extremes from two parts of it."""
+    vmin, tmin = _better(0, (one[2], one[3]), (two[2], two[3]))
+    vmax, tmax = _better(1, (one[4], one[5]), (two[4], two[5]))
+    return one[0], one[1], vmin, tmin, vmax, tmax
+
+
+def _better(
+    which: int, old: tuple[float | None, int], new: tuple[float | None, int]
+) -> tuple[float | None, int]:
+    """The smallest (``which`` 0) or largest of two (value, time) of one bucket and channel
+    by the rule of :func:`rows`."""
+    (ov, ot), (nv, nt) = old, new
+    if nv is None:
+        return (ov, max(ot, nt)) if ov is None else old
+    if ov is None:
+        return new
+    if nv == ov:
+        return new if nt < ot else old
+    return new if (nv < ov) == (which == 0) else old
+
+
+def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:
+    """The buckets of ``p`` from the rows: one key range per bucket (on PostgreSQL all in
+    one statement, each bucket's run per row of ``unnest``ed parameters)."""
+    pg = db.dialect.postgres
+    (smin, smax), _ = _span(db, (), 0, 1)
+    texts = p.texts()
+    if pg:
+        one = _pair(pg, smin, smax, "channel", "bk.i")
+        inner = one.split("?")
+        sql = inner[0] + "".join(f"bk.c{j % 3}{rest}" for j, rest in enumerate(inner[1:]))
+        query = (
+            "SELECT e.* FROM unnest(%s::int[], %s::text[], %s::timestamp[], "
+            f"%s::timestamp[]) AS bk(i, c0, c1, c2) CROSS JOIN LATERAL ({sql}) e ORDER BY 2, 1"
+        )
+        n = len(texts) - 1
+        params: list[Any] = [list(range(n)), [logger] * n, texts[:-1], texts[1:]]
+        return list(db.conn.execute(query, params))
+    out: list[Row] = []
+    for i in range(len(texts) - 1):
+        sql = db.dialect.sql(_pair(pg, smin, smax, "channel", str(i)))
+        out += db.conn.execute(sql, [logger, texts[i], texts[i + 1]] * 2)
+    out.sort(key=lambda r: (r[1], r[0]))
+    return out

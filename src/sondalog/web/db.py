@@ -73,16 +73,16 @@ def connect_file(path: Path) -> sqlite3.Connection:
     return conn
 
 
-#: The blocks are used only with the trigger that keeps them (a table left without it would
-#: miss every reading stored since: the rows are read instead).
+#: Whether the store has the per-block extremes (:mod:`sondalog.collect.blocks_sql`: the
+#: sinks keep them for every batch once the table is there; which loggers' are complete is
+#: asked per plot, :func:`.blocks.usable`).
 FILE_BLOCKS = (
-    "SELECT count(*) = 2 FROM sqlite_master WHERE (type, name) IN "
-    "(VALUES ('table', 'readings_blocks'), ('trigger', 'readings_blocks_add'))"
+    "SELECT count(*) = 2 FROM sqlite_master WHERE type = 'table' AND name IN "
+    "('readings_extremes', 'readings_extremes_todo')"
 )
 SERVER_BLOCKS = (
-    "SELECT to_regclass('readings_blocks') IS NOT NULL AND EXISTS (SELECT 1 FROM pg_trigger "
-    "WHERE tgname = 'readings_blocks_add' AND tgrelid = 'readings'::regclass "
-    "AND tgenabled <> 'D')"
+    "SELECT to_regclass('readings_extremes') IS NOT NULL "
+    "AND to_regclass('readings_extremes_todo') IS NOT NULL"
 )
 
 

@@ -11,11 +11,10 @@ differ:
   text by ``to_char``, so every caller gets the store's one spelling
   (:mod:`sondalog.collect.schema`); ``utc`` likewise as ``2007-03-01T11:00:00Z``;
 - seconds since 1970 of a ``time`` (the logger's clock read as UTC, :mod:`.times`):
-  ``unixepoch`` / ``extract(epoch ...)``;
-- a bucket's extreme with the time of a reading that has it (:meth:`extreme`): SQLite takes
-  a bare column from the row of a lone ``min``/``max`` (the first such row in scan order;
-  with every value NULL, the last row), PostgreSQL has no bare columns and says the same
-  with ``DISTINCT ON`` and an ``ORDER BY`` that breaks ties alike.
+  ``unixepoch`` / ``extract(epoch ...)``.
+
+(A bucket's extreme with the time of a reading that has it is spelt in :mod:`.blocks`:
+SQLite's bare column beside a lone ``min``/``max``, PostgreSQL's ``DISTINCT ON``.)
 
 Comparing a ``timestamp`` with a text parameter works on PostgreSQL (psycopg sends text as
 ``unknown``, the server casts it), so parameters are the store's texts on both.
@@ -59,21 +58,6 @@ class ReadDialect:
         if self.postgres:
             return f"extract(epoch FROM {column})::bigint"
         return f"unixepoch({column})"
-
-    def extreme(self, which: str, pieces: str) -> str:
-        """Per channel of ``pieces`` (a query of ``channel, v, t`` rows in time order): its
-        smallest (``which`` = ``min``) or largest (``max``) ``v`` with the earliest ``t``
-        that has it, or, with every ``v`` NULL, NULL and the latest ``t``. Gives
-        ``channel, v, t`` (``t`` as stored)."""
-        if which not in ("min", "max"):
-            raise ValueError(f"which must be min or max, not {which!r}")
-        if not self.postgres:
-            return f"SELECT channel, {which}(v) AS v, t FROM ({pieces}) GROUP BY channel"
-        order = "" if which == "min" else " DESC"
-        return (
-            f"SELECT DISTINCT ON (channel) channel, v, t FROM ({pieces}) p "
-            f"ORDER BY channel, v{order} NULLS LAST, CASE WHEN v IS NULL THEN t END DESC, t"
-        )
 
 
 @functools.cache

@@ -11,13 +11,15 @@ series' usual step (``step``, sent along for the live rows the browser appends):
 is put there so the line breaks instead of bridging it. Each series carries its own times
 (``t``, seconds on the logger's clock read as UTC) and values (``v``); the browser joins them.
 
-The buckets' extremes come from :func:`.blocks.extremes`: from the per-block extremes kept
-at ingest when the store has them (a year in well under a second), else from the rows;
-the same answer either way, on SQLite and PostgreSQL.
+The buckets (:func:`.blocks.plan`: on the grid of a block size for a long range) and their
+extremes come from :func:`.blocks.rows`: from the per-block extremes the sinks keep
+where they are complete (a year in tens of milliseconds), else from the rows; the same
+answer either way, on SQLite and PostgreSQL.
 """
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import pairwise
@@ -133,36 +135,54 @@ def _downsampled(
     buckets: int,
     by_ch: dict[int, Series],
 ) -> float:
-    edges, width = blocks.bucket_edges(lo, hi, buckets)
-    cells: dict[int, dict[int, dict[int, tuple[float | None, int]]]] = {}
-    for i, ch, which, value, time in blocks.extremes(db, logger, edges):
-        cells.setdefault(ch, {}).setdefault(i, {})[which] = (value, time)
-    for ch, per_bucket in cells.items():
+    p = blocks.plan(lo, hi, buckets)
+    got = blocks.rows(db, logger, p)  # by channel and bucket
+    start = 0
+    while start < len(got):
+        ch = got[start][1]
+        end = start
+        while end < len(got) and got[end][1] == ch:
+            end += 1
         s = by_ch.setdefault(ch, Series(store.Channel(ch, None, None)))
         bars = s.channel.kind == "bars"
-        index: list[int] = []
-        for i in sorted(per_bucket):
-            for x, value in _extremes(per_bucket[i], bars):
-                s.t.append(x)
-                s.v.append(value)
-                index.append(i)
+        t, v = s.t, s.v
         # a pause is broken only across an empty bucket, so the nulls keep within 2 per bucket
-        may = [k == 0 or index[k] - index[k - 1] > 1 for k in range(len(index))]
-        s.step = break_gaps(s.t, s.v, may)
-    return float(width)
+        jumps: list[int] = []
+        last = got[start][0]
+        for k, _, vmin, tmin, vmax, tmax in got[start:end]:
+            # a bucket's points: its smallest and largest value at the times of readings that
+            # have them, in time order (so every point lies in the range, where a reading
+            # was); bars: the largest only
+            if k - last > 1:
+                jumps.append(len(t))
+            last = k
+            if bars or vmin == vmax:
+                t.append(tmax)
+                v.append(vmax)
+            elif tmin == tmax:  # two rows of one second (counters): a millisecond apart
+                t += (tmin, tmax + 0.001)
+                v += (vmin, vmax)
+            elif tmin < tmax:
+                t += (tmin, tmax)
+                v += (vmin, vmax)
+            else:
+                t += (tmax, tmin)
+                v += (vmax, vmin)
+        s.step = _break_at(t, v, jumps)
+        start = end
+    return float(p.width)
 
 
-def _extremes(
-    cell: dict[int, tuple[float | None, int]], bars: bool
-) -> list[tuple[float, float | None]]:
-    """A bucket's points: its smallest and largest value at the times of readings that
-    have them, in time order (so every point lies in the range, where a reading was);
-    bars: the largest only."""
-    vmax, tmax = cell[1]
-    if bars or cell[0][0] == vmax:
-        return [(tmax, vmax)]
-    vmin, tmin = cell[0]
-    a, b = tmin, tmax
-    if a == b:  # two rows of one second (counters): a millisecond apart, as raw rows are
-        return [(a, vmin), (b + 0.001, vmax)]
-    return sorted([(a, vmin), (b, vmax)])
+def _break_at(t: list[float], v: list[float | None], at: list[int]) -> float | None:
+    """:func:`break_gaps` with ``may_break`` true only at the points ``at`` (few: the
+    series' pauses), without going through every point again."""
+    if len(t) < 3:
+        return None
+    usual: float = median(map(operator.sub, t[1:], t[:-1]))
+    if usual <= 0:
+        return None
+    gaps = [i for i in at if t[i] - t[i - 1] > 3 * usual and v[i - 1] is not None]
+    for i in reversed(gaps):
+        t.insert(i, (t[i - 1] + t[i]) / 2)
+        v.insert(i, None)
+    return usual

@@ -1,0 +1,145 @@
+"""The per-block extremes of the rows stored before the sinks kept them, filled in the
+background (issue 24, :mod:`sondalog.collect.blocks_sql`).
+
+The first batch after an upgrade makes the tables and notes in ``readings_extremes_todo``
+each logger that had rows, with ``below``: the day boundary after its newest row. From then
+on every batch keeps the blocks of its rows, and :func:`fill_step_sqlite` /
+:func:`fill_step_postgres` bring a logger's blocks of the day below ``below`` up to date
+from its rows, then lower ``below`` to the day of its next older row (no row left: the
+logger is done), all in one short transaction: the collector's writer waits at most for
+one day of one logger (about 17,000 rows at 12 channels a minute, tens of milliseconds).
+The newest days come first (the ones a plot shows first); the dashboard reads the rows
+below ``below`` meanwhile, so it never shows an incomplete block. :func:`fill_file` and
+:func:`fill_server` run the steps until nothing is left (the collector's dashboard wiring,
+:mod:`sondalog.app.collector`); several collectors on one server share the work
+(``FOR UPDATE SKIP LOCKED``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import sqlite3
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from sondalog.collect.blocks_sql import (
+    DAY,
+    TODO,
+    ensure_postgres_sync,
+    ensure_sqlite,
+    update_postgres_sync,
+    update_sqlite,
+)
+
+log = logging.getLogger(__name__)
+#: Seconds between steps (the collector's writer goes first) and between tries to reach a
+#: server that is not there yet.
+PAUSE_S = 0.02
+RETRY_S = 60.0
+
+
+def _below(last: datetime | str | None) -> int | None:
+    """The day boundary after ``last`` (a row's time, naive: read as UTC), seconds."""
+    if last is None:
+        return None
+    at = datetime.fromisoformat(last) if isinstance(last, str) else last
+    return (int(at.replace(tzinfo=UTC).timestamp()) // DAY + 1) * DAY
+
+
+def _text(seconds: int) -> str:
+    return datetime.fromtimestamp(seconds, UTC).strftime("%Y-%m-%dT%H:%M:%S")
+
+
+def fill_step_sqlite(conn: sqlite3.Connection) -> bool:
+    """One day of one logger in the file (``conn``: autocommit); False when none is left."""
+    conn.execute("BEGIN IMMEDIATE")
+    try:
+        ensure_sqlite(conn)
+        row = conn.execute(
+            f"SELECT logger, below FROM {TODO} ORDER BY below DESC LIMIT 1"
+        ).fetchone()
+        if row is None:
+            conn.execute("COMMIT")
+            return False
+        logger, below = str(row[0]), int(row[1])
+        lo = below - DAY
+        update_sqlite(conn, logger, _text(lo), lo, below - 1)
+        older = conn.execute(
+            "SELECT max(time) FROM readings WHERE logger = ? AND time < ?", (logger, _text(lo))
+        ).fetchone()[0]
+        nxt = _below(older)
+        if nxt is None:
+            conn.execute(f"DELETE FROM {TODO} WHERE logger = ?", (logger,))
+        else:
+            conn.execute(f"UPDATE {TODO} SET below = ? WHERE logger = ?", (nxt, logger))
+        conn.execute("COMMIT")
+    except BaseException:
+        if conn.in_transaction:
+            conn.execute("ROLLBACK")
+        raise
+    return True
+
+
+def fill_step_postgres(conn: Any) -> bool:
+    """As :func:`fill_step_sqlite` on a server (``conn``: a psycopg connection, autocommit)."""
+    with conn.transaction(), conn.cursor() as cur:
+        if cur.execute("SELECT to_regclass('readings')").fetchone()[0] is None:
+            return False  # no sink has written yet
+        ensure_postgres_sync(cur)
+        row = cur.execute(
+            f"SELECT logger, below FROM {TODO} ORDER BY below DESC LIMIT 1 FOR UPDATE SKIP LOCKED"
+        ).fetchone()
+        if row is None:
+            return False
+        logger, below = str(row[0]), int(row[1])
+        lo = below - DAY
+        update_postgres_sync(cur, logger, lo, below - 1)
+        older = cur.execute(
+            "SELECT max(time) FROM readings WHERE logger = %s AND time < %s", (logger, _text(lo))
+        ).fetchone()[0]
+        nxt = _below(older)
+        if nxt is None:
+            cur.execute(f"DELETE FROM {TODO} WHERE logger = %s", (logger,))
+        else:
+            cur.execute(f"UPDATE {TODO} SET below = %s WHERE logger = %s", (nxt, logger))
+    return True
+
+
+async def fill_file(path: Path) -> None:
+    """Fill the file's blocks until done (a task of the collector's loop)."""
+    began, steps = time.monotonic(), 0
+    conn = sqlite3.connect(path, isolation_level=None, timeout=60.0, check_same_thread=False)
+    try:
+        while await asyncio.to_thread(fill_step_sqlite, conn):
+            steps += 1
+            await asyncio.sleep(PAUSE_S)
+    except sqlite3.Error as exc:  # the dashboard reads the rows instead (slower)
+        log.warning("dashboard: long-range extremes not filled in %s: %s", path, exc)
+        return
+    finally:
+        conn.close()
+    if steps:
+        log.info("dashboard: %d days of extremes filled in %.1f s", steps, time.monotonic() - began)
+
+
+async def fill_server(dsn: str) -> None:
+    """Fill the server's blocks until done, trying again while it cannot be reached."""
+    import psycopg
+
+    while True:
+        try:
+            conn: Any = await asyncio.to_thread(
+                lambda: psycopg.connect(dsn, autocommit=True, connect_timeout=10)
+            )
+            try:
+                while await asyncio.to_thread(fill_step_postgres, conn):
+                    await asyncio.sleep(PAUSE_S)
+            finally:
+                conn.close()
+            return
+        except psycopg.Error as exc:
+            log.warning("dashboard: long-range extremes not filled on the server yet: %s", exc)
+        await asyncio.sleep(RETRY_S)

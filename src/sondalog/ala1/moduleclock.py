@@ -7,6 +7,7 @@ works in whole module seconds since 1970. At either end of the calendar the cloc
 
 from __future__ import annotations
 
+import functools
 import math
 from datetime import datetime, timedelta
 
@@ -28,3 +29,20 @@ CLOCK_MAX = to_seconds(datetime(9999, 12, 31, 23, 59, 59))
 def from_seconds(seconds: float) -> datetime:
     """The date of module ``seconds``, held within the calendar (never an overflow)."""
     return _EPOCH + timedelta(seconds=math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX)))
+
+
+def stamp(seconds: float) -> str:
+    """The record's ``YYYYMMDDhhmmss`` of module ``seconds`` (§6.6.5: a row's time), as
+    :func:`from_seconds` and ``tokens.format_stamp`` give it, with the date of each day
+    worked out once: a simulated year writes a row every minute (issue 24)."""
+    whole = math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX))
+    day, rest = divmod(whole, 86400)
+    hours, rest = divmod(rest, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{_date(day)}{hours:02d}{minutes:02d}{secs:02d}"
+
+
+@functools.lru_cache(maxsize=16)
+def _date(day: int) -> str:
+    moment = _EPOCH + timedelta(days=day)
+    return f"{moment.year:04d}{moment.month:02d}{moment.day:02d}"

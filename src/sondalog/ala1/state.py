@@ -23,6 +23,7 @@ from sondalog.ala1.moduleclock import (
     CLOCK_MIN,
     FACTORY_DATE,
     from_seconds,
+    stamp,
     to_seconds,
 )
 from sondalog.ala1.nvstore import NvStore as NvStore  # (re-exported: the engine, stores)
@@ -270,8 +271,7 @@ class ModuleState:
             self.hardware.prepare(upcoming)
 
     def _store_row(self, module_second: int, fields: list[str]) -> None:
-        stamp = format_stamp(from_seconds(module_second))
-        self.record.append(stamp, "1," + ",".join(fields))
+        self.record.append(stamp(module_second), "1," + ",".join(fields))
 
     def _next_event(self) -> float | None:
         """The sampler's next event, computed once per change (issue 11)."""

@@ -214,19 +214,29 @@ def _one_by_one(
             except Exception:
                 text = None
         else:
-            try:
-                text = decide(run, value)
-            except Exception as exc:
-                report(cfg.number, exc, times[k] - offset)
+            text, failed = _decide_reporting(run, value, report, times[k] - offset)
+            if failed:
                 sample = None
-                try:
-                    text = decide(run, None)
-                except Exception:
-                    text = None
         if text is not None:
             written[times[k]] = text
     run.sample, run.sampled = sample, True
     return written
+
+
+def _decide_reporting(
+    run: ChannelRun, value: Value, report: Report, when: float
+) -> tuple[str | None, bool]:
+    """:func:`decide` of ``value``; when it raises, the fault reported at module time ``when``
+    and the sample decided as one without a valid value (Sampler._measure_due's except
+    branch): ``(text, failed)``."""
+    try:
+        return decide(run, value), False
+    except Exception as exc:
+        report(run.cfg.number, exc, when)
+    try:
+        return decide(run, None), True
+    except Exception:
+        return None, True
 
 
 def _averaged(
@@ -256,16 +266,9 @@ def _averaged(
         run.avg_sum = functools.reduce(operator.add, valid[i : i + need - 1], run.avg_sum)
         run.avg_n = cfg.average - 1
         k = index[i + need - 1]
-        try:
-            text = decide(run, valid[i + need - 1])
-        except Exception as exc:
-            report(cfg.number, exc, times[k] - offset)
-            if k == last:
-                sample = None
-            try:
-                text = decide(run, None)
-            except Exception:
-                text = None
+        text, failed = _decide_reporting(run, valid[i + need - 1], report, times[k] - offset)
+        if failed and k == last:
+            sample = None
         if text is not None:
             written[times[k]] = text
         i += need

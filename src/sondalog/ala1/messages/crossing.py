@@ -25,17 +25,9 @@ class Crossing:
 
     def sample(self, text: str) -> bool:
         """A new sample (formatted; empty = no valid value); True when it triggers."""
-        if not text:
-            return False
-        x = _PARSED.get(text)
+        x = _number(text)
         if x is None:
-            try:
-                x = Decimal(text)
-            except ArithmeticError:
-                return False
-            if len(_PARSED) >= 4096:
-                _PARSED.clear()
-            _PARSED[text] = x
+            return False
         half = self.hysteresis / 2
         if self.above is None:
             self.above = x > self.value

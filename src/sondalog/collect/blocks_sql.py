@@ -388,7 +388,6 @@ def _pg_statements() -> list[tuple[str, int]]:
 
 _PG_BATCH = _pg_statements()
 #: Whether the sink's batch went through its temporary table (some rows were there already).
-_PG_SKIPPED = "SELECT EXISTS (SELECT FROM readings_in)"
 
 
 def _pg_params(found: dict[str, tuple[int, int]]) -> list[list[object]]:
@@ -412,12 +411,11 @@ def _pg_params(found: dict[str, tuple[int, int]]) -> list[list[object]]:
     return out
 
 
-async def after_batch_postgres(cur: Any, batch: Iterable[Reading]) -> None:
+async def after_batch_postgres(cur: Any, batch: Sequence[Reading], stored: int) -> None:
     """As :func:`after_batch_sqlite` for the PostgreSQL sink (``cur``: its psycopg async
-    cursor, in the batch's transaction after the rows are stored). The batch was copied
-    straight into ``readings`` (every row new) when its temporary table ``readings_in`` is
-    empty: then merged from the batch in one statement; else every logger's rows read back,
-    one statement per size."""
+    cursor, in the batch's transaction after ``stored`` of the batch's rows were stored).
+    Every row stored: merged from the batch in one statement; else every logger's rows read
+    back, one statement per size."""
     found = spans(batch)
     if not found:
         return
@@ -432,7 +430,7 @@ async def after_batch_postgres(cur: Any, batch: Iterable[Reading]) -> None:
         for key in [k for k, c in _ENSURED.items() if c.closed]:
             del _ENSURED[key]
         _ENSURED[id(conn)] = conn
-    if not (await (await cur.execute(_PG_SKIPPED)).fetchone())[0]:
+    if stored == len(batch):
         rows = aggregate(batch)
         await cur.execute(_PG_UPSERT, [list(col) for col in zip(*rows, strict=True)])
         return

@@ -246,7 +246,7 @@ async def store_part(conn: Conn, batch: Sequence[Reading], direct: bool) -> tupl
                 new = await insert_rows(cur, rows, direct)
                 # Here the part is written and not yet committed: what must change with the
                 # readings runs here, in the same transaction: the dashboard's extremes.
-                await blocks_sql.after_batch_postgres(cur, batch)
+                await blocks_sql.after_batch_postgres(cur, batch, new)
             return new, conflicted or new < len(rows)
         except psycopg.errors.UniqueViolation:
             direct, conflicted = False, True  # rolled back: again, skipping the stored rows

@@ -160,6 +160,15 @@ def _plain_bulk(
     return {times[k]: text for k, text in written}
 
 
+def _valid(samples: list[Value]) -> tuple[list[int], list[Value]]:
+    """The positions of the samples with a valid value, and those values (an average counts
+    only them, §6.5.15)."""
+    if None in samples:
+        index = [k for k, value in enumerate(samples) if value is not None]
+        return index, [samples[k] for k in index]
+    return list(range(len(samples))), samples
+
+
 def _averaged_bulk(
     run: ChannelRun, times: list[int], values: Column, offset: float, report: Report
 ) -> dict[int, str] | None:
@@ -171,11 +180,7 @@ def _averaged_bulk(
     if need < 1:
         return None
     samples = values.values
-    if None in samples:
-        index = [k for k, value in enumerate(samples) if value is not None]
-        valid = [samples[k] for k in index]
-    else:
-        index, valid = list(range(len(samples))), samples
+    index, valid = _valid(samples)
     add, reduce = operator.add, functools.reduce
     averages: list[float] = []
     if len(valid) >= need:
@@ -250,11 +255,7 @@ def _averaged(
     for k, exc in values.faults.items():
         report(cfg.number, exc, times[k] - offset)
     samples = values.values
-    if None in samples:
-        index = [k for k, value in enumerate(samples) if value is not None]
-        valid = [samples[k] for k in index]
-    else:
-        index, valid = list(range(len(samples))), samples
+    index, valid = _valid(samples)
     written: dict[int, str] = {}
     last = len(samples) - 1
     sample = samples[-1]

@@ -28,15 +28,19 @@ CLOCK_MAX = to_seconds(datetime(9999, 12, 31, 23, 59, 59))
 
 def from_seconds(seconds: float) -> datetime:
     """The date of module ``seconds``, held within the calendar (never an overflow)."""
-    return _EPOCH + timedelta(seconds=math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX)))
+    return _EPOCH + timedelta(seconds=_held(seconds))
+
+
+def _held(seconds: float) -> int:
+    """The whole module second of ``seconds``, held within the calendar."""
+    return math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX))
 
 
 def stamp(seconds: float) -> str:
     """The record's ``YYYYMMDDhhmmss`` of module ``seconds`` (§6.6.5: a row's time), as
     :func:`from_seconds` and ``tokens.format_stamp`` give it, with the date of each day
     worked out once: a simulated year writes a row every minute (issue 24)."""
-    whole = math.floor(min(max(seconds, CLOCK_MIN), CLOCK_MAX))
-    day, rest = divmod(whole, 86400)
+    day, rest = divmod(_held(seconds), 86400)
     hours, rest = divmod(rest, 3600)
     minutes, secs = divmod(rest, 60)
     return f"{_date(day)}{hours:02d}{minutes:02d}{secs:02d}"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import subprocess
 import sys
 from pathlib import Path
@@ -210,18 +211,7 @@ def test_both_write_paths_store_the_same_columns(pg_dsn: str) -> None:
 
     def batch(logger: str) -> list[Reading]:
         out = [
-            Reading(
-                r.logger,
-                r.channel,
-                r.time,
-                r.counter,
-                r.type,
-                r.value,
-                r.text,
-                r.name,
-                r.unit,
-                (r.time - timedelta(hours=1)).replace(tzinfo=UTC),
-            )
+            dataclasses.replace(r, utc=(r.time - timedelta(hours=1)).replace(tzinfo=UTC))
             for r in rows(logger, 0, 30, channels=4)
         ]
         return [*out, text_row(logger, 5, "a\\b\tc\nd\x00é"), text_row(logger, 6, "")]

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import itertools
 import json
 import math
 import os
@@ -42,7 +43,7 @@ from pathlib import Path
 
 import psycopg
 
-from sondalog.collect import blocks_fill, sink_postgres
+from sondalog.collect import blocks_fill, pg_rows, schema_pg, sink_postgres
 from sondalog.web import create_app, serve
 
 START = datetime(2025, 1, 1)
@@ -79,11 +80,27 @@ def fill_postgres(dsn: str) -> None:
     with psycopg.connect(dsn, autocommit=True) as conn, conn.cursor() as cur:
         if cur.execute("SELECT 1 FROM readings LIMIT 1").fetchone():
             return
-        cols = "logger, channel, time, counter, type, value, name, unit"
-        with cur.copy(f"COPY readings ({cols}) FROM STDIN") as copy:
-            for logger, ch, when, value in rows():
-                copy.write_row((logger, ch, when, 0, 1, value, f"ch{ch}", "°C"))
-        cur.execute("ANALYZE readings")
+        # Schema version 2: one row a record row (the readings of a minute), as the sink
+        # writes them (pg_rows); ``readings`` is the view the dashboard reads.
+        encoder = pg_rows.Encoder()
+        cols = ", ".join(schema_pg.COLUMNS)
+        with cur.copy(f"COPY {schema_pg.TABLE} ({cols}) FROM STDIN (FORMAT BINARY)") as copy:
+            copy.write(pg_rows.SIGNATURE)
+            chunk: list[pg_rows.Row] = []
+            for minute in itertools.groupby(rows(), key=lambda r: (r[0], r[2])):
+                (logger, when), readings = minute
+                got = list(readings)
+                n = len(got)
+                chunk.append(
+                    (logger, when, 0, None, tuple(r[1] for r in got), (1,) * n,
+                     tuple(r[3] for r in got), (None,) * n, tuple(f"ch{r[1]}" for r in got),
+                     ("°C",) * n)
+                )  # fmt: skip
+                if len(chunk) == 20_000:
+                    copy.write(encoder.body(chunk))
+                    chunk = []
+            copy.write(encoder.body(chunk) + pg_rows.TRAILER)
+        cur.execute(f"ANALYZE {schema_pg.TABLE}")
     print(f"postgres: filled in {time.perf_counter() - t0:.1f} s")
 
 

@@ -115,8 +115,10 @@ def test_schema_created_with_brin_and_version(pg_dsn: str) -> None:
     assert sink.layout == BRIN  # Debian has no timescaledb
     with psycopg.connect(pg_dsn) as c:
         meta = dict(c.execute("SELECT key, value FROM meta").fetchall())
-        assert meta == {"schema_version": "1", "layout": "brin"}
-        idx = c.execute("SELECT indexdef FROM pg_indexes WHERE tablename = 'readings'").fetchall()
+        assert meta == {"schema_version": "2", "layout": "brin"}
+        idx = c.execute(
+            "SELECT indexdef FROM pg_indexes WHERE tablename = 'record_rows'"
+        ).fetchall()
         assert any('USING brin ("time")' in d or "USING brin (time)" in d for (d,) in idx)
         text = c.execute("SELECT text, type FROM readings WHERE channel = 0").fetchall()
         assert text == [("door open", 3)]
@@ -292,8 +294,9 @@ def test_one_writer_by_default_does_not_split(pg_dsn: str) -> None:
 
 def test_parts_holding_each_others_rows_do_not_fail(pg_dsn: str) -> None:
     """The first part begins with row X and ends with row Y, the second begins with Y and
-    ends with X: each waits for the other at its end (a deadlock the server breaks). The
-    part it rolls back is written again once the other is committed: each row once."""
+    ends with X (split in slices, a record row's readings in both parts): each may wait for
+    the other at its end (a deadlock the server breaks; the part it rolls back is written
+    again once the other is committed): each reading once."""
     body = big("DL", 10)
     half = len(body) // 2
     x, y = rows("DL", 0, 1, channels=1)[0], rows("DL", 1, 1, channels=1)[0]

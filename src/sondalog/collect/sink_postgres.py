@@ -1,4 +1,5 @@
-"""The PostgreSQL sink: readings in a ``readings`` table, inserted idempotently by COPY.
+"""The PostgreSQL sink: readings in ``record_rows`` (one row a record row), inserted idempotently
+by COPY.
 
 Configured by the ``[postgres]`` table::
 
@@ -9,32 +10,35 @@ Configured by the ``[postgres]`` table::
     writers = 1               # connections a large batch is split between (1..8)
     alarms = false            # true: the alarm tables live here too (docs/alarms.md)
 
-The schema (:data:`DDL`, the columns of :mod:`sondalog.collect.schema` with PostgreSQL types)
-is created and migrated by the sink when it connects, under an advisory lock so that several
-collectors sharing one database do not race; ``meta`` holds ``schema_version`` and
-``layout``.
+The schema (:mod:`sondalog.collect.schema_pg`: the table ``record_rows``, one row per record
+row with the channels' readings in arrays, and the view ``readings``, one row a reading as in
+version 1) is created and migrated by the sink when it connects, under an advisory lock so
+that several collectors sharing one database do not race; ``meta`` holds ``schema_version``
+and ``layout``.
 
-Writing a batch (:meth:`PostgresSink.write`): the rows are copied (``COPY ... (FORMAT BINARY)``:
-no text to format here nor to parse on the server) straight into ``readings`` in one
-transaction. When a row of it is there already (two collectors, a replay after a crash: the
-primary key refuses it and the whole COPY with it) the transaction is rolled back and the
-batch copied into a temporary table instead and moved by ``INSERT ... ON CONFLICT DO NOTHING``;
-after such a batch the next one goes that way at once (a replay brings many), until one
-that had no stored row. Either way a row seen twice is stored once.
+Writing a batch (:meth:`PostgresSink.write`): the readings are grouped into record rows
+(:func:`sondalog.collect.pg_rows.group`) and copied (``COPY ... (FORMAT BINARY)``, encoded by
+:class:`~sondalog.collect.pg_rows.Encoder`) straight into ``record_rows`` in one transaction.
+When a row of it is there already (two collectors, a replay after a crash: the primary key
+refuses it and the whole COPY with it) the transaction is rolled back and the batch copied
+into a temporary table instead: its new rows inserted by ``INSERT ... ON CONFLICT DO NOTHING``,
+and a stored row that lacks some of its channels (a record row whose readings came in two
+batches) given them, a channel stored already keeping its reading. After such a batch the
+next one goes that way at once (a replay brings many), until one that had no stored reading.
+Either way a reading seen twice is stored once.
 
-The server's work per row is mostly the primary key's B-tree, on one core per connection: a
-batch of :data:`SPLIT_AT` readings or more is split between ``writers`` connections (default
-1: on PostgreSQL 15 here two cost about 15 % more server CPU a reading, the backends meeting
-in the table's extension and the BRIN index, and were no faster on 2 shared cores), each part
-in its own transaction, concurrently. The batch is acknowledged only when every
-part is committed; a part that fails (the server goes away) makes the write raise and the
-whole batch is written again later, its stored parts then skipped by the primary key: nothing
-lost, nothing twice, only a half-written batch visible for that while. ``benchmarks/
-bench_collect.py`` measures it (issue 24: >= 250,000 readings a second).
+The server's work is mostly the primary key's B-tree, one entry a record row (version 1 had
+one a reading, about five times the server's CPU: issue 24). A batch of :data:`SPLIT_AT`
+readings or more is split between ``writers`` connections (default 1), each part in its own
+transaction, concurrently. The batch is acknowledged only when every part is committed; a
+part that fails (the server goes away) makes the write raise and the whole batch is written
+again later, its stored parts then skipped: nothing lost, nothing twice, only a half-written
+batch visible for that while. ``benchmarks/bench_collect.py`` measures it (issue 24: >=
+250,000 readings a second).
 
 Time index: a TimescaleDB hypertable on ``time`` when the extension is available (or asked
 for), otherwise a BRIN index on ``time`` (small, and good for rows that arrive roughly in time
-order). See :func:`choose_layout`.
+order). See :func:`~sondalog.collect.schema_pg.choose_layout`.
 
 A server that is down or goes away makes :meth:`PostgresSink.write` raise
 :class:`SinkUnavailable`; the next write connects again.
@@ -47,103 +51,69 @@ import contextlib
 import itertools
 import logging
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import psycopg
 from psycopg import conninfo
 
-from sondalog.collect import blocks_sql
+from sondalog.collect import blocks_sql, pg_rows, schema_pg
 from sondalog.collect.model import Reading, SinkUnavailable
-from sondalog.collect.schema import SCHEMA_VERSION
+from sondalog.collect.schema_pg import (
+    BRIN,
+    HYPERTABLE,
+    SchemaTooNew,
+    choose_layout,
+    layout_ddl,
+    migration_plan,
+)
 from sondalog.collect.sinks import register_sink
 from sondalog.config import Table, of
 
 log = logging.getLogger(__name__)
 
+__all__ = [
+    "BRIN",
+    "HYPERTABLE",
+    "MAX_WRITERS",
+    "SPLIT_AT",
+    "PostgresConfig",
+    "PostgresSink",
+    "SchemaTooNew",
+    "choose_layout",
+    "create",
+    "migration_plan",
+    "parse_config",
+    "split",
+]
+
 _KEYS = {"dsn", "timescaledb", "connect_timeout", "alarms", "writers"}
 _LOCK_ID = 0x50D4_1064  # advisory lock of the schema migration ("sondalog")
 
-HYPERTABLE = "hypertable"
-BRIN = "brin"
-
-COLUMNS = ("logger", "channel", "time", "counter", "type", "value", "text", "name", "unit", "utc")
-#: The columns' types, for the binary COPY (the order of :data:`COLUMNS`, the types of :data:`DDL`).
-TYPES = (
-    "text",
-    "int4",
-    "timestamp",
-    "int4",
-    "int2",
-    "float8",
-    "text",
-    "text",
-    "text",
-    "timestamptz",
+_COLS = ", ".join(schema_pg.COLUMNS)
+_COPY_NEW = f"COPY {schema_pg.TABLE} ({_COLS}) FROM STDIN (FORMAT BINARY)"
+_COPY = f"COPY record_rows_in ({_COLS}) FROM STDIN (FORMAT BINARY)"
+#: A batch with stored rows: the new rows inserted, the number of their readings.
+_MOVE = (
+    f"WITH n AS (INSERT INTO {schema_pg.TABLE} ({_COLS}) SELECT {_COLS} FROM record_rows_in"
+    " ON CONFLICT DO NOTHING RETURNING cardinality(channel) AS n) SELECT sum(n) FROM n"
 )
-_COLS = ", ".join(COLUMNS)
-_COPY_NEW = f"COPY readings ({_COLS}) FROM STDIN (FORMAT BINARY)"
-_COPY = f"COPY readings_in ({_COLS}) FROM STDIN (FORMAT BINARY)"
-_MOVE = f"INSERT INTO readings ({_COLS}) SELECT {_COLS} FROM readings_in ON CONFLICT DO NOTHING"
-
-#: Schema version 1 (the columns of :mod:`sondalog.collect.schema`).
-DDL = """
-CREATE TABLE IF NOT EXISTS readings (
-    logger  text             NOT NULL,
-    channel integer          NOT NULL,
-    time    timestamp        NOT NULL,
-    counter integer          NOT NULL,
-    type    smallint         NOT NULL,
-    value   double precision,
-    text    text,
-    name    text,
-    unit    text,
-    utc     timestamptz,
-    PRIMARY KEY (logger, time, counter, channel)
+_JOIN = (
+    "(r.logger, r.time, r.counter) = (i.logger, i.time, i.counter) AND NOT i.channel <@ r.channel"
 )
-"""
-
-#: ``MIGRATIONS[n]`` turns schema version ``n - 1`` into ``n`` (0: no schema yet).
-MIGRATIONS: dict[int, tuple[str, ...]] = {1: (DDL,)}
-
-
-class SchemaTooNew(RuntimeError):
-    """The database was migrated by a newer collector: refuse to write into it."""
-
-
-def migration_plan(current: int, target: int = SCHEMA_VERSION) -> list[int]:
-    """The migration steps from schema version ``current`` (0 = empty) to ``target``."""
-    if current > target:
-        raise SchemaTooNew(
-            f"postgres: the database has schema version {current}, this collector knows {target}"
-        )
-    return list(range(current + 1, target + 1))
-
-
-def choose_layout(setting: str, available: bool) -> str:
-    """Hypertable or BRIN: ``setting`` is ``auto``/``on``/``off``, ``available`` whether
-    ``timescaledb`` is in ``pg_available_extensions``."""
-    if setting == "off":
-        return BRIN
-    if setting == "on":
-        if not available:
-            raise ValueError("postgres: timescaledb = 'on' but the extension is not available")
-        return HYPERTABLE
-    if setting == "auto":
-        return HYPERTABLE if available else BRIN
-    raise ValueError(f"postgres: timescaledb must be auto, on or off, not {setting!r}")
-
-
-def layout_ddl(layout: str) -> tuple[str, ...]:
-    """The statements that give ``readings`` its time index for ``layout``."""
-    if layout == HYPERTABLE:
-        return (
-            "CREATE EXTENSION IF NOT EXISTS timescaledb",
-            "SELECT create_hypertable('readings', 'time', if_not_exists => TRUE,"
-            " migrate_data => TRUE)",
-        )
-    return ("CREATE INDEX IF NOT EXISTS readings_time_brin ON readings USING brin (time)",)
-
+#: Then the stored rows that lack some of the batch's channels, locked: how many readings
+#: they gain (counted on the row as it is once locked: another collector may merge first).
+_LACKING = (
+    "SELECT sum(n) FROM (SELECT (SELECT count(*) FROM unnest(i.channel) c"
+    f" WHERE c <> ALL(r.channel)) AS n FROM {schema_pg.TABLE} r, record_rows_in i"
+    f" WHERE {_JOIN} FOR UPDATE OF r) s"
+)
+#: ... and those channels merged into them (a channel stored already keeps its reading).
+_MERGE = (
+    f"UPDATE {schema_pg.TABLE} r SET (channel, type, value, text, name, unit) = "
+    f"{schema_pg.MERGED.format(r='r', e='i')} FROM record_rows_in i WHERE {_JOIN}"
+)
 
 #: Batches of at least this many readings are split between the writer connections.
 SPLIT_AT = 2_000
@@ -153,93 +123,74 @@ MAX_WRITERS = 8
 _DEADLOCKS = 3
 
 Conn = psycopg.AsyncConnection[tuple[object, ...]]
-Row = tuple[object, ...]
+T = TypeVar("T")
 
-#: A reading's fields in the order of :data:`COLUMNS` (one C call a reading).
-_fields = operator.attrgetter(*COLUMNS)
 _logger = operator.attrgetter("logger")
 
 
-def _clean(text: str | None) -> str | None:
-    """PostgreSQL text cannot hold NUL: a stray one from a line is dropped, not fatal."""
-    return text.replace("\x00", "") if text and "\x00" in text else text
-
-
-def _row(r: Reading) -> Row:
-    return (
-        _clean(r.logger),
-        r.channel,
-        r.time,
-        r.counter,
-        r.type,
-        r.value,
-        _clean(r.text),
-        _clean(r.name),
-        _clean(r.unit),
-        r.utc,
-    )
-
-
-def rows_of(batch: Sequence[Reading], clean: bool = False) -> list[Row]:
-    """The COPY rows of ``batch``; ``clean`` drops NUL characters from its text (the server
-    refuses them: :func:`store_part` asks again with ``clean``, a batch without any pays
-    nothing for the check)."""
-    if clean:
-        return [_row(r) for r in batch]
-    return list(map(_fields, batch))
-
-
-def split(batch: Sequence[Reading], n: int) -> Sequence[Sequence[Reading]]:
-    """``batch`` in at most ``n`` parts of similar size: by logger when that shares it out
-    well (each part's rows then go to other places of the primary key than the other
-    parts', so their servers do not wait for each other's pages), else in ``n`` slices. A
-    reading's key is in one part only either way when it is there twice (by logger), or
-    the parts may wait for each other (slices; see :func:`store_part`)."""
+def split(
+    batch: Sequence[T], n: int, logger: Callable[[T], str] = _logger
+) -> Sequence[Sequence[T]]:
+    """``batch`` (readings, or record rows with ``logger`` their logger) in at most ``n``
+    parts of similar size: by logger when that shares it out well (each part's rows then go
+    to other places of the primary key than the other parts', so their servers do not wait
+    for each other's pages), else in ``n`` slices."""
     if n <= 1:
         return [batch]
-    by_logger: list[list[Reading]] = [[] for _ in range(n)]
+    by_logger: list[list[T]] = [[] for _ in range(n)]
     where: dict[str, int] = {}
-    for logger, run in itertools.groupby(batch, key=_logger):
-        by_logger[where.setdefault(logger, len(where) % n)].extend(run)
+    for name, run in itertools.groupby(batch, key=logger):
+        by_logger[where.setdefault(name, len(where) % n)].extend(run)
     if len(where) >= n and max(map(len, by_logger)) * n <= len(batch) * 5 // 4:
         return list(by_logger)
     size = -(-len(batch) // n)
     return [batch[i : i + size] for i in range(0, len(batch), size)]
 
 
-async def _copy(cur: psycopg.AsyncCursor[Row], sql: str, rows: list[Row]) -> None:
-    """COPY ``rows``: formatted by psycopg's (compiled) binary formatter, which hands back a
-    chunk of about 32 KiB now and then, sent while the server works on the previous one (no
-    coroutine a row, as ``write_row`` would be). After each chunk the other parts of the
-    batch get their turn, so that every writer's server has work from the start."""
+async def _copy(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str, data: bytes) -> None:
+    """COPY ``data`` (a whole binary stream, :class:`pg_rows.Encoder`) in chunks of 256 KiB;
+    after each the other parts of the batch get their turn."""
     async with cur.copy(sql) as copy:
-        copy.set_types(TYPES)
-        format_row = copy.formatter.write_row
-        for row in rows:
-            if chunk := format_row(row):
-                await copy.write(chunk)
-                await asyncio.sleep(0)
+        for at in range(0, len(data), 1 << 18):
+            await copy.write(data[at : at + (1 << 18)])
+            await asyncio.sleep(0)
 
 
-async def insert_rows(cur: psycopg.AsyncCursor[Row], rows: list[Row], direct: bool) -> int:
-    """Insert ``rows`` in the cursor's transaction; the number of rows new to the table.
+async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int:
+    await cur.execute(sql)
+    row = await cur.fetchone()
+    return int(str(row[0])) if row and row[0] is not None else 0  # sum(): numeric
 
-    ``direct``: one COPY into ``readings`` (raises ``UniqueViolation`` when a row is stored
-    already, which aborts the transaction); otherwise through ``readings_in`` and
-    ``ON CONFLICT DO NOTHING``."""
+
+async def insert_rows(
+    cur: psycopg.AsyncCursor[tuple[object, ...]], rows: Sequence[pg_rows.Row], direct: bool
+) -> int:
+    """Insert record ``rows`` in the cursor's transaction; the number of readings new to the
+    table.
+
+    ``direct``: one COPY into ``record_rows`` (raises ``UniqueViolation`` when a row is
+    stored already, which aborts the transaction); otherwise through ``record_rows_in``:
+    new rows inserted, stored rows given the channels they lack (a row whose channels came
+    in two batches), nothing stored twice."""
+    data = pg_rows.Encoder().encode(rows)
     if direct:
-        await _copy(cur, _COPY_NEW, rows)
-        return len(rows)
-    await _copy(cur, _COPY, rows)
-    await cur.execute(_MOVE)
-    return max(cur.rowcount, 0)
+        await _copy(cur, _COPY_NEW, data)
+        return pg_rows.readings_in(rows)
+    await _copy(cur, _COPY, data)
+    new = await _number(cur, _MOVE)
+    if len(rows) and (gained := await _number(cur, _LACKING)):
+        await cur.execute(_MERGE)
+        new += gained
+    return new
 
 
-async def store_part(conn: Conn, batch: Sequence[Reading], direct: bool) -> tuple[int, bool]:
-    """Store one part of a batch in one transaction of ``conn``: ``(rows new, conflicted)``,
-    ``conflicted`` when some were stored already (a replay: the next batch had better go
-    through ``ON CONFLICT`` at once)."""
-    rows, clean, conflicted, deadlocks = rows_of(batch), False, False, 0
+async def store_part(
+    conn: Conn, batch: Sequence[Reading], rows: Sequence[pg_rows.Row], direct: bool
+) -> tuple[int, bool]:
+    """Store one part of a batch (its readings, and their record ``rows``) in one
+    transaction of ``conn``: ``(readings new, conflicted)``, ``conflicted`` when some were
+    stored already (a replay: the next batch had better go through ``ON CONFLICT`` at once)."""
+    conflicted, deadlocks, total = False, 0, pg_rows.readings_in(rows)
     while True:
         try:
             async with conn.transaction(), conn.cursor() as cur:
@@ -247,16 +198,12 @@ async def store_part(conn: Conn, batch: Sequence[Reading], direct: bool) -> tupl
                 # Here the part is written and not yet committed: what must change with the
                 # readings runs here, in the same transaction: the dashboard's extremes.
                 await blocks_sql.after_batch_postgres(cur, batch, new)
-            return new, conflicted or new < len(rows)
+            return new, conflicted or new < total
         except psycopg.errors.UniqueViolation:
-            direct, conflicted = False, True  # rolled back: again, skipping the stored rows
-        except psycopg.errors.CharacterNotInRepertoire:
-            if clean:
-                raise
-            rows, clean = rows_of(batch, clean=True), True  # a NUL in a text: drop it
+            direct, conflicted = False, True  # rolled back: again, merging into stored rows
         except psycopg.errors.DeadlockDetected:
-            # Another part of this batch (or another collector) holds a row this part has
-            # too, and waits for one of these: rolled back; again through ON CONFLICT.
+            # Another collector holds a row this part has too, and waits for one of these:
+            # rolled back; again through the temporary table.
             deadlocks += 1
             if deadlocks > _DEADLOCKS:
                 raise
@@ -303,7 +250,10 @@ class PostgresSink:
             conns = [await self._connection(i) for i in range(len(parts))]
             direct = not self._replay
             done = await asyncio.gather(
-                *(store_part(c, p, direct) for c, p in zip(conns, parts, strict=True)),
+                *(
+                    store_part(c, p, pg_rows.group(p), direct)
+                    for c, p in zip(conns, parts, strict=True)
+                ),
                 return_exceptions=True,
             )
             lost: BaseException | None = None
@@ -343,8 +293,8 @@ class PostgresSink:
             if i == 0 or self.layout is None:
                 self.layout = await self._migrate(conn)
             await conn.execute(
-                "CREATE TEMP TABLE IF NOT EXISTS readings_in"
-                " (LIKE readings INCLUDING DEFAULTS) ON COMMIT DELETE ROWS"
+                "CREATE TEMP TABLE IF NOT EXISTS record_rows_in"
+                f" (LIKE {schema_pg.TABLE}) ON COMMIT DELETE ROWS"
             )
         except (psycopg.OperationalError, psycopg.InterfaceError) as e:
             await conn.close()
@@ -364,12 +314,13 @@ class PostgresSink:
             )
             cur = await conn.execute("SELECT key, value FROM meta")
             meta = {str(k): str(v) for k, v in await cur.fetchall()}
-            steps = migration_plan(int(meta.get("schema_version", "0")))
-            for step in steps:
-                for sql in MIGRATIONS[step]:
-                    await conn.execute(sql)
+            steps = schema_pg.statements(int(meta.get("schema_version", "0")))
+            for sql in steps:
+                await conn.execute(sql)
             layout = meta.get("layout")
-            if layout is None:
+            if layout is not None and steps:  # the new table gets the old one's time index
+                layout = await self._apply_layout(conn, layout)
+            elif layout is None:
                 cur = await conn.execute(
                     "SELECT count(*) FROM pg_available_extensions WHERE name = 'timescaledb'"
                 )
@@ -379,16 +330,17 @@ class PostgresSink:
             await conn.execute(
                 "INSERT INTO meta (key, value) VALUES ('schema_version', %s), ('layout', %s)"
                 " ON CONFLICT (key) DO UPDATE SET value = excluded.value",
-                (str(SCHEMA_VERSION), layout),
+                (str(schema_pg.VERSION), layout),
             )
         if steps:
-            log.info("postgres: schema migrated to version %d (%s)", SCHEMA_VERSION, layout)
+            log.info("postgres: schema migrated to version %d (%s)", schema_pg.VERSION, layout)
         return layout
 
     async def _apply_layout(
         self, conn: psycopg.AsyncConnection[tuple[object, ...]], layout: str
     ) -> str:
-        """Give ``readings`` its time index; a failing ``auto`` hypertable falls back to BRIN."""
+        """Give ``record_rows`` its time index; a failing ``auto`` hypertable falls back to
+        BRIN."""
         try:
             async with conn.transaction():  # a savepoint: a failure here keeps the migration
                 for sql in layout_ddl(layout):

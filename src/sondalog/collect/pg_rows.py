@@ -1,0 +1,157 @@
+"""A batch of readings as PostgreSQL record rows, and their binary ``COPY`` (schema version 2).
+
+:func:`group` gathers a batch's readings by ``(logger, time, counter)``, one record row each
+(:data:`sondalog.collect.schema_pg.COLUMNS`: the key, ``utc`` and the channels' parallel
+arrays ordered by channel). A reading seen twice in a batch (the same channel of the same
+row) is kept once, the first; a row's channels spread over the batch are merged.
+
+:func:`encode` writes rows in PostgreSQL's binary ``COPY`` format (the signature, each row's
+fields, the trailer) straight with :mod:`struct`: psycopg's array dumpers are Python per
+element, and most of a row's arrays (channels, types, names, units, texts) are the same row
+after row, so they are encoded once and looked up (:class:`Encoder`). NUL characters, which
+PostgreSQL text cannot hold, are dropped here.
+"""
+
+from __future__ import annotations
+
+import operator
+import struct
+from collections.abc import Iterable, Sequence
+from datetime import UTC, datetime, timedelta
+
+from sondalog.collect.model import Reading
+
+#: One record row: logger, time, counter, utc, then the arrays channel, type, value, text,
+#: name, unit (tuples, one element a reading, ordered by channel).
+Row = tuple[str, datetime, int, datetime | None, tuple[int, ...], tuple[int, ...],
+            tuple[float | None, ...], tuple[str | None, ...], tuple[str | None, ...],
+            tuple[str | None, ...]]  # fmt: skip
+
+_key = operator.attrgetter("logger", "time", "counter")
+_cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
+
+
+def _row(key: tuple[str, datetime, int], utc: datetime | None, cells: list[tuple]) -> Row:  # type: ignore[type-arg]
+    """A row of ``cells`` (a reading's channel, type, value, text, name, unit each)."""
+    channels = [c[0] for c in cells]
+    if len(set(channels)) != len(channels):  # the same reading twice: the first kept
+        first: dict[int, tuple] = {}  # type: ignore[type-arg]
+        for c in cells:
+            first.setdefault(c[0], c)
+        cells = list(first.values())
+        channels = [c[0] for c in cells]
+    if channels != sorted(channels):
+        cells = sorted(cells, key=operator.itemgetter(0))
+    ch, ty, va, tx, na, un = zip(*cells, strict=True)
+    return (key[0], key[1], key[2], utc, ch, ty, va, tx, na, un)
+
+
+def group(batch: Iterable[Reading]) -> list[Row]:
+    """The record rows of ``batch`` in the order their first readings come."""
+    cells: dict[tuple[str, datetime, int], list[tuple]] = {}  # type: ignore[type-arg]
+    utcs: dict[tuple[str, datetime, int], datetime | None] = {}
+    for r in batch:
+        key = _key(r)
+        got = cells.get(key)
+        if got is None:
+            cells[key] = [_cells(r)]
+            utcs[key] = r.utc
+        else:
+            got.append(_cells(r))
+    return [_row(key, utcs[key], c) for key, c in cells.items()]
+
+
+def readings_in(rows: Iterable[Row]) -> int:
+    """How many readings ``rows`` hold."""
+    return sum(len(r[4]) for r in rows)
+
+
+SIGNATURE = b"PGCOPY\n\xff\r\n\x00" + bytes(8)
+TRAILER = b"\xff\xff"
+_NULL = b"\xff\xff\xff\xff"
+_EPOCH = datetime(2000, 1, 1)
+_EPOCH_UTC = datetime(2000, 1, 1, tzinfo=UTC)
+_US = timedelta(microseconds=1)
+_INT4 = 23
+_INT2 = 21
+_FLOAT8 = 701
+_TEXT = 25
+
+_head = struct.Struct("!hi").pack  # the field count, the logger's length
+_i4 = struct.Struct("!ii").pack  # length 4, an int4
+_i8 = struct.Struct("!iq").pack  # length 8, an int8 (a timestamp's microseconds)
+_f8 = struct.Struct("!id").pack  # length 8, a float8
+_i2 = struct.Struct("!ih").pack  # length 2, an int2
+_array_head = struct.Struct("!iiiIii").pack  # length, ndim 1, has NULLs, element type, n, 1
+_F8_NULL = _NULL
+
+
+def _clean(text: str) -> bytes:
+    return (text.replace("\x00", "") if "\x00" in text else text).encode()
+
+
+def _array(oid: int, items: Sequence[bytes | None]) -> bytes:
+    """A one-dimensional array field of encoded ``items`` (``None``: NULL)."""
+    body = b"".join(_NULL if i is None else struct.pack("!i", len(i)) + i for i in items)
+    has_null = int(any(i is None for i in items))
+    return _array_head(20 + len(body), 1, has_null, oid, len(items), 1) + body
+
+
+def _texts(items: Sequence[str | None]) -> bytes:
+    return _array(_TEXT, [None if t is None else _clean(t) for t in items])
+
+
+def _values(items: Sequence[float | None]) -> bytes:
+    body = b"".join([_F8_NULL if v is None else _f8(8, v) for v in items])
+    has_null = int(len(body) != 12 * len(items))
+    return _array_head(20 + len(body), 1, has_null, _FLOAT8, len(items), 1) + body
+
+
+class Encoder:
+    """Binary ``COPY`` data of record rows; remembers the arrays it met (bounded)."""
+
+    #: Arrays remembered before the memory is emptied (each a few hundred bytes).
+    LIMIT = 4096
+
+    def __init__(self) -> None:
+        self._arrays: dict[tuple[int, tuple[object, ...]], bytes] = {}
+
+    def _cached(self, oid: int, items: tuple[object, ...]) -> bytes:
+        key = (oid, items)
+        got = self._arrays.get(key)
+        if got is None:
+            if len(self._arrays) >= self.LIMIT:
+                self._arrays.clear()
+            if oid == _TEXT:
+                got = _texts(items)  # type: ignore[arg-type]
+            elif oid == _INT4:
+                got = _array(_INT4, [struct.pack("!i", int(i)) for i in items])  # type: ignore[call-overload]
+            else:
+                got = _array(_INT2, [struct.pack("!h", int(i)) for i in items])  # type: ignore[call-overload]
+            self._arrays[key] = got
+        return got
+
+    def encode(self, rows: Iterable[Row]) -> bytes:
+        """``rows`` as a whole binary ``COPY`` stream (signature and trailer included)."""
+        return SIGNATURE + self.body(rows) + TRAILER
+
+    def body(self, rows: Iterable[Row]) -> bytes:
+        """``rows`` in the binary ``COPY`` format, without the stream's signature and trailer
+        (a long stream written in pieces: :data:`SIGNATURE`, bodies, :data:`TRAILER`)."""
+        out: list[bytes] = []
+        add = out.append
+        cached = self._cached
+        for logger, time, counter, utc, ch, ty, va, tx, na, un in rows:
+            name = _clean(logger)
+            add(_head(10, len(name)))
+            add(name)
+            add(_i8(8, (time - _EPOCH) // _US))
+            add(_i4(4, counter))
+            add(_NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))
+            add(cached(_INT4, ch))
+            add(cached(_INT2, ty))
+            add(_values(va))
+            add(cached(_TEXT, tx))
+            add(cached(_TEXT, na))
+            add(cached(_TEXT, un))
+        return b"".join(out)

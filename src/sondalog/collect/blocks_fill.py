@@ -86,8 +86,8 @@ def fill_step_sqlite(conn: sqlite3.Connection) -> bool:
 def fill_step_postgres(conn: Any) -> bool:
     """As :func:`fill_step_sqlite` on a server (``conn``: a psycopg connection, autocommit)."""
     with conn.transaction(), conn.cursor() as cur:
-        if cur.execute("SELECT to_regclass('readings')").fetchone()[0] is None:
-            return False  # no sink has written yet
+        if cur.execute("SELECT to_regclass('record_rows')").fetchone()[0] is None:
+            return False  # no sink of schema version 2 has written yet
         ensure_postgres_sync(cur)
         row = cur.execute(
             f"SELECT logger, below FROM {TODO} ORDER BY below DESC LIMIT 1 FOR UPDATE SKIP LOCKED"
@@ -98,7 +98,9 @@ def fill_step_postgres(conn: Any) -> bool:
         lo = below - DAY
         update_postgres_sync(cur, logger, lo, below - 1)
         older = cur.execute(
-            "SELECT max(time) FROM readings WHERE logger = %s AND time < %s", (logger, _text(lo))
+            # record_rows: the view readings hides the key from max() (schema_pg)
+            "SELECT max(time) FROM record_rows WHERE logger = %s AND time < %s",
+            (logger, _text(lo)),
         ).fetchone()[0]
         nxt = _below(older)
         if nxt is None:

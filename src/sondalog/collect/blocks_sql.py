@@ -324,11 +324,13 @@ def ensure_postgres_sql() -> list[str]:
 
 
 _PG_NEW = "SELECT to_regclass('readings_extremes') IS NULL"  # checked under the lock
+#: (``record_rows``: PostgreSQL's ``readings`` is a view of it, schema version 2, over which
+#: the server does not look ``min``/``max`` up in the key.)
 _PG_TODO = (
     f"INSERT INTO {TODO} (logger, below) SELECT x, "
-    f"(floor(extract(epoch FROM (SELECT max(time) FROM readings WHERE logger = x)) / {DAY}) "
-    f"+ 1)::bigint * {DAY} FROM (WITH RECURSIVE l(x) AS (SELECT min(logger) FROM readings "
-    "UNION ALL SELECT (SELECT min(logger) FROM readings WHERE logger > x) FROM l "
+    f"(floor(extract(epoch FROM (SELECT max(time) FROM record_rows WHERE logger = x)) / {DAY}) "
+    f"+ 1)::bigint * {DAY} FROM (WITH RECURSIVE l(x) AS (SELECT min(logger) FROM record_rows "
+    "UNION ALL SELECT (SELECT min(logger) FROM record_rows WHERE logger > x) FROM l "
     "WHERE x IS NOT NULL) SELECT x FROM l WHERE x IS NOT NULL) k "
     "ON CONFLICT (logger) DO NOTHING"
 )

@@ -9,12 +9,13 @@ row per *record row* (a logger's sample instant, §6.8): the table ``record_rows
     logger text, time timestamp, counter integer, utc timestamptz,
     channel integer[], type smallint[], value float8[], text text[], name text[], unit text[]
 
-``readings`` is now a view with the columns and types of version 1 (the arrays unnested), so
-the dashboard, exports, the alarm and block queries and users' own queries read it as before;
-a filter on ``logger`` and ``time`` reaches ``record_rows``' primary key. An ``INSERT`` into the
-view (old scripts, tests) goes through an ``INSTEAD OF`` trigger that merges the reading into
-its record row; a channel stored already keeps its stored reading (version 1 refused the
-duplicate with an error, version 2 ignores it: as the collector does with a replay).
+``readings`` is now a view with the columns and types of version 1 (an element of the arrays a
+row), so the dashboard, exports, the alarm and block queries and users' own queries read it as
+before; a filter on ``logger`` and ``time`` reaches ``record_rows``' primary key. An
+``INSERT`` into the view (old scripts, tests) goes through an ``INSTEAD OF`` trigger that
+merges the reading into its record row; a channel stored already keeps its stored reading
+(version 1 refused the duplicate with an error, version 2 ignores it: as the collector does
+with a replay).
 
 :func:`migration_plan` lists the steps from a database's ``schema_version`` (``meta``) to
 :data:`VERSION`; ``MIGRATIONS[n]`` turns ``n - 1`` into ``n`` (0: no schema yet), and the sink
@@ -71,14 +72,14 @@ CREATE TABLE {TABLE} (
 )
 """
 
-#: The columns and types of version 1's table, one row a reading.
+#: The columns and types of version 1's table, one row a reading. By subscript rather than
+#: ``unnest``: a query computes only the columns it reads (measured: the week's rows of a
+#: 12-channel logger in a quarter of the time of an ``unnest`` of all six arrays).
 _VIEW = f"""
 CREATE VIEW readings AS
-SELECT r.logger, u.channel, r.time, r.counter, u.type, u.value, u.text,
-       u.name, u.unit, r.utc
-FROM {TABLE} r
-CROSS JOIN LATERAL unnest(r.channel, r.type, r.value, r.text, r.name, r.unit)
-    AS u(channel, type, value, text, name, unit)
+SELECT r.logger, r.channel[i] AS channel, r.time, r.counter, r.type[i] AS type,
+       r.value[i] AS value, r.text[i] AS text, r.name[i] AS name, r.unit[i] AS unit, r.utc
+FROM {TABLE} r CROSS JOIN LATERAL generate_subscripts(r.channel, 1) AS i
 """
 
 #: The arrays of ``r`` with the channels of ``e`` it has not got, ordered by channel (a

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .dialect import POSTGRES, SQLITE, ReadDialect
+from .dialect import POSTGRES, POSTGRES_V1, SQLITE, ReadDialect
 
 #: The most connections to a PostgreSQL server one dashboard keeps.
 POOL = 4
@@ -82,8 +82,11 @@ FILE_BLOCKS = (
 )
 SERVER_BLOCKS = (
     "SELECT to_regclass('readings_extremes') IS NOT NULL "
-    "AND to_regclass('readings_extremes_todo') IS NOT NULL"
+    "AND to_regclass('readings_extremes_todo') IS NOT NULL, "
+    "to_regclass('record_rows') IS NOT NULL"
 )
+"""... and whether the server's schema is version 2 (``record_rows``; a version-1 server is
+read until its collector migrates it, :mod:`sondalog.collect.schema_pg`)."""
 
 
 def _file_blocks(conn: sqlite3.Connection) -> bool:
@@ -121,7 +124,7 @@ class Readings:
         try:
             conn = self._take()
             try:
-                blocks = bool(conn.execute(SERVER_BLOCKS).fetchone()[0])
+                blocks, keyed = conn.execute(SERVER_BLOCKS).fetchone()
             except Exception as exc:
                 self._discard(conn)
                 self._slots.release()
@@ -130,7 +133,7 @@ class Readings:
             if file is not None:
                 file.close()
             raise
-        return Db(POSTGRES, conn, file, blocks)
+        return Db(POSTGRES if keyed else POSTGRES_V1, conn, file, bool(blocks))
 
     def close(self, db: Db) -> None:
         """Give back ``db`` (its server connection stays open for the next request)."""

@@ -11,7 +11,11 @@ differ:
   text by ``to_char``, so every caller gets the store's one spelling
   (:mod:`sondalog.collect.schema`); ``utc`` likewise as ``2007-03-01T11:00:00Z``;
 - seconds since 1970 of a ``time`` (the logger's clock read as UTC, :mod:`.times`):
-  ``unixepoch`` / ``extract(epoch ...)``.
+  ``unixepoch`` / ``extract(epoch ...)``;
+- the table keyed by ``(logger, time, counter)`` for a ``min``/``max`` over the key (a skip
+  scan of the loggers): ``readings`` itself on SQLite; on PostgreSQL ``readings`` is a view
+  of ``record_rows`` (schema version 2, :mod:`sondalog.collect.schema_pg`: one row a record
+  row), over which the server does not look the extremes up in the index.
 
 (A bucket's extreme with the time of a reading that has it is spelt in :mod:`.blocks`:
 SQLite's bare column beside a lone ``min``/``max``, PostgreSQL's ``DISTINCT ON``.)
@@ -36,6 +40,8 @@ class ReadDialect:
     name: str
     #: The driver's parameter marker.
     mark: str
+    #: The table with one row a record row, keyed by ``(logger, time, counter)``.
+    keys: str = "readings"
 
     @property
     def postgres(self) -> bool:
@@ -68,4 +74,6 @@ def _adapt(dialect: ReadDialect, text: str) -> str:
 
 
 SQLITE = ReadDialect("sqlite", "?")
-POSTGRES = ReadDialect("postgresql", "%s")
+POSTGRES = ReadDialect("postgresql", "%s", "record_rows")
+#: A server of schema version 1 (``readings`` a table), until its collector migrates it.
+POSTGRES_V1 = ReadDialect("postgresql", "%s")

@@ -79,11 +79,12 @@ def _file_rows(db: Db, sql: str, params: Sequence[object] = ()) -> list[tuple[An
 
 def loggers(db: Db) -> list[str]:
     """Every logger with readings or a source, sorted (a skip scan over the key)."""
+    keys = db.dialect.keys
     found = {
         row[0]
         for row in db.rows(
-            "WITH RECURSIVE l(x) AS (SELECT min(logger) FROM readings UNION ALL "
-            "SELECT (SELECT min(logger) FROM readings WHERE logger > x) FROM l "
+            f"WITH RECURSIVE l(x) AS (SELECT min(logger) FROM {keys} UNION ALL "
+            f"SELECT (SELECT min(logger) FROM {keys} WHERE logger > x) FROM l "
             "WHERE x IS NOT NULL) SELECT x FROM l WHERE x IS NOT NULL"
         )
     }

@@ -14,10 +14,12 @@ PostgreSQL text cannot hold, are dropped here.
 
 from __future__ import annotations
 
+import itertools
 import operator
 import struct
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from datetime import UTC, datetime, timedelta
+from typing import Any
 
 from sondalog.collect.model import Reading
 
@@ -27,38 +29,71 @@ Row = tuple[str, datetime, int, datetime | None, tuple[int, ...], tuple[int, ...
             tuple[float | None, ...], tuple[str | None, ...], tuple[str | None, ...],
             tuple[str | None, ...]]  # fmt: skip
 
-_key = operator.attrgetter("logger", "time", "counter")
-_cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
+_fields = operator.attrgetter(
+    "logger", "time", "counter", "channel", "type", "value", "text", "name", "unit", "utc"
+)
+_key = operator.itemgetter(0, 1, 2)
+_channel = operator.itemgetter(3)
 
 
-def _row(key: tuple[str, datetime, int], utc: datetime | None, cells: list[tuple]) -> Row:  # type: ignore[type-arg]
-    """A row of ``cells`` (a reading's channel, type, value, text, name, unit each)."""
-    channels = [c[0] for c in cells]
-    if len(set(channels)) != len(channels):  # the same reading twice: the first kept
-        first: dict[int, tuple] = {}  # type: ignore[type-arg]
-        for c in cells:
-            first.setdefault(c[0], c)
-        cells = list(first.values())
-        channels = [c[0] for c in cells]
-    if channels != sorted(channels):
-        cells = sorted(cells, key=operator.itemgetter(0))
-    ch, ty, va, tx, na, un = zip(*cells, strict=True)
-    return (key[0], key[1], key[2], utc, ch, ty, va, tx, na, un)
+def _merged(cells: list[tuple[Any, ...]]) -> Row:
+    """The row of one key's readings (their :data:`_fields`) that are not in channel order,
+    or hold a channel twice (the first kept)."""
+    first: dict[int, tuple[Any, ...]] = {}
+    for c in cells:
+        first.setdefault(c[3], c)
+    ordered = sorted(first.values(), key=_channel)
+    _, _, _, ch, ty, va, tx, na, un, _ = zip(*ordered, strict=True)
+    c0 = cells[0]
+    return (c0[0], c0[1], c0[2], c0[9], ch, ty, va, tx, na, un)
 
 
 def group(batch: Iterable[Reading]) -> list[Row]:
-    """The record rows of ``batch`` in the order their first readings come."""
-    cells: dict[tuple[str, datetime, int], list[tuple]] = {}  # type: ignore[type-arg]
-    utcs: dict[tuple[str, datetime, int], datetime | None] = {}
-    for r in batch:
-        key = _key(r)
-        got = cells.get(key)
-        if got is None:
-            cells[key] = [_cells(r)]
-            utcs[key] = r.utc
-        else:
-            got.append(_cells(r))
-    return [_row(key, utcs[key], c) for key, c in cells.items()]
+    """The record rows of ``batch`` in the order their first readings come.
+
+    A row's readings are usually next to each other, in channel order (a logger's record
+    row as read): taken a run at a time, transposed by ``zip``; any other order is merged
+    (:func:`_merged`)."""
+    out: list[Row] = []
+    where: dict[tuple[str, datetime, int], int] = {}
+    apart: dict[int, list[tuple[Any, ...]]] = {}  # rows whose readings came apart
+    for key, run in itertools.groupby(map(_fields, batch), key=_key):
+        cells = list(run)
+        at = where.get(key)
+        if at is not None:
+            apart.setdefault(at, [*_cells_of(out[at])]).extend(cells)
+            continue
+        where[key] = len(out)
+        _, _, _, ch, ty, va, tx, na, un, _ = zip(*cells, strict=True)
+        if not _in_order(ch):
+            out.append(_merged(cells))
+            continue
+        out.append((key[0], key[1], key[2], cells[0][9], ch, ty, va, tx, na, un))
+    for at, cells in apart.items():
+        out[at] = _merged(cells)
+    return out
+
+
+def _in_order(channels: tuple[int, ...]) -> bool:
+    """Strictly rising (so no channel twice); the answers for the tuples met are kept."""
+    known = _ORDERED.get(channels)
+    if known is None:
+        if len(_ORDERED) >= 4096:
+            _ORDERED.clear()
+        known = _ORDERED[channels] = all(a < b for a, b in itertools.pairwise(channels))
+    return known
+
+
+_ORDERED: dict[tuple[int, ...], bool] = {}
+
+
+def _cells_of(row: Row) -> list[tuple[Any, ...]]:
+    """A grouped row back as its readings' :data:`_fields`."""
+    lg, tm, cn, utc = row[0], row[1], row[2], row[3]
+    return [
+        (lg, tm, cn, ch, ty, va, tx, na, un, utc)
+        for ch, ty, va, tx, na, un in zip(*row[4:], strict=True)
+    ]
 
 
 def readings_in(rows: Iterable[Row]) -> int:
@@ -102,9 +137,21 @@ def _texts(items: Sequence[str | None]) -> bytes:
 
 
 def _values(items: Sequence[float | None]) -> bytes:
-    body = b"".join([_F8_NULL if v is None else _f8(8, v) for v in items])
-    has_null = int(len(body) != 12 * len(items))
-    return _array_head(20 + len(body), 1, has_null, _FLOAT8, len(items), 1) + body
+    n = len(items)
+    if None not in items:  # one pack: each value after its length (8)
+        pack = _F8S.get(n)
+        if pack is None:
+            pack = _F8S.setdefault(n, struct.Struct("!iiiIii" + "4sd" * n).pack)
+        args: list[object] = [_LEN8] * (2 * n)
+        args[1::2] = items
+        return pack(20 + 12 * n, 1, 0, _FLOAT8, n, 1, *args)
+    body = b"".join([_NULL if v is None else _f8(8, v) for v in items])
+    return _array_head(20 + len(body), 1, 1, _FLOAT8, n, 1) + body
+
+
+_LEN8 = struct.pack("!i", 8)
+#: Packers of a float8 array without NULLs, by length.
+_F8S: dict[int, Callable[..., bytes]] = {}
 
 
 class Encoder:

@@ -3,9 +3,11 @@ PostgreSQL >= 250,000/s, issue 24).
 
 PostgreSQL: starts a throwaway server (Debian's ``postgresql``, as ``nobody`` on a loopback
 port, like the tests) and writes batches through :class:`~sondalog.collect.sink_postgres.
-PostgresSink` (binary COPY, a batch split between ``--writers`` connections; a batch with
-stored rows through a temporary table and ``INSERT ... ON CONFLICT DO NOTHING``): first new
-rows, then the same rows again (all duplicates, the cost of an idempotent replay). ``--runs``
+PostgresSink` (schema version 2: the readings grouped into record rows, binary COPY, a batch
+split between ``--writers`` connections; a batch with stored rows through a temporary table,
+``INSERT ... ON CONFLICT DO NOTHING`` and the merge of missing channels; the per-block
+extremes of the dashboard kept in the same transaction): first new rows, then the same rows
+again (all duplicates, the cost of an idempotent replay). ``--runs``
 fresh databases; best and median. Besides the rate it prints the CPU a reading costs this
 process (formatting, sending) and the server's backends (``/proc``; the server runs here):
 on a shared machine those move less than the rate does.

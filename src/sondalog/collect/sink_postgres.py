@@ -196,8 +196,10 @@ async def store_part(
             async with conn.transaction(), conn.cursor() as cur:
                 new = await insert_rows(cur, rows, direct)
                 # Here the part is written and not yet committed: what must change with the
-                # readings runs here, in the same transaction: the dashboard's extremes.
-                await blocks_sql.after_batch_postgres(cur, batch, new)
+                # readings runs here, in the same transaction: the dashboard's extremes
+                # (unchanged when no reading was new: a replay reads nothing back).
+                if new:
+                    await blocks_sql.after_batch_postgres(cur, batch, new)
             return new, conflicted or new < total
         except psycopg.errors.UniqueViolation:
             direct, conflicted = False, True  # rolled back: again, merging into stored rows

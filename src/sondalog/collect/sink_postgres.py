@@ -124,6 +124,8 @@ _DEADLOCKS = 3
 
 Conn = psycopg.AsyncConnection[tuple[object, ...]]
 T = TypeVar("T")
+#: The arrays met are encoded once for every batch of the process (encoding is synchronous).
+_ENCODER = pg_rows.Encoder()
 
 _logger = operator.attrgetter("logger")
 
@@ -172,7 +174,7 @@ async def insert_rows(
     stored already, which aborts the transaction); otherwise through ``record_rows_in``:
     new rows inserted, stored rows given the channels they lack (a row whose channels came
     in two batches), nothing stored twice."""
-    data = pg_rows.Encoder().encode(rows)
+    data = _ENCODER.encode(rows)
     if direct:
         await _copy(cur, _COPY_NEW, data)
         return pg_rows.readings_in(rows)

@@ -1,0 +1,74 @@
+"""A batch of readings as PostgreSQL record rows (:mod:`sondalog.collect.pg_rows`), without a
+server: the grouping; the encoding is checked against the server by the sink's tests."""
+
+from __future__ import annotations
+
+import random
+from datetime import datetime, timedelta
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from readings_gen import rows, text_row
+
+from sondalog.collect import pg_rows
+from sondalog.collect.model import Reading
+
+
+def readings_of(grouped: list[pg_rows.Row]) -> list[Reading]:
+    return [
+        Reading(lg, ch, t, cn, ty, va, tx, na, un, utc)
+        for lg, t, cn, utc, *arrays in grouped
+        for ch, ty, va, tx, na, un in zip(*arrays, strict=True)
+    ]
+
+
+def test_a_run_of_a_rows_readings_is_one_row() -> None:
+    batch = [*rows("A", 0, 3, channels=4), text_row("A", 1, "x"), *rows("B", 0, 2)]
+    got = pg_rows.group(batch)
+    assert [(r[0], r[1].minute, r[2], r[4]) for r in got] == [
+        ("A", 0, 0, (1, 2, 3, 4)),
+        ("A", 1, 0, (1, 2, 3, 4)),
+        ("A", 2, 0, (1, 2, 3, 4)),
+        ("A", 1, 1, (0,)),
+        ("B", 0, 0, (1, 2, 3)),
+        ("B", 1, 0, (1, 2, 3)),
+    ]
+    assert readings_of(got) == batch
+    assert pg_rows.readings_in(got) == len(batch)
+
+
+def test_out_of_order_twice_and_apart_are_merged() -> None:
+    one = rows("A", 0, 1, channels=3)
+    twice = Reading("A", 2, one[0].time, 0, 1, -1.0)  # channel 2 again: the first kept
+    later = rows("A", 0, 1, channels=5)[3:]  # channels 4, 5 after another row
+    other = rows("B", 0, 1)
+    batch = [one[2], one[0], one[1], twice, *other, *later]
+    got = pg_rows.group(batch)
+    assert len(got) == 2
+    assert got[0][4] == (1, 2, 3, 4, 5)
+    assert readings_of(got)[:5] == [*one, *later]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32), st.integers(1, 60))
+def test_grouping_keeps_each_reading_once_the_first(seed: int, n: int) -> None:
+    rng = random.Random(seed)
+    t0 = datetime(2026, 1, 1)
+    batch = [
+        Reading(rng.choice("AB"), rng.randrange(4), t0 + timedelta(minutes=rng.randrange(3)),
+                rng.randrange(2), 1, float(i))
+        for i in range(n)
+    ]  # fmt: skip
+    first: dict[tuple[object, ...], Reading] = {}
+    for r in batch:
+        first.setdefault((r.logger, r.time, r.counter, r.channel), r)
+    got = readings_of(pg_rows.group(batch))
+    assert sorted(got, key=lambda r: r.key) == sorted(first.values(), key=lambda r: r.key)
+    for row in pg_rows.group(batch):
+        assert list(row[4]) == sorted(set(row[4]))
+
+
+def test_encoding_is_a_whole_binary_copy_stream() -> None:
+    data = pg_rows.Encoder().encode(pg_rows.group(rows("A", 0, 2)))
+    assert data.startswith(pg_rows.SIGNATURE) and data.endswith(pg_rows.TRAILER)
+    assert pg_rows.Encoder().encode([]) == pg_rows.SIGNATURE + pg_rows.TRAILER

@@ -36,6 +36,7 @@ import sys
 import tempfile
 import threading
 import time
+import urllib.error
 import urllib.request
 from collections.abc import Callable
 from datetime import datetime, timedelta
@@ -136,13 +137,21 @@ def measure(label: str, app: object, runs: int, ranges: tuple[str, ...]) -> None
             server, cpu, total = [], [], []
             for _ in range(runs):
                 t0 = time.perf_counter()
-                with urllib.request.urlopen(url) as resp:
-                    body = resp.read()
-                    timing = resp.headers["Server-Timing"]
+                try:
+                    with urllib.request.urlopen(url) as resp:
+                        body = resp.read()
+                        timing = resp.headers["Server-Timing"]
+                except urllib.error.HTTPError as e:  # the store's statement limit (503)
+                    took = time.perf_counter() - t0
+                    why = e.read()[:200]
+                    print(f"{label:>26} {name:>5}: HTTP {e.code} after {took:.1f} s: {why!r}")
+                    break
                 total.append(time.perf_counter() - t0)
                 parts = dict(p.strip().split(";dur=") for p in timing.split(","))
                 server.append(float(parts["app"]) / 1e3)
                 cpu.append(float(parts["cpu"]) / 1e3)
+            if not server:
+                continue
             data = json.loads(body)
             most = max(len(s["v"]) for s in data["series"])
             print(

@@ -27,7 +27,8 @@ SCHEMA_VERSION = 1
 #: A reading's columns in exports and the dashboard's CSV download (long form), in order.
 COLUMNS = ("logger", "time", "counter", "type", "channel", "value", "text", "name", "unit", "utc")
 
-#: SQLite DDL of schema version 1 (PostgreSQL uses the same columns with its own types).
+#: SQLite DDL of schema version 1 (PostgreSQL shows the same columns with its own types in
+#: the view ``readings`` over one row a record row: :mod:`sondalog.collect.schema_pg`).
 SQLITE_DDL = """
 CREATE TABLE IF NOT EXISTS readings (
     logger  TEXT    NOT NULL,

@@ -32,7 +32,8 @@ Row = tuple[str, datetime, int, datetime | None, tuple[int, ...], tuple[int, ...
 _fields = operator.attrgetter(
     "logger", "time", "counter", "channel", "type", "value", "text", "name", "unit", "utc"
 )
-_key = operator.itemgetter(0, 1, 2)
+_key = operator.attrgetter("logger", "time", "counter")
+_cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
 _channel = operator.itemgetter(3)
 
 
@@ -57,18 +58,18 @@ def group(batch: Iterable[Reading]) -> list[Row]:
     out: list[Row] = []
     where: dict[tuple[str, datetime, int], int] = {}
     apart: dict[int, list[tuple[Any, ...]]] = {}  # rows whose readings came apart
-    for key, run in itertools.groupby(map(_fields, batch), key=_key):
-        cells = list(run)
+    for key, run in itertools.groupby(batch, key=_key):
+        got = list(run)
         at = where.get(key)
         if at is not None:
-            apart.setdefault(at, [*_cells_of(out[at])]).extend(cells)
+            apart.setdefault(at, [*_cells_of(out[at])]).extend(map(_fields, got))
             continue
         where[key] = len(out)
-        _, _, _, ch, ty, va, tx, na, un, _ = zip(*cells, strict=True)
+        ch, ty, va, tx, na, un = zip(*map(_cells, got), strict=True)
         if not _in_order(ch):
-            out.append(_merged(cells))
+            out.append(_merged(list(map(_fields, got))))
             continue
-        out.append((key[0], key[1], key[2], cells[0][9], ch, ty, va, tx, na, un))
+        out.append((key[0], key[1], key[2], got[0].utc, ch, ty, va, tx, na, un))
     for at, cells in apart.items():
         out[at] = _merged(cells)
     return out
@@ -162,6 +163,7 @@ class Encoder:
 
     def __init__(self) -> None:
         self._arrays: dict[tuple[int, tuple[object, ...]], bytes] = {}
+        self._heads: dict[str, bytes] = {}  # a row's field count and its logger
 
     def _cached(self, oid: int, items: tuple[object, ...]) -> bytes:
         key = (oid, items)
@@ -188,10 +190,15 @@ class Encoder:
         out: list[bytes] = []
         add = out.append
         cached = self._cached
+        heads = self._heads
         for logger, time, counter, utc, ch, ty, va, tx, na, un in rows:
-            name = _clean(logger)
-            add(_head(10, len(name)))
-            add(name)
+            head = heads.get(logger)
+            if head is None:
+                if len(heads) >= self.LIMIT:
+                    heads.clear()
+                name = _clean(logger)
+                head = heads[logger] = _head(10, len(name)) + name
+            add(head)
             add(_i8(8, (time - _EPOCH) // _US))
             add(_i4(4, counter))
             add(_NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import itertools
 import logging
 import operator
@@ -149,13 +150,30 @@ def split(
     return [batch[i : i + size] for i in range(0, len(batch), size)]
 
 
-async def _copy(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str, data: bytes) -> None:
-    """COPY ``data`` (a whole binary stream, :class:`pg_rows.Encoder`) in chunks of 256 KiB;
-    after each the other parts of the batch get their turn."""
+#: Record rows encoded and sent at a time: the server stores one piece while the next is
+#: encoded (about 100 KB for rows of 8 channels; psycopg sends from 32 KB on).
+_PIECE = 256
+
+
+async def _copy(
+    cur: psycopg.AsyncCursor[tuple[object, ...]],
+    sql: str,
+    rows: Sequence[pg_rows.Row],
+    meanwhile: Callable[[], None] | None = None,
+) -> None:
+    """COPY ``rows`` in the binary format (:class:`pg_rows.Encoder`), encoded and sent in
+    pieces of :data:`_PIECE` rows, so that the server's work overlaps the encoding; after
+    each piece the other parts of the batch get their turn. ``meanwhile`` runs once the
+    rows are sent and before the server's answer is awaited: its CPU overlaps the server's
+    too."""
     async with cur.copy(sql) as copy:
-        for at in range(0, len(data), 1 << 18):
-            await copy.write(data[at : at + (1 << 18)])
+        await copy.write(pg_rows.SIGNATURE)
+        for at in range(0, len(rows), _PIECE):
+            await copy.write(_ENCODER.body(rows[at : at + _PIECE]))
             await asyncio.sleep(0)
+        await copy.write(pg_rows.TRAILER)
+        if meanwhile is not None:
+            meanwhile()
 
 
 async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int:
@@ -165,7 +183,10 @@ async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int
 
 
 async def insert_rows(
-    cur: psycopg.AsyncCursor[tuple[object, ...]], rows: Sequence[pg_rows.Row], direct: bool
+    cur: psycopg.AsyncCursor[tuple[object, ...]],
+    rows: Sequence[pg_rows.Row],
+    direct: bool,
+    meanwhile: Callable[[], None] | None = None,
 ) -> int:
     """Insert record ``rows`` in the cursor's transaction; the number of readings new to the
     table.
@@ -173,17 +194,20 @@ async def insert_rows(
     ``direct``: one COPY into ``record_rows`` (raises ``UniqueViolation`` when a row is
     stored already, which aborts the transaction); otherwise through ``record_rows_in``:
     new rows inserted, stored rows given the channels they lack (a row whose channels came
-    in two batches), nothing stored twice."""
-    data = _ENCODER.encode(rows)
+    in two batches), nothing stored twice. ``meanwhile``: as :func:`_copy`'s."""
     if direct:
-        await _copy(cur, _COPY_NEW, data)
+        await _copy(cur, _COPY_NEW, rows, meanwhile)
         return pg_rows.readings_in(rows)
-    await _copy(cur, _COPY, data)
+    await _copy(cur, _COPY, rows, meanwhile)
     new = await _number(cur, _MOVE)
     if len(rows) and (gained := await _number(cur, _LACKING)):
         await cur.execute(_MERGE)
         new += gained
     return new
+
+
+def _aggregate_into(out: list[tuple[object, ...]], batch: Sequence[Reading]) -> None:
+    out.extend(blocks_sql.aggregate(batch))
 
 
 async def store_part(
@@ -195,13 +219,23 @@ async def store_part(
     conflicted, deadlocks, total = False, 0, pg_rows.readings_in(rows)
     while True:
         try:
+            blocks: list[tuple[object, ...]] = []
             async with conn.transaction(), conn.cursor() as cur:
-                new = await insert_rows(cur, rows, direct)
+                # A direct COPY stores every reading or fails: the dashboard's extremes of
+                # the part are computed while the server stores its rows.
+                new = await insert_rows(
+                    cur,
+                    rows,
+                    direct,
+                    functools.partial(_aggregate_into, blocks, batch) if direct else None,
+                )
                 # Here the part is written and not yet committed: what must change with the
                 # readings runs here, in the same transaction: the dashboard's extremes
                 # (unchanged when no reading was new: a replay reads nothing back).
                 if new:
-                    await blocks_sql.after_batch_postgres(cur, batch, new)
+                    await blocks_sql.after_batch_postgres(
+                        cur, batch, new, blocks if direct else None
+                    )
             return new, conflicted or new < total
         except psycopg.errors.UniqueViolation:
             direct, conflicted = False, True  # rolled back: again, merging into stored rows

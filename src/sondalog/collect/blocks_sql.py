@@ -81,8 +81,27 @@ def _merge(v: str, t: str, better: str) -> str:
     )
 
 
-#: How a stored block takes new extremes; the same SQL on both servers.
-MERGE = _merge("vmin", "tmin", "<") + ", " + _merge("vmax", "tmax", ">")
+def _changes(v: str, t: str, better: str) -> str:
+    """When :func:`_merge` changes the stored extreme: exactly its branches that take a new
+    value or time (a value, NULL or not, that is not better keeps the stored block)."""
+    old_v, old_t = f"{TABLE}.{v}", f"{TABLE}.{t}"
+    new_v, new_t = f"excluded.{v}", f"excluded.{t}"
+    return (
+        f"({new_v} IS NULL AND {old_v} IS NULL AND {new_t} > {old_t}) OR ({new_v} IS NOT NULL "
+        f"AND ({old_v} IS NULL OR {new_v} {better} {old_v} OR "
+        f"({new_v} = {old_v} AND {new_t} < {old_t})))"
+    )
+
+
+#: How a stored block takes new extremes; the same SQL on both servers. A block that keeps
+#: both extremes is not written at all (most coarse blocks, batch after batch: an update
+#: that changes nothing still writes a new row version and its index entry).
+MERGE = (
+    _merge("vmin", "tmin", "<")
+    + ", "
+    + _merge("vmax", "tmax", ">")
+    + f" WHERE {_changes('vmin', 'tmin', '<')} OR {_changes('vmax', 'tmax', '>')}"
+)
 _REPLACE = "vmin = excluded.vmin, tmin = excluded.tmin, vmax = excluded.vmax, tmax = excluded.tmax"
 _CONFLICT = "ON CONFLICT (logger, size, start, channel) DO UPDATE SET "
 

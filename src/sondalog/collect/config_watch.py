@@ -31,13 +31,8 @@ from sondalog.client.ala1_codec import ClientError
 from sondalog.client.station_apply import Refused, fit
 from sondalog.client.station_file import Station
 from sondalog.client.station_grammar import LIMITS
-from sondalog.client.station_logger import (
-    Session,
-    desired_values,
-    identify,
-    plan,
-    read_values,
-)
+from sondalog.client.station_logger import desired_values, plan
+from sondalog.client.station_read import read_config
 from sondalog.client.station_schema import instances
 from sondalog.collect import config_history as history
 from sondalog.collect.config import SourceConfig
@@ -109,6 +104,9 @@ class ConfigWatch:
         self.config = config
         self.store = store
         self._contacts = 0
+        self._version: str | None = None  # the logger's protocol version at the last check
+        #: The digest of the raw answers last recorded, and what the summary said then.
+        self._seen: tuple[bytes, str] | None = None
 
     async def check(self, client: Ala1Client) -> str | None:
         """Read and record the configuration over ``client``'s open line (in a contact,
@@ -120,25 +118,36 @@ class ConfigWatch:
         if every == 0 or (self._contacts - 1) % every:
             return None
         try:
-            session = Session(client)
-            ident = await identify(session)
-            values = await read_values(session, ident.version)
+            read = await read_config(client, self._version)
+            self._version = read.version
+            if self._seen is not None and self._seen[0] == read.digest:
+                return self._seen[1]  # the same answers as last time: nothing to do
+            values = read.values()
         except ClientError as exc:
             text = f"configuration not read: {exc}"
             log.warning("source %s: %s", self.config.name, text)
             self.store.event(self.config.name, "config", text)
             return text
-        return self.note(ident.serial, ident.version, values)
+        said, drift = self._record(read.serial, read.version, values)
+        self._seen = (read.digest, "configuration unchanged" + drift)
+        return said + drift
 
     def note(self, serial: str, protocol: str, values: dict[str, str]) -> str:
         """Record the configuration ``values`` of logger ``serial`` read now; in one
         transaction: the history row, the state, the events."""
+        said, drift = self._record(serial, protocol, values)
+        return said + drift
+
+    def _record(self, serial: str, protocol: str, values: dict[str, str]) -> tuple[str, str]:
+        """:meth:`note`: the summary, and what it says of the drift (", as station.toml")."""
         name, db = self.config.name, self.store.db
         now = now_text()
         digest = config_hash(values, protocol)
+        drift = ""
         with db:
-            known = history.last(db, name, serial)
-            if known is None or known.hash != digest:
+            stored = history.last_hash(db, name, serial)
+            if stored != digest:
+                known = None if stored is None else history.last(db, name, serial)
                 diff = [] if known is None else diff_lines(known.values, values, protocol)
                 history.record(
                     db,
@@ -146,22 +155,22 @@ class ConfigWatch:
                     logger=serial,
                     time=now,
                     protocol=protocol,
-                    old_hash=None if known is None else known.hash,
+                    old_hash=stored,
                     new_hash=digest,
                     diff=diff,
                     values=values,
                 )
                 self._event(now, known, digest, diff)
-            said = "configuration unchanged" if known is not None and known.hash == digest else ""
-            said = said or (
-                "configuration changed"
-                if known is not None
-                else f"configuration read: {digest[:SHORT]}"
-            )
+            if stored == digest:
+                said = "configuration unchanged"
+            elif stored is not None:
+                said = "configuration changed"
+            else:
+                said = f"configuration read: {digest[:SHORT]}"
             history.set_state(db, name, logger=serial, hash=digest, checked=now)
             if self.config.expect is not None:
-                said += self._drift(now, drift_lines(self.config.expect, values, protocol, serial))
-        return said
+                drift = self._drift(now, drift_lines(self.config.expect, values, protocol, serial))
+        return said, drift
 
     def _event(self, now: str, known: history.Known | None, digest: str, diff: list[str]) -> None:
         """A change is an event (the dashboard's log); the first read is a history row only

@@ -2,13 +2,17 @@
 "Configuration history").
 
 At a contact (every one by default; ``config_every = N``: every N-th) the source's logger is
-read whole with :func:`~sondalog.client.station_logger.read_values`: every setting of §6.1
-that a station file holds, chained ``read`` commands packed into lines of 120 characters and
-pipelined (2.10: 841 settings in 191 lines, 6 round trips; 1.16: 283 in 62 lines, 2). Its
+read whole: every setting of §6.1 that a station file holds, as ``logger config pull`` reads
+it, in few full lines (:func:`~sondalog.client.station_read.read_config`, issue 24: 2.10's 841
+settings in 80 lines and 3 round trips, the identity in the first; 1.16's 283 in one). When
+the raw answers are the ones recorded at this source's last check (their digest), nothing
+changed and nothing is parsed, hashed or written: the contact's summary says "configuration
+unchanged" (with the drift said then). Otherwise the answers are parsed, and their
 :func:`config_hash` (SHA-256 of a canonical form) is compared with the last one stored for
 the source's logger; a different one stores a ``config_history`` row with the diff
 (:func:`diff_lines`) and writes a ``config`` event (the dashboard's log). The first contact
-stores the configuration as it is, without a diff.
+(of a logger, or of this process) stores the configuration as it is, without a diff, or
+finds it as stored.
 
 With ``expect = "station.toml"`` the configuration is also compared with that station file,
 as ``logger config plan`` compares it (:func:`drift_lines`): the number of settings that

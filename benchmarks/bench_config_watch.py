@@ -1,21 +1,26 @@
-"""Benchmark: what reading a logger's configuration adds to a collector's contact (issue 22).
+"""Benchmark: what reading a logger's configuration adds to a collector's contact (issues 22, 24).
 
 Serves one logger of each protocol version (``sondalog logger serve``, TCP on loopback, two
-channels sampled) and makes ``--contacts`` contacts with the collector's own
+channels sampled) and makes contacts with the collector's own
 :class:`~sondalog.collect.sources.LoggerSource` (download, channel types, record status), with
-the configuration check off (``config_every = 0``) and on (every contact: read whole, hashed,
-compared with the stored one), interleaved. Prints the wall time per contact, best and median,
-the difference, the collector's CPU time per contact, and the bytes of the configuration's
-reads and answers (what they cost on a slow line: at 9600 baud at least the bytes sent x 10
-bits / 9600).
+the configuration check off (``config_every = 0``) and on (every contact: read whole, compared
+with the last one), in rounds of ten contacts each, interleaved. Each round runs in a child
+process (``--compare OLD_SRC`` alternates this tree's code with another tree's, before and
+after in the same minutes: ``git archive BASE src | tar -x -C /tmp/base``).
 
-Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--contacts 30]``.
+Prints per protocol version and tree, best and median: the wall time of a contact, the
+collector's CPU per contact and the served logger's CPU per contact (``/proc``), off and on;
+what the check adds (CPU, and as a multiple of the contact's own CPU); round trips (lines sent
+before waiting for answers) and bytes sent and received per check (on a 9600 baud line at
+least the larger of them x 10 bits / 9600).
+
+Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]``.
 """
 
 from __future__ import annotations
 
 import argparse
-import asyncio
+import json
 import logging
 import os
 import select
@@ -26,23 +31,20 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
-from sondalog.client import Client
-from sondalog.client.ala1 import Ala1Client
-from sondalog.client.station_grammar import LIMITS
-from sondalog.client.station_logger import Session, identify, read_command, read_values
-from sondalog.client.station_schema import instances
-from sondalog.collect.config import SourceConfig
-from sondalog.collect.model import Reading
-from sondalog.collect.sources import LoggerSource
-from sondalog.collect.store_sqlite import SqliteStore
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from loadgen import process_cpu
 
-#: config_every -> the collector's CPU seconds per contact.
-CPU: dict[int, list[float]] = {}
+HERE = Path(__file__).resolve().parent.parent / "src"
 SERVE = [sys.executable, "-m", "sondalog", "logger", "serve"]
+CONTACTS = 10  # per round and setting
+TRAFFIC = ("trips", "sent", "received")
 
 
 def serve(tmp: Path, protocol: str) -> tuple[subprocess.Popen[bytes], str]:
+    from sondalog.client import Client
+
     proc = subprocess.Popen(
         [*SERVE, "--listen", "127.0.0.1:0", "--state", str(tmp / protocol), "--protocol",
          protocol, "--speed", "20"],
@@ -66,75 +68,171 @@ def serve(tmp: Path, protocol: str) -> tuple[subprocess.Popen[bytes], str]:
     return proc, url
 
 
-async def _ignore(source: str, batch: list[Reading], cursor: str | None, **state: object) -> None:
-    return None
+# -- the child: contacts with one tree's code ------------------------------------------------
 
 
-async def contacts(url: str, store: Path, every: int, count: int) -> list[float]:
-    config = SourceConfig(name=f"s{every}", url=url, config_every=every)
-    sqlite = SqliteStore(store).open_sync()
-    sqlite.add_source(config.name, url, "logger")
-    source = LoggerSource(config, sqlite)
-    times = []
-    try:
-        for _ in range(count):
-            start = time.perf_counter()
-            cpu = time.process_time()
-            await source.poll(_ignore)
-            times.append(time.perf_counter() - start)
-            CPU.setdefault(every, []).append(time.process_time() - cpu)
-    finally:
-        sqlite.close_sync()
-    return times
+def _count_traffic(counts: dict[str, int]) -> None:
+    """Round trips and bytes of the client, whatever its version sends them with."""
+    from sondalog.client import ala1
+
+    pipeline, send_raw = ala1.Ala1Client.pipeline, ala1.Ala1Client.send_raw
+    received = ala1._Stream.data_received
+
+    async def counted_pipeline(self: Any, requests: Any, **kw: Any) -> Any:
+        reqs = list(requests)
+        counts["trips"] += 1
+        counts["sent"] += sum(len(r if isinstance(r, str) else r.line()) + 1 for r in reqs)
+        return await pipeline(self, reqs, **kw)
+
+    async def counted_send(self: Any, data: bytes) -> None:
+        counts["trips"] += 1
+        counts["sent"] += len(data)
+        await send_raw(self, data)
+
+    def counted_received(self: Any, data: bytes) -> None:
+        counts["received"] += len(data)
+        received(self, data)
+
+    from sondalog.collect.config_watch import ConfigWatch
+
+    check = ConfigWatch.check
+
+    async def counted_check(self: Any, client: Any) -> Any:
+        before = dict(counts)
+        try:
+            return await check(self, client)
+        finally:
+            for key in TRAFFIC:
+                counts[f"check_{key}"] += counts[key] - before[key]
+
+    ala1.Ala1Client.pipeline = counted_pipeline  # type: ignore[method-assign]
+    ala1.Ala1Client.send_raw = counted_send  # type: ignore[method-assign]
+    ala1._Stream.data_received = counted_received  # type: ignore[method-assign]
+    ConfigWatch.check = counted_check  # type: ignore[method-assign]
 
 
-async def config_bytes(url: str) -> tuple[int, int, int]:
-    """(settings, bytes sent, bytes received) of one whole read."""
-    client = await Ala1Client.connect(url, timeout=5)
-    try:
-        session = Session(client)
-        ident = await identify(session)
-        values = await read_values(session, ident.version)
-    finally:
-        await client.close()
-    wanted = instances(LIMITS[ident.version])
-    sent = sum(len(read_command(s, n)) + 1 for s, n in wanted) + 25
-    received = sum(len(v) + 2 for v in values.values()) + 4 * (sent // 120 + 2)
-    return len(values), sent, received
+def child(url: str, store: str, every: int, count: int) -> None:
+    from sondalog.collect.config import SourceConfig
+    from sondalog.collect.model import Reading
+    from sondalog.collect.sources import LoggerSource
+    from sondalog.collect.store_sqlite import SqliteStore
+    from sondalog.io.loop import run  # the collector's loop: uvloop when installed
+
+    logging.getLogger("sondalog").setLevel(logging.ERROR)  # no hints about the idle logger
+    counts = dict.fromkeys([*TRAFFIC, *(f"check_{k}" for k in TRAFFIC)], 0)
+    _count_traffic(counts)
+
+    async def ignore(source: str, batch: list[Reading], cursor: str | None, **s: object) -> None:
+        return None
+
+    async def contacts() -> list[dict[str, float]]:
+        config = SourceConfig(name=f"s{every}", url=url, config_every=every)
+        sqlite = SqliteStore(Path(store)).open_sync()
+        sqlite.add_source(config.name, url, "logger")
+        source = LoggerSource(config, sqlite)
+        await source.poll(ignore)  # the first contact of a process reads and compares all
+        out = []
+        try:
+            for _ in range(count):
+                counts.update(dict.fromkeys(counts, 0))
+                start, cpu = time.perf_counter(), time.process_time()
+                await source.poll(ignore)
+                wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+                out.append({"wall": wall, "cpu": cpu, **counts})
+        finally:
+            sqlite.close_sync()
+        return out
+
+    print("ready", flush=True)
+    sys.stdin.readline()
+    print(json.dumps(run(contacts())), flush=True)
+
+
+def run_child(
+    src: Path, url: str, store: Path, every: int, logger: int
+) -> tuple[list[dict[str, float]], float]:
+    """One round in a child process with ``src`` on its path; the samples and the logger's
+    CPU seconds per contact while it ran them."""
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    proc = subprocess.Popen(
+        [sys.executable, __file__, "--child", url, str(store), str(every), str(CONTACTS)],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env,
+    )  # fmt: skip
+    assert proc.stdin is not None and proc.stdout is not None
+    assert proc.stdout.readline().strip() == b"ready"
+    before = process_cpu(logger)
+    proc.stdin.write(b"go\n")
+    proc.stdin.flush()
+    samples = json.loads(proc.stdout.readline())
+    used = process_cpu(logger) - before
+    proc.wait(timeout=30)
+    return samples, used / CONTACTS
+
+
+# -- the parent ------------------------------------------------------------------------------
+
+
+def ms(values: list[float]) -> str:
+    return f"{min(values) * 1000:6.2f} / {statistics.median(values) * 1000:6.2f}"
+
+
+def report(protocol: str, label: str, runs: dict[int, list[Any]]) -> None:
+    (off, log_off), (on, log_on) = runs[0], runs[1]
+    print(f"protocol {protocol}, {label}: best / median of {len(off)} contacts")
+    for name, samples, logger in (("without the check", off, log_off), ("with it", on, log_on)):
+        print(
+            f"  contact {name:18}: wall {ms([s['wall'] for s in samples])} ms, collector CPU "
+            f"{ms([s['cpu'] for s in samples])} ms, logger CPU {ms(logger)} ms"
+        )
+    cpu_off = statistics.median(s["cpu"] for s in off)
+    added = statistics.median(s["cpu"] for s in on) - cpu_off
+    best = min(s["cpu"] for s in on) - min(s["cpu"] for s in off)
+    logger_added = statistics.median(log_on) - statistics.median(log_off)
+    print(
+        f"  the check adds: collector CPU {best * 1000:.2f} / {added * 1000:.2f} ms "
+        f"({added / cpu_off:.2f}x the contact), logger CPU {logger_added * 1000:.2f} ms "
+        f"({logger_added / statistics.median(log_off):.2f}x)"
+    )
+    trips, sent, got = (statistics.median(s[f"check_{k}"] for s in on) for k in TRAFFIC)
+    line = max(sent, got) * 10 / 9600
+    print(
+        f"  per check: {trips:.0f} round trips, {sent:.0f} bytes sent, {got:.0f} received "
+        f"(>= {line:.1f} s at 9600 baud)"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--contacts", type=int, default=30)
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of 10 contacts each")
+    parser.add_argument("--compare", type=Path, help="another tree's src/ (before)")
+    parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
-    logging.getLogger("sondalog").setLevel(logging.ERROR)  # no hints about the idle logger
+    if args.child:
+        url, store, every, count = args.child
+        child(url, store, int(every), int(count))
+        return
+    trees = [("this tree", HERE)] + ([("compare", args.compare)] if args.compare else [])
     print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     with tempfile.TemporaryDirectory() as tmp:
         for protocol in ("2.10", "1.16"):
             proc, url = serve(Path(tmp), protocol)
+            runs: dict[str, dict[int, list[Any]]] = {
+                label: {0: [[], []], 1: [[], []]} for label, _ in trees
+            }
             try:
-                off: list[float] = []
-                on: list[float] = []
-                for _ in range(max(1, args.contacts // 10)):  # interleaved rounds
-                    off += asyncio.run(contacts(url, Path(tmp) / f"{protocol}.sqlite", 0, 10))
-                    on += asyncio.run(contacts(url, Path(tmp) / f"{protocol}.sqlite", 1, 10))
-                settings, sent, received = asyncio.run(config_bytes(url))
+                for _ in range(args.rounds):
+                    for label, src in trees:
+                        for every in (0, 1):
+                            store = Path(tmp) / f"{protocol}-{label}-{every}.sqlite"
+                            samples, logger = run_child(src, url, store, every, proc.pid)
+                            runs[label][every][0] += samples
+                            runs[label][every][1].append(logger)
             finally:
                 proc.send_signal(signal.SIGTERM)
                 proc.wait(timeout=10)
-            print(f"protocol {protocol}: {settings} settings read per check")
-            for name, times in (("without the check", off), ("with the check", on)):
-                print(
-                    f"  contact {name:18}: best {min(times) * 1000:7.1f} ms, "
-                    f"median {statistics.median(times) * 1000:7.1f} ms"
-                )
-            cpu_off, cpu_on = (statistics.median(CPU.pop(k)) * 1000 for k in (0, 1))
-            print(f"  collector CPU per contact (median): {cpu_off:.1f} ms -> {cpu_on:.1f} ms")
-            added = statistics.median(on) - statistics.median(off)
-            best = min(on) - min(off)
-            print(f"  added per contact: best {best * 1000:.1f} ms, median {added * 1000:.1f} ms")
-            line = max(sent, received) * 10 / 9600
-            print(f"  bytes: {sent} sent, ~{received} received (>= {line:.0f} s at 9600 baud)")
+            for label, _ in trees:
+                report(protocol, label, runs[label])
+        print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
 
 
 if __name__ == "__main__":

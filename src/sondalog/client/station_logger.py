@@ -3,7 +3,8 @@
 - :func:`identify`: the protocol version and serial number (§6.3.1, §6.3.3), or
   :class:`NotALogger` when the other end does not answer like an ALA1;
 - :func:`read_values`: every setting of :mod:`sondalog.client.station_schema`, read with
-  chained ``read`` commands (§7.1) packed into lines of at most 120 characters;
+  chained ``read`` commands (§7) in lines of at most 120 characters
+  (:mod:`sondalog.client.station_read`);
 - :func:`desired_values`: a station's settings over the factory values (§11);
 - :func:`plan`: the writes that make the logger so, in an order it accepts, taking the side
   effects of writes into account (a device type restores its calibration, §6.4.4.3; the
@@ -16,8 +17,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from sondalog.client.ala1 import Ala1Client
-from sondalog.client.ala1_codec import MAX_LINE, ClientError, Response
-from sondalog.client.station_grammar import BOUNDARIES, LIMITS, Number, render_number
+from sondalog.client.ala1_codec import ClientError, Response
+from sondalog.client.station_grammar import BOUNDARIES, LIMITS, render_number
+from sondalog.client.station_read import clean as clean  # also here, as before
+from sondalog.client.station_read import exchange, read_plan
+from sondalog.client.station_read import read_command as read_command
 from sondalog.client.station_schema import APPLY_ORDER, FACTORY_CAL, Setting, instances
 
 
@@ -66,42 +70,11 @@ async def identify(session: Session) -> Identity:
     return Identity(answer.lines[0], answer.lines[1])
 
 
-def read_command(setting: Setting, n: int) -> str:
-    return f"read {setting.name(n)}{' all' if setting.dual else ''}"
-
-
-def clean(setting: Setting, text: str) -> str:
-    """A read-back value without the padding of its number format (§4.3.5)."""
-    if isinstance(setting.grammar, Number):
-        return ",".join(part.strip() for part in text.split(","))
-    return text
-
-
 async def read_values(session: Session, version: str) -> dict[str, str]:
-    """Every setting's value as the logger reads it back."""
-    wanted = instances(LIMITS[version])
-    room = MAX_LINE - len(session.prefix())
-    lines: list[list[tuple[Setting, int]]] = [[]]
-    length = 0
-    for setting, n in wanted:
-        size = len(read_command(setting, n)) + 1
-        if lines[-1] and length + size > room:
-            lines.append([])
-            length = 0
-        lines[-1].append((setting, n))
-        length += size
-    values: dict[str, str] = {}
-    batch = 32
-    for start in range(0, len(lines), batch):
-        group = lines[start : start + batch]
-        texts = [" ".join(read_command(s, n) for s, n in line) for line in group]
-        answers = await session.pipeline(texts)
-        for line, text, answer in zip(group, texts, answers, strict=True):
-            if not answer.ok or len(answer.lines) != len(line):
-                raise ClientError(f"the logger did not answer {text!r} as expected: {answer.raw!r}")
-            for (setting, n), value in zip(line, answer.lines, strict=True):
-                values[setting.name(n)] = clean(setting, value)
-    return values
+    """Every setting's value as the logger reads it back (file order), read in few full lines
+    (:mod:`sondalog.client.station_read`)."""
+    plan = read_plan(version, session.prefix())
+    return plan.values(await exchange(session.client, plan.lines, plan.prefix))
 
 
 def desired_values(given: Mapping[str, str], version: str, serial: str) -> dict[str, str]:

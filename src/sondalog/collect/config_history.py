@@ -32,6 +32,17 @@ class Known:
     values: dict[str, str]
 
 
+def last_hash(db: sqlite3.Connection, source: str, logger: str) -> str | None:
+    """The hash of the newest ``config_history`` row of ``source`` with ``logger``, or None
+    (without reading its configuration: most checks find it unchanged)."""
+    row = db.execute(
+        "SELECT new_hash FROM config_history WHERE source = ? AND logger = ? "
+        "ORDER BY id DESC LIMIT 1",
+        (source, logger),
+    ).fetchone()
+    return None if row is None else str(row[0])
+
+
 def last(db: sqlite3.Connection, source: str, logger: str) -> Known | None:
     """The newest ``config_history`` row of ``source`` with ``logger``, or None."""
     row = db.execute(

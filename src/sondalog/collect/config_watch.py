@@ -2,13 +2,17 @@
 "Configuration history").
 
 At a contact (every one by default; ``config_every = N``: every N-th) the source's logger is
-read whole with :func:`~sondalog.client.station_logger.read_values`: every setting of §6.1
-that a station file holds, chained ``read`` commands packed into lines of 120 characters and
-pipelined (2.10: 841 settings in 191 lines, 6 round trips; 1.16: 283 in 62 lines, 2). Its
+read whole: every setting of §6.1 that a station file holds, as ``logger config pull`` reads
+it, in few full lines (:func:`~sondalog.client.station_read.read_config`, issue 24: 2.10's 841
+settings in 80 lines and 3 round trips, the identity in the first; 1.16's 283 in one). When
+the raw answers are the ones recorded at this source's last check (their digest), nothing
+changed and nothing is parsed, hashed or written: the contact's summary says "configuration
+unchanged" (with the drift said then). Otherwise the answers are parsed, and their
 :func:`config_hash` (SHA-256 of a canonical form) is compared with the last one stored for
 the source's logger; a different one stores a ``config_history`` row with the diff
 (:func:`diff_lines`) and writes a ``config`` event (the dashboard's log). The first contact
-stores the configuration as it is, without a diff.
+(of a logger, or of this process) stores the configuration as it is, without a diff, or
+finds it as stored.
 
 With ``expect = "station.toml"`` the configuration is also compared with that station file,
 as ``logger config plan`` compares it (:func:`drift_lines`): the number of settings that
@@ -31,13 +35,8 @@ from sondalog.client.ala1_codec import ClientError
 from sondalog.client.station_apply import Refused, fit
 from sondalog.client.station_file import Station
 from sondalog.client.station_grammar import LIMITS
-from sondalog.client.station_logger import (
-    Session,
-    desired_values,
-    identify,
-    plan,
-    read_values,
-)
+from sondalog.client.station_logger import desired_values, plan
+from sondalog.client.station_read import read_config
 from sondalog.client.station_schema import instances
 from sondalog.collect import config_history as history
 from sondalog.collect.config import SourceConfig
@@ -109,6 +108,9 @@ class ConfigWatch:
         self.config = config
         self.store = store
         self._contacts = 0
+        self._version: str | None = None  # the logger's protocol version at the last check
+        #: The digest of the raw answers last recorded, and what the summary said then.
+        self._seen: tuple[bytes, str] | None = None
 
     async def check(self, client: Ala1Client) -> str | None:
         """Read and record the configuration over ``client``'s open line (in a contact,
@@ -120,25 +122,36 @@ class ConfigWatch:
         if every == 0 or (self._contacts - 1) % every:
             return None
         try:
-            session = Session(client)
-            ident = await identify(session)
-            values = await read_values(session, ident.version)
+            read = await read_config(client, self._version)
+            self._version = read.version
+            if self._seen is not None and self._seen[0] == read.digest:
+                return self._seen[1]  # the same answers as last time: nothing to do
+            values = read.values()
         except ClientError as exc:
             text = f"configuration not read: {exc}"
             log.warning("source %s: %s", self.config.name, text)
             self.store.event(self.config.name, "config", text)
             return text
-        return self.note(ident.serial, ident.version, values)
+        said, drift = self._record(read.serial, read.version, values)
+        self._seen = (read.digest, "configuration unchanged" + drift)
+        return said + drift
 
     def note(self, serial: str, protocol: str, values: dict[str, str]) -> str:
         """Record the configuration ``values`` of logger ``serial`` read now; in one
         transaction: the history row, the state, the events."""
+        said, drift = self._record(serial, protocol, values)
+        return said + drift
+
+    def _record(self, serial: str, protocol: str, values: dict[str, str]) -> tuple[str, str]:
+        """:meth:`note`: the summary, and what it says of the drift (", as station.toml")."""
         name, db = self.config.name, self.store.db
         now = now_text()
         digest = config_hash(values, protocol)
+        drift = ""
         with db:
-            known = history.last(db, name, serial)
-            if known is None or known.hash != digest:
+            stored = history.last_hash(db, name, serial)
+            if stored != digest:
+                known = None if stored is None else history.last(db, name, serial)
                 diff = [] if known is None else diff_lines(known.values, values, protocol)
                 history.record(
                     db,
@@ -146,22 +159,22 @@ class ConfigWatch:
                     logger=serial,
                     time=now,
                     protocol=protocol,
-                    old_hash=None if known is None else known.hash,
+                    old_hash=stored,
                     new_hash=digest,
                     diff=diff,
                     values=values,
                 )
                 self._event(now, known, digest, diff)
-            said = "configuration unchanged" if known is not None and known.hash == digest else ""
-            said = said or (
-                "configuration changed"
-                if known is not None
-                else f"configuration read: {digest[:SHORT]}"
-            )
+            if stored == digest:
+                said = "configuration unchanged"
+            elif stored is not None:
+                said = "configuration changed"
+            else:
+                said = f"configuration read: {digest[:SHORT]}"
             history.set_state(db, name, logger=serial, hash=digest, checked=now)
             if self.config.expect is not None:
-                said += self._drift(now, drift_lines(self.config.expect, values, protocol, serial))
-        return said
+                drift = self._drift(now, drift_lines(self.config.expect, values, protocol, serial))
+        return said, drift
 
     def _event(self, now: str, known: history.Known | None, digest: str, diff: list[str]) -> None:
         """A change is an event (the dashboard's log); the first read is a history row only

@@ -1,0 +1,362 @@
+"""Reading a logger's whole configuration in few, full lines (issue 24; §3.3, §6.5.2, §7).
+
+The settings of :mod:`sondalog.client.station_schema` are read with as few bytes and lines as
+the protocol allows, each answer split without asking again:
+
+- **§7.2 chaining after the first keyword**: ``read message 1 address 2 address 1 of channel
+  value ...``: a command with the same first keyword as the one before it leaves out ``read``
+  and that keyword; any other starts with ``read`` (§7.1). Keywords, indices and channel lists
+  are strings of known length, written without the spaces between them (§4.2.2, §4.1:
+  ``readchannel1value``). Lines hold at most 120 characters (§3.4.1, less the ``iaddress``
+  header a guarded logger needs, §8.6.1);
+- **channel lists** (§6.5.2): ``read channel 010203040506070809101112 sampling period`` answers
+  the twelve values in one line, joined by commas. An answer line may not be longer than 100
+  characters (§3.3), so a list holds as many channels as the widest value the setting can read
+  back allows (a date 6, a number in any format 3, a two-input number 2; a channel address of
+  2.10, 64-bit, 2). Strings (a channel's name, its tables) are never listed: a comma in one
+  would make the split ambiguous; they are chained one per channel;
+- every command of a line answers exactly one data line, so a line's answer is known to be
+  its commands' count of lines and ``OK``: lines are pipelined :data:`BATCH` at a time (as many
+  as the one-command-a-line reader sent ahead) and the answers are taken as raw bytes, split
+  only when they are needed (:meth:`ReadPlan.values`). A refused line (the command line and
+  ``ERROR``, §3.3.1) is recognised as such, so a logger that refuses one does not leave the
+  reader waiting.
+
+2.10: 841 settings in 80 lines (9.0 KB of commands, 3 round trips with the identity) where
+one command a setting took 191 lines (23 KB, 7 round trips); 1.16: 283 settings in 22 lines
+(2.3 KB, one round trip; 62 lines, 7.4 KB before). The lines of a version are worked out once.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from sondalog.client.ala1 import Ala1Client
+from sondalog.client.ala1_codec import MAX_LINE, ClientError, IncompleteAnswer, NoAnswer
+from sondalog.client.station_grammar import (
+    LIMITS,
+    ChannelAddress,
+    Date,
+    Format,
+    Grammar,
+    Integer,
+    Limits,
+    Number,
+    OneOf,
+    Period,
+    _bound,
+)
+from sondalog.client.station_schema import SETTINGS, Setting
+
+#: §3.3: no answer line may be longer than this.
+MAX_ANSWER = 100
+#: Lines sent before their answers are awaited.
+BATCH = 32
+_OK = "OK"
+_ERROR = "ERROR"
+
+
+def read_command(setting: Setting, n: int) -> str:
+    """The one ``read`` of a setting's instance (``read channel 3 device all``)."""
+    return f"read {setting.name(n)}{' all' if setting.dual else ''}"
+
+
+def clean(setting: Setting, text: str) -> str:
+    """A read-back value without the padding of its number format (§4.3.5)."""
+    if isinstance(setting.grammar, Number):
+        return ",".join(part.strip() for part in text.split(","))
+    return text
+
+
+@dataclass(frozen=True, slots=True)
+class Part:
+    """One data line of an answer: the setting instances it reads back, in order (several:
+    a channel list, their values joined by commas, two each for a two-input setting)."""
+
+    setting: Setting | None  # None: not a setting (the identity), taken as it is
+    names: tuple[str, ...]
+
+    def take(self, text: str, out: dict[str, str]) -> None:
+        if self.setting is None or len(self.names) == 1:
+            out[self.names[0]] = text if self.setting is None else clean(self.setting, text)
+            return
+        parts = text.split(",")
+        each = 2 if self.setting.dual else 1
+        if len(parts) != each * len(self.names):
+            raise ClientError(f"{len(parts)} values for {len(self.names)} channels: {text!r}")
+        if isinstance(self.setting.grammar, Number):
+            parts = [part.strip() for part in parts]
+        for i, name in enumerate(self.names):
+            out[name] = ",".join(parts[i * each : (i + 1) * each])
+
+
+@dataclass(frozen=True, slots=True)
+class Line:
+    """One request line and the data lines its answer holds."""
+
+    text: str
+    parts: tuple[Part, ...]
+
+
+def _decimals(setting: Setting) -> int:
+    """Decimals a number reads back with: a fixed format's, else the most a format has."""
+    if setting.fmt is not None:
+        try:
+            return int(setting.fmt({}, 1)[2])
+        except KeyError:  # the format is another setting's value
+            pass
+    return 9
+
+
+def width(setting: Setting, limits: Limits) -> int | None:
+    """The widest value a setting can read back (§4.3, §11), or None for a string."""
+    grammar: Grammar = setting.grammar
+    match grammar:
+        case OneOf():
+            wide = max(len(str(option)) for option in grammar.options)
+        case Integer():
+            wide = len(str(_bound(grammar.hi, limits)))
+        case ChannelAddress():
+            wide = len(str(limits.channel_address_max))
+        case Format():
+            wide = 3
+        case Period():
+            wide = 6
+        case Date():
+            wide = 14
+        case Number():  # sign, 16 digits (below 10^15, rounded up), point, decimals
+            wide = 18 + _decimals(setting)
+        case _:
+            return None
+    return 2 * wide + 1 if setting.dual else wide
+
+
+#: A command as chaining sees it: its first keyword, the rest, what its answer line holds.
+_Command = tuple[str, str, Part]
+
+
+def _channel_commands(setting: Setting, limits: Limits) -> list[_Command]:
+    key = setting.pattern.removeprefix("channel {ch} ") + (" all" if setting.dual else "")
+    count = setting.count(limits)
+    wide = width(setting, limits)
+    per_line = 1 if wide is None else max(1, (MAX_ANSWER + 1) // (wide + 1))
+    out: list[_Command] = []
+    for first in range(1, count + 1, per_line):
+        numbers = range(first, min(first + per_line, count + 1))
+        names = tuple(setting.name(n) for n in numbers)
+        which = str(first) if len(numbers) == 1 else "".join(f"{n:02d}" for n in numbers)
+        out.append(("channel", f"{which} {key}", Part(setting, names)))
+    return out
+
+
+def _commands(setting: Setting, limits: Limits) -> list[_Command]:
+    if setting.numbered and setting.group == "channel":
+        return _channel_commands(setting, limits)
+    out: list[_Command] = []
+    for n in range(1, setting.count(limits) + 1):
+        first, rest = read_command(setting, n).removeprefix("read ").split(" ", 1)
+        out.append((first, rest, Part(setting, (setting.name(n),))))
+    return out
+
+
+def _tight(words: str) -> str:
+    """``words`` without the spaces §4.2.2 allows to leave out: keywords, indices and channel
+    lists are strings of known length; two numbers in a row keep theirs (§4.3.4)."""
+    out = ""
+    for word in words.split():
+        if out and out[-1].isdigit() and word[0].isdigit():
+            out += " "
+        out += word
+    return out
+
+
+def _pack(commands: list[_Command], room: int) -> list[Line]:
+    """Commands chained into lines of at most ``room`` characters (§7)."""
+    lines: list[Line] = []
+    text, parts, last = "", list[Part](), ""
+    for first, rest, part in commands:
+        more = _tight(rest if first == last else f"read {first} {rest}")
+        if text and len(text) + len(more) + 1 > room:
+            lines.append(Line(text, tuple(parts)))
+            text, parts = "", []
+            more = _tight(f"read {first} {rest}")
+        text = _tight(f"{text} {more}")
+        parts.append(part)
+        last = first
+    if text:
+        lines.append(Line(text, tuple(parts)))
+    return lines
+
+
+def _same_in_every_version(setting: Setting) -> bool:
+    """Unnumbered settings, devices and outputs: read by the same lines in every version."""
+    if not setting.numbered:
+        return True
+    counts = {setting.count(limits) for limits in LIMITS.values()}
+    return len(counts) == 1 and setting.group != "channel"
+
+
+@dataclass(frozen=True)
+class ReadPlan:
+    """The lines that read every setting of a logger of ``version``: first those that are
+    the same in every version (a reader that assumed the wrong one learns it from the first
+    answers without a refusal), then the others."""
+
+    version: str
+    prefix: str
+    lines: tuple[Line, ...]
+
+    @functools.cached_property
+    def names(self) -> tuple[str, ...]:
+        """Every instance's name in the order of a station file (the manual's)."""
+        limits = LIMITS[self.version]
+        return tuple(s.name(n) for s in SETTINGS for n in range(1, s.count(limits) + 1))
+
+    def values(self, raw: bytes) -> dict[str, str]:
+        """The settings in ``raw``, the answers to :attr:`lines` (file order); ClientError
+        when they are not such answers."""
+        texts = raw.decode("latin-1").split("\n")
+        if texts.pop() != "":
+            raise ClientError("the answers end in the middle of a line")
+        read: dict[str, str] = {}
+        at = 0
+        for line in self.lines:
+            end = at + len(line.parts)
+            answer = [text.removesuffix("\r") for text in texts[at : end + 1]]
+            if len(answer) != len(line.parts) + 1 or answer[-1] != _OK:
+                raise ClientError(f"the logger did not answer {line.text!r} as expected")
+            for part, text in zip(line.parts, answer, strict=False):
+                part.take(text, read)
+            at = end + 1
+        if at != len(texts):
+            raise ClientError(f"{len(texts) - at} lines more than the answers hold")
+        return {name: read[name] for name in self.names}
+
+
+#: §6.3.1, §6.3.3: the identity, first in a read that assumes the version.
+IDENTIFY = Line(
+    "read i version read i snumber", (Part(None, ("i version",)), Part(None, ("i snumber",)))
+)
+
+
+@functools.lru_cache(maxsize=16)
+def read_plan(version: str, prefix: str = "") -> ReadPlan:
+    """The :class:`ReadPlan` of ``version`` for lines that start with ``prefix``."""
+    limits = LIMITS[version]
+    room = MAX_LINE - len(prefix)
+    common = [s for s in SETTINGS if _same_in_every_version(s)]
+    other = [s for s in SETTINGS if not _same_in_every_version(s)]
+    lines = []
+    for group in (common, other):
+        lines += _pack([c for s in group for c in _commands(s, limits)], room)
+    return ReadPlan(version, prefix, tuple(lines))
+
+
+def _payload(prefix: str, lines: Sequence[Line]) -> bytes:
+    return "".join(f"{prefix}{line.text}\r" for line in lines).encode("latin-1")
+
+
+def _complete(raw: bytes, batch: Sequence[Line], prefix: str) -> bool:
+    """Whether ``raw`` holds an answer to each line of ``batch``, refused ones included."""
+    texts = [t.removesuffix("\r") for t in raw.decode("latin-1").split("\n")[:-1]]
+    at = 0
+    for line in batch:
+        count = len(line.parts)
+        if at + count < len(texts) and texts[at + count] == _OK:
+            at += count + 1
+        elif texts[at : at + 2] == [(prefix + line.text)[:MAX_LINE], _ERROR]:
+            at += 2
+        else:
+            return False
+    return at == len(texts)
+
+
+async def exchange(client: Ala1Client, lines: Sequence[Line], prefix: str = "") -> bytes:
+    """Send ``lines``, :data:`BATCH` at a time, and return their raw answers, CR LF and all.
+
+    Raises :class:`NoAnswer` or :class:`IncompleteAnswer` when the answers stop short (the
+    timeout is the client's, from the last byte received)."""
+    received: list[bytes] = []
+    for start in range(0, len(lines), BATCH):
+        batch = lines[start : start + BATCH]
+        await client.send_raw(_payload(prefix, batch))
+        received.append(await _answers(client, batch, prefix))
+    return b"".join(received)
+
+
+async def _answers(client: Ala1Client, batch: Sequence[Line], prefix: str) -> bytes:
+    """The answers to ``batch``: its lines' data lines and ``OK`` each, or fewer lines when
+    one was refused (seen as soon as the refusal and what follows it are in)."""
+    expected = sum(len(line.parts) + 1 for line in batch)
+    chunks: list[bytes] = []
+    count = 0
+    tail = b""
+    while count < expected:
+        data = await client.receive_raw(client.timeout)
+        if not data:
+            got = b"".join(chunks)
+            if not got:
+                raise NoAnswer(f"no answer to {batch[0].text!r}")
+            raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)
+        chunks.append(data)
+        count += data.count(b"\n")
+        if count < expected and b"ERROR\r\n" in tail + data:
+            raw = b"".join(chunks)
+            if _complete(raw, batch, prefix):
+                return raw
+        tail = data[-8:]
+    return b"".join(chunks)
+
+
+@dataclass(frozen=True)
+class ConfigRead:
+    """A whole configuration as read: the logger's identity and the raw answers."""
+
+    version: str
+    serial: str
+    plan: ReadPlan
+    raw: bytes
+
+    @functools.cached_property
+    def digest(self) -> bytes:
+        """SHA-256 of the identity and the raw answers: equal digests, equal settings."""
+        return hashlib.sha256(f"{self.version}\n{self.serial}\n".encode() + self.raw).digest()
+
+    def values(self) -> dict[str, str]:
+        return self.plan.values(self.raw)
+
+
+def _identity(raw: bytes) -> tuple[str, str, int]:
+    """Version, serial number and the end of the answer to :data:`IDENTIFY` in ``raw``."""
+    texts = raw.split(b"\n", 3)
+    answer = [t.removesuffix(b"\r").decode("latin-1") for t in texts[:3]]
+    if len(texts) < 4 or answer[2] != _OK or answer[0] not in LIMITS:
+        raise ClientError(f"not an ALA1 logger: it answered {raw[:60]!r} to read i version")
+    return answer[0], answer[1], len(raw) - len(texts[3])
+
+
+async def read_config(client: Ala1Client, version: str | None, prefix: str = "") -> ConfigRead:
+    """The identity and every setting of the logger on ``client``'s line.
+
+    With the ``version`` a logger had before, the identity is read in the first batch of
+    lines: those same in every version come first, so a logger of the other version answers
+    them too, and its settings are then read with its own lines. Without it, the identity
+    is read first (one more round trip)."""
+    head = await exchange(client, [IDENTIFY], prefix) if version is None else b""
+    if head:
+        version = _identity(head)[0]
+    assert version is not None
+    plan = read_plan(version, prefix)
+    lines = plan.lines
+    if not head:
+        head = await exchange(client, [IDENTIFY, *lines[: BATCH - 1]], prefix)
+        lines = lines[BATCH - 1 :]
+    found, serial, at = _identity(head)
+    if found != version:  # another logger at the line: its own lines, all of them
+        plan = read_plan(found, prefix)
+        return ConfigRead(found, serial, plan, await exchange(client, plan.lines, prefix))
+    rest = await exchange(client, lines, prefix) if lines else b""
+    return ConfigRead(found, serial, plan, head[at:] + rest)

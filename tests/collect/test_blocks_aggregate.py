@@ -1,5 +1,5 @@
-"""The dashboard's extremes of a batch (blocks_sql.aggregate, issue 24): the inlined fast
-comparison picks exactly what the block rule (:func:`blocks_sql._take`) picks, on random
+"""The dashboard's extremes of a batch (blocks_rule.aggregate, issue 24): the inlined fast
+comparison picks exactly what the block rule (:func:`blocks_rule.take`) picks, on random
 batches with ties, NULLs, NaN and infinities."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Any
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sondalog.collect import blocks_sql
+from sondalog.collect import blocks_rule
 from sondalog.collect.model import Reading
 
 T0 = datetime(2026, 1, 1)
@@ -24,7 +24,7 @@ VALUES = st.one_of(
 
 def reference(batch: list[Reading]) -> dict[tuple[Any, ...], list[Any]]:
     """The rule applied reading by reading, for the finest size."""
-    size = blocks_sql.SIZES[0]
+    size = blocks_rule.SIZES[0]
     out: dict[tuple[Any, ...], list[Any]] = {}
     for r in batch:
         if r.channel <= 0:
@@ -35,8 +35,8 @@ def reference(batch: list[Reading]) -> dict[tuple[Any, ...], list[Any]]:
         if c is None:
             out[key] = [r.value, sec, r.value, sec]
         else:
-            blocks_sql._take(c, r.value, sec, 0, -1)
-            blocks_sql._take(c, r.value, sec, 2, 1)
+            blocks_rule.take(c, r.value, sec, 0, -1)
+            blocks_rule.take(c, r.value, sec, 2, 1)
     return out
 
 
@@ -58,9 +58,9 @@ def same(a: object, b: object) -> bool:
 )
 def test_aggregate_matches_the_rule(items: list[tuple[str, int, int, float | None]]) -> None:
     batch = [Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v) for lg, ch, s, v in items]
-    got = {row[:4]: list(row[4:]) for row in blocks_sql.aggregate(batch)}
+    got = {row[:4]: list(row[4:]) for row in blocks_rule.aggregate(batch)}
     want = reference(batch)
-    finest = {k: v for k, v in got.items() if k[1] == blocks_sql.SIZES[0]}
+    finest = {k: v for k, v in got.items() if k[1] == blocks_rule.SIZES[0]}
     assert finest.keys() == want.keys()
     for key, c in want.items():
         assert all(same(x, y) for x, y in zip(finest[key], c, strict=True)), key

@@ -7,11 +7,12 @@ through the protocol; every line within the manual's limits (120 characters a co
 from __future__ import annotations
 
 import asyncio
+import re
 import string
 from decimal import Decimal
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from station_helpers import ask, served
 
@@ -128,11 +129,17 @@ def check_lines(version: str, prefix: str, raw: bytes) -> None:
         at += len(line.parts) + 1
 
 
+_SHADOWING = re.compile(r"write command \d+ name\s*/\s*(read|write)", re.IGNORECASE)
+
+
 @pytest.mark.parametrize("version", ["2.10", "1.16"])
 def test_the_fast_read_gives_what_one_read_a_setting_gives(version: str) -> None:
     @settings(max_examples=60, suppress_health_check=list(HealthCheck))
     @given(hand=writes(version))
     def check(hand: list[str]) -> None:
+        # A user command named like a protocol command ("read i name") is what the logger
+        # runs when that line comes (§6.8): the one-read-a-setting reference cannot read it.
+        assume(not any(_SHADOWING.match(command) for command in hand))
         logger = VirtualLogger(version=Version(version))
         for command in hand:
             logger.command(command)

@@ -45,6 +45,7 @@ from collections.abc import Iterable, Sequence
 from datetime import UTC, datetime
 from typing import Any
 
+from sondalog.collect.blocks_rule import CONFLICT, MERGE, REPLACE, aggregate, epoch
 from sondalog.collect.model import Reading
 from sondalog.collect.schema import EXTREMES, EXTREMES_SIZES, EXTREMES_TODO
 
@@ -62,48 +63,6 @@ def _pick(which: str, source: str) -> str:
     has it, or, with every ``v`` NULL, NULL and the latest ``t``: the bare column beside a
     lone ``min``/``max`` (PostgreSQL: :func:`_pg_agg`)."""
     return f"SELECT s, channel, {which}(v) AS v, t FROM ({source}) GROUP BY s, channel"
-
-
-def _merge(v: str, t: str, better: str) -> str:
-    """``SET`` of one extreme: the stored block takes the new one (``excluded``) when its
-    value is ``better`` (``<``, ``>``), and on a tie the earlier time; NULL values lose to
-    any value, and between blocks of NULLs only the later time wins."""
-    old_v, old_t = f"{TABLE}.{v}", f"{TABLE}.{t}"
-    new_v, new_t = f"excluded.{v}", f"excluded.{t}"
-    takes = f"{old_v} IS NULL OR {new_v} {better} {old_v}"
-    return (
-        f"{v} = CASE WHEN {new_v} IS NULL THEN {old_v} WHEN {takes} THEN {new_v} "
-        f"ELSE {old_v} END, "
-        f"{t} = CASE WHEN {new_v} IS NULL THEN "
-        f"CASE WHEN {old_v} IS NULL AND {new_t} > {old_t} THEN {new_t} ELSE {old_t} END "
-        f"WHEN {takes} THEN {new_t} "
-        f"WHEN {new_v} = {old_v} AND {new_t} < {old_t} THEN {new_t} ELSE {old_t} END"
-    )
-
-
-def _changes(v: str, t: str, better: str) -> str:
-    """When :func:`_merge` changes the stored extreme: exactly its branches that take a new
-    value or time (a value, NULL or not, that is not better keeps the stored block)."""
-    old_v, old_t = f"{TABLE}.{v}", f"{TABLE}.{t}"
-    new_v, new_t = f"excluded.{v}", f"excluded.{t}"
-    return (
-        f"({new_v} IS NULL AND {old_v} IS NULL AND {new_t} > {old_t}) OR ({new_v} IS NOT NULL "
-        f"AND ({old_v} IS NULL OR {new_v} {better} {old_v} OR "
-        f"({new_v} = {old_v} AND {new_t} < {old_t})))"
-    )
-
-
-#: How a stored block takes new extremes; the same SQL on both servers. A block that keeps
-#: both extremes is not written at all (most coarse blocks, batch after batch: an update
-#: that changes nothing still writes a new row version and its index entry).
-MERGE = (
-    _merge("vmin", "tmin", "<")
-    + ", "
-    + _merge("vmax", "tmax", ">")
-    + f" WHERE {_changes('vmin', 'tmin', '<')} OR {_changes('vmax', 'tmax', '>')}"
-)
-_REPLACE = "vmin = excluded.vmin, tmin = excluded.tmin, vmax = excluded.vmax, tmax = excluded.tmax"
-_CONFLICT = "ON CONFLICT (logger, size, start, channel) DO UPDATE SET "
 
 
 def _both(source_min: str, source_max: str, size: int) -> str:
@@ -125,7 +84,7 @@ def _fine() -> str:
         "WHERE logger = ? AND time >= ? AND time <= ? AND channel > 0"
     )
     select = _both(rows, rows, size)
-    return f"INSERT INTO {TABLE} ({_COLS}) {select} {_CONFLICT}{MERGE}"
+    return f"INSERT INTO {TABLE} ({_COLS}) {select} {CONFLICT}{MERGE}"
 
 
 def _coarse(size: int, finer: int) -> str:
@@ -139,17 +98,13 @@ def _coarse(size: int, finer: int) -> str:
         )
 
     select = _both(source("min"), source("max"), size)
-    return f"INSERT INTO {TABLE} ({_COLS}) {select} {_CONFLICT}{_REPLACE}"
+    return f"INSERT INTO {TABLE} ({_COLS}) {select} {CONFLICT}{REPLACE}"
 
 
 #: SQLite: the statements that bring one logger's blocks up to date with its rows in a
 #: span, ``(sql, size, finer)`` (the finest: ``finer`` 0), in order.
 _SQLITE = [(_fine(), SIZES[0], 0)]
 _SQLITE += [(_coarse(s, f), s, f) for f, s in itertools.pairwise(SIZES)]
-
-
-def _epoch(at: datetime) -> int:
-    return int(at.replace(tzinfo=UTC).timestamp())
 
 
 def _text(seconds: int) -> str:
@@ -185,63 +140,10 @@ def params(logger: str, lo: Any, hi: Any, lo_s: int, hi_s: int) -> list[list[obj
     return out
 
 
-def _take(c: list[Any], v: float | None, t: int, at: int, better: int) -> None:
-    """``c[at], c[at + 1]`` (value, time) take ``(v, t)`` by the rule of the blocks (a
-    smaller, ``better`` -1, or larger value; on a tie the earlier time; NULL loses, and
-    between NULLs the later time)."""
-    old = c[at]
-    if v is None:
-        if old is None and t > c[at + 1]:
-            c[at + 1] = t
-    elif old is None or (v - old) * better > 0 or (v == old and t < c[at + 1]):
-        c[at], c[at + 1] = v, t
-
-
-def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:
-    """The blocks of every size of ``batch``'s readings (channels > 0) as rows of the table:
-    exact for a batch whose every row was stored (none ignored as a duplicate)."""
-    fine: dict[tuple[str, int, int], list[Any]] = {}
-    size = SIZES[0]
-    last: datetime | None = None
-    sec = start = 0
-    for r in batch:
-        if r.channel <= 0:
-            continue
-        if r.time != last:
-            last, sec = r.time, _epoch(r.time)
-            start = sec - sec % size
-        key = (r.logger, start, r.channel)
-        c = fine.get(key)
-        v = r.value
-        if c is None:
-            fine[key] = [v, sec, v, sec]
-        elif v is not None and c[0] is not None and c[2] is not None:  # _take, inlined
-            if v < c[0] or (v == c[0] and sec < c[1]):
-                c[0], c[1] = v, sec
-            if v > c[2] or (v == c[2] and sec < c[3]):
-                c[2], c[3] = v, sec
-        else:
-            _take(c, v, sec, 0, -1)
-            _take(c, v, sec, 2, 1)
-    out = [(lg, size, st, ch, *c) for (lg, st, ch), c in fine.items()]
-    for coarse in SIZES[1:]:
-        blocks: dict[tuple[str, int, int], list[Any]] = {}
-        for (lg, st, ch), c in fine.items():
-            key = (lg, st - st % coarse, ch)
-            b = blocks.get(key)
-            if b is None:
-                blocks[key] = list(c)
-            else:
-                _take(b, c[0], c[1], 0, -1)
-                _take(b, c[2], c[3], 2, 1)
-        out += [(lg, coarse, st, ch, *c) for (lg, st, ch), c in blocks.items()]
-    return out
-
-
-_UPSERT = f"INSERT INTO {TABLE} ({_COLS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?) {_CONFLICT}{MERGE}"
+_UPSERT = f"INSERT INTO {TABLE} ({_COLS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?) {CONFLICT}{MERGE}"
 _PG_UPSERT = (
     f"INSERT INTO {TABLE} ({_COLS}) SELECT * FROM unnest(%b::text[], %b::int[], %b::bigint[], "
-    f"%b::int[], %b::float8[], %b::bigint[], %b::float8[], %b::bigint[]) {_CONFLICT}{MERGE}"
+    f"%b::int[], %b::float8[], %b::bigint[], %b::float8[], %b::bigint[]) {CONFLICT}{MERGE}"
 )  # binary parameters: psycopg's text form quotes every element (a fifth of the cost)
 
 
@@ -288,7 +190,7 @@ def ensure_sqlite(conn: sqlite3.Connection) -> bool:
         if sql.strip():
             conn.execute(sql)
     todo = [
-        (logger, (_epoch(datetime.fromisoformat(last)) // DAY + 1) * DAY)
+        (logger, (epoch(datetime.fromisoformat(last)) // DAY + 1) * DAY)
         for logger, last in conn.execute(_LOGGERS).fetchall()
     ]
     conn.executemany(f"INSERT OR REPLACE INTO {TODO} (logger, below) VALUES (?, ?)", todo)
@@ -310,7 +212,7 @@ def after_batch_sqlite(
         conn.executemany(_UPSERT, aggregate(batch))
         return
     for logger, (lo, hi) in found.items():
-        update_sqlite(conn, logger, lo.isoformat(timespec="seconds"), _epoch(lo), _epoch(hi))
+        update_sqlite(conn, logger, lo.isoformat(timespec="seconds"), epoch(lo), epoch(hi))
 
 
 def update_sqlite(conn: sqlite3.Connection, logger: str, lo: str, lo_s: int, hi_s: int) -> None:
@@ -384,7 +286,7 @@ def _pg_agg(source: str, size: int, v: tuple[str, str], t: tuple[str, str], keep
     return (
         f"INSERT INTO {TABLE} ({_COLS}) SELECT logger, {size}, s, channel, "
         f"min({v[0]}), {first(v[0], t[0], '')}, max({v[1]}), {first(v[1], t[1], ' DESC')} "
-        f"FROM ({source}) q GROUP BY logger, s, channel {_CONFLICT}{keep}"
+        f"FROM ({source}) q GROUP BY logger, s, channel {CONFLICT}{keep}"
     )
 
 
@@ -408,7 +310,7 @@ def _pg_statements() -> list[tuple[str, int]]:
             f"e.vmax, e.tmax FROM {_PG_STARTS} JOIN {TABLE} e ON e.logger = r.logger "
             f"AND e.size = {finer} AND e.start >= r.lo AND e.start < r.hi"
         )
-        out.append((_pg_agg(blocks, coarse, ("vmin", "vmax"), ("tmin", "tmax"), _REPLACE), coarse))
+        out.append((_pg_agg(blocks, coarse, ("vmin", "vmax"), ("tmin", "tmax"), REPLACE), coarse))
     return out
 
 
@@ -469,7 +371,7 @@ async def after_batch_postgres(
     if whole:
         await cur.execute(_PG_UPSERT, [list(col) for col in zip(*rows, strict=True)])
         return
-    secs = {logger: (_epoch(lo), _epoch(hi)) for logger, (lo, hi) in found.items()}
+    secs = {logger: (epoch(lo), epoch(hi)) for logger, (lo, hi) in found.items()}
     for (sql, _), args in zip(_PG_BATCH, _pg_params(secs), strict=True):
         await cur.execute(sql, args)
 

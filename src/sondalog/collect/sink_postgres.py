@@ -59,7 +59,7 @@ from typing import TypeVar
 import psycopg
 from psycopg import conninfo
 
-from sondalog.collect import blocks_sql, pg_rows, schema_pg
+from sondalog.collect import blocks_rule, blocks_sql, pg_rows, schema_pg
 from sondalog.collect.model import Reading, SinkUnavailable
 from sondalog.collect.schema_pg import (
     BRIN,
@@ -207,7 +207,7 @@ async def insert_rows(
 
 
 def _aggregate_into(out: list[tuple[object, ...]], batch: Sequence[Reading]) -> None:
-    out.extend(blocks_sql.aggregate(batch))
+    out.extend(blocks_rule.aggregate(batch))
 
 
 async def store_part(

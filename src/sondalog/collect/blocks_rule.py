@@ -1,0 +1,118 @@
+"""The rule by which a block of the dashboard's extremes takes new ones (issue 24), in
+Python (:func:`take`, :func:`aggregate`: a batch's blocks) and in SQL (:data:`MERGE`: the
+same rule on SQLite and PostgreSQL), for :mod:`.blocks_sql`.
+
+A smaller (``vmin``) or larger (``vmax``) value wins; on a tie the earlier time; NULL loses
+to any value, and between NULLs the later time wins.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from datetime import UTC, datetime
+from typing import Any
+
+from sondalog.collect.model import Reading
+from sondalog.collect.schema import EXTREMES, EXTREMES_SIZES
+
+SIZES = EXTREMES_SIZES
+TABLE = EXTREMES
+
+
+def _merge(v: str, t: str, better: str) -> str:
+    """``SET`` of one extreme: the stored block takes the new one (``excluded``) when its
+    value is ``better`` (``<``, ``>``), and on a tie the earlier time; NULL values lose to
+    any value, and between blocks of NULLs only the later time wins."""
+    old_v, old_t = f"{TABLE}.{v}", f"{TABLE}.{t}"
+    new_v, new_t = f"excluded.{v}", f"excluded.{t}"
+    takes = f"{old_v} IS NULL OR {new_v} {better} {old_v}"
+    return (
+        f"{v} = CASE WHEN {new_v} IS NULL THEN {old_v} WHEN {takes} THEN {new_v} "
+        f"ELSE {old_v} END, "
+        f"{t} = CASE WHEN {new_v} IS NULL THEN "
+        f"CASE WHEN {old_v} IS NULL AND {new_t} > {old_t} THEN {new_t} ELSE {old_t} END "
+        f"WHEN {takes} THEN {new_t} "
+        f"WHEN {new_v} = {old_v} AND {new_t} < {old_t} THEN {new_t} ELSE {old_t} END"
+    )
+
+
+def _changes(v: str, t: str, better: str) -> str:
+    """When :func:`_merge` changes the stored extreme: exactly its branches that take a new
+    value or time (a value, NULL or not, that is not better keeps the stored block)."""
+    old_v, old_t = f"{TABLE}.{v}", f"{TABLE}.{t}"
+    new_v, new_t = f"excluded.{v}", f"excluded.{t}"
+    return (
+        f"({new_v} IS NULL AND {old_v} IS NULL AND {new_t} > {old_t}) OR ({new_v} IS NOT NULL "
+        f"AND ({old_v} IS NULL OR {new_v} {better} {old_v} OR "
+        f"({new_v} = {old_v} AND {new_t} < {old_t})))"
+    )
+
+
+#: How a stored block takes new extremes; the same SQL on both servers. A block that keeps
+#: both extremes is not written at all (most coarse blocks, batch after batch: an update
+#: that changes nothing still writes a new row version and its index entry).
+MERGE = (
+    _merge("vmin", "tmin", "<")
+    + ", "
+    + _merge("vmax", "tmax", ">")
+    + f" WHERE {_changes('vmin', 'tmin', '<')} OR {_changes('vmax', 'tmax', '>')}"
+)
+REPLACE = "vmin = excluded.vmin, tmin = excluded.tmin, vmax = excluded.vmax, tmax = excluded.tmax"
+CONFLICT = "ON CONFLICT (logger, size, start, channel) DO UPDATE SET "
+
+
+def epoch(at: datetime) -> int:
+    return int(at.replace(tzinfo=UTC).timestamp())
+
+
+def take(c: list[Any], v: float | None, t: int, at: int, better: int) -> None:
+    """``c[at], c[at + 1]`` (value, time) take ``(v, t)`` by the rule of the blocks (a
+    smaller, ``better`` -1, or larger value; on a tie the earlier time; NULL loses, and
+    between NULLs the later time)."""
+    old = c[at]
+    if v is None:
+        if old is None and t > c[at + 1]:
+            c[at + 1] = t
+    elif old is None or (v - old) * better > 0 or (v == old and t < c[at + 1]):
+        c[at], c[at + 1] = v, t
+
+
+def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:
+    """The blocks of every size of ``batch``'s readings (channels > 0) as rows of the table:
+    exact for a batch whose every row was stored (none ignored as a duplicate)."""
+    fine: dict[tuple[str, int, int], list[Any]] = {}
+    size = SIZES[0]
+    last: datetime | None = None
+    sec = start = 0
+    for r in batch:
+        if r.channel <= 0:
+            continue
+        if r.time != last:
+            last, sec = r.time, epoch(r.time)
+            start = sec - sec % size
+        key = (r.logger, start, r.channel)
+        c = fine.get(key)
+        v = r.value
+        if c is None:
+            fine[key] = [v, sec, v, sec]
+        elif v is not None and c[0] is not None and c[2] is not None:  # _take, inlined
+            if v < c[0] or (v == c[0] and sec < c[1]):
+                c[0], c[1] = v, sec
+            if v > c[2] or (v == c[2] and sec < c[3]):
+                c[2], c[3] = v, sec
+        else:
+            take(c, v, sec, 0, -1)
+            take(c, v, sec, 2, 1)
+    out = [(lg, size, st, ch, *c) for (lg, st, ch), c in fine.items()]
+    for coarse in SIZES[1:]:
+        blocks: dict[tuple[str, int, int], list[Any]] = {}
+        for (lg, st, ch), c in fine.items():
+            key = (lg, st - st % coarse, ch)
+            b = blocks.get(key)
+            if b is None:
+                blocks[key] = list(c)
+            else:
+                take(b, c[0], c[1], 0, -1)
+                take(b, c[2], c[3], 2, 1)
+        out += [(lg, coarse, st, ch, *c) for (lg, st, ch), c in blocks.items()]
+    return out

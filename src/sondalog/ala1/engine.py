@@ -35,10 +35,12 @@ CR, LF, BS, DEL, ESC, XON, XOFF = 0x0D, 0x0A, 0x08, 0x7F, 0x1B, 0x11, 0x13
 #: §3.4.5: a command must be entered within one minute of its first character.
 ENTRY_TIMEOUT = 60.0
 BREAK = b"BREAK\r\n"
-_PLUS, _EDITING = ord("+"), re.compile(rb"[\r\n\x08\x7f\x1b]")  # what _feed edits
 #: A whole command line as a program sends it: no echo, no editing key, no flow control
 #: byte, at most 120 characters, then CR (and LF): :meth:`Engine._plain` (issue 11).
 _PLAIN = re.compile(rb"[^+\r\n\x08\x7f\x1b\x11\x13][^\r\n\x08\x7f\x1b\x11\x13]{0,119}\r\n?")
+#: One whole line inside received data after flow control, as :meth:`Engine._feed`'s loop
+#: would take it (no ``+``, no editing key; CR, and an LF after it, which ends an empty line).
+_WHOLE = re.compile(rb"[^+\r\n\x08\x7f\x1b][^\r\n\x08\x7f\x1b]{0,%d}\r\n?" % (MAX_LINE - 1))
 
 
 class Engine:
@@ -262,27 +264,10 @@ class Engine:
             deadlines.append(message)
         idle: list[int] = []
         for line in self._busy.values():
-            if (
-                line.pending is None
-                and line.started is None
-                and line.transfer is None
-                and line.pacer.idle()
-            ):
+            if line.idle():
                 idle.append(line.ident)
-                continue
-            if line.pending is not None:
-                deadlines.append(line.run_at)
-            elif line.started is not None:
-                deadlines.append(line.started + ENTRY_TIMEOUT * self.scale)
-            if line.transfer is not None:
-                transfer = line.transfer
-                if transfer.grace_until is not None:
-                    deadlines.append(transfer.grace_until)
-                elif (due := transfer.peer.next_deadline()) is not None:
-                    deadlines.append(due * self.scale)
-            paced = line.pacer.next_deadline()
-            if paced is not None:
-                deadlines.append(paced * self.scale)
+            else:
+                deadlines += line.deadlines(ENTRY_TIMEOUT * self.scale, self.scale)
         for line_id in idle:
             del self._busy[line_id]
         return min(deadlines, default=None)
@@ -347,18 +332,24 @@ class Engine:
 
     def _feed(self, line_id: int, line: _Line, data: bytes, now: float) -> None:
         data = self._flow_control(line, data, now)
-        if (
-            data
-            and data[-1] == CR
-            and not line.buffer
-            and line.started is None
-            and data[0] != _PLUS
-            and len(data) <= MAX_LINE + 1
-            and not _EDITING.search(data, 0, len(data) - 1)
-        ):
-            # one whole line without echo or editing keys: as the loop below (issue 11)
-            self._complete(line_id, line, data[:-1].decode("latin-1"), False, now)
-            return
+        if not line.buffer and line.started is None and (found := _WHOLE.match(data)):
+            # whole lines without echo or editing keys (issues 11, 24: a client's chained
+            # reads come as many lines at once): each as the loop below would take it
+            at = 0
+            while found is not None:
+                at = found.end()
+                text = data[found.start() : at].rstrip(b"\n")[:-1].decode("latin-1")
+                self._complete(line_id, line, text, False, now)
+                if line.pending is not None:
+                    line.hold(data[at:])
+                    return
+                if line.transfer is not None:
+                    rest = transfers.take_input(self, line, data[at:], now)
+                    if rest:
+                        self._feed(line_id, line, rest, now)
+                    return
+                found = _WHOLE.match(data, at)
+            data = data[at:]
         echo = bytearray()
         for index, byte in enumerate(data):
             if byte in (CR, LF):

@@ -76,3 +76,31 @@ class Line:
             self.overflow = True
             if self.started is None:
                 self.started = now  # and the entry timeout (§3.4.5) ends it
+
+    def idle(self) -> bool:
+        """Nothing on the line waits: no command, no partial line, no transfer, no output."""
+        return (
+            self.pending is None
+            and self.started is None
+            and self.transfer is None
+            and self.pacer.idle()
+        )
+
+    def deadlines(self, entry_timeout: float, scale: float) -> list[float]:
+        """When the line needs its engine next (host clock): the waiting command's run, the
+        entry timeout of a partial line (§3.4.5, ``entry_timeout`` host seconds), the
+        transfer's grace or its peer's next step, the paced output (``scale``: module
+        seconds to host seconds)."""
+        out: list[float] = []
+        if self.pending is not None:
+            out.append(self.run_at)
+        elif self.started is not None:
+            out.append(self.started + entry_timeout)
+        if (transfer := self.transfer) is not None:
+            if transfer.grace_until is not None:
+                out.append(transfer.grace_until)
+            elif (due := transfer.peer.next_deadline()) is not None:
+                out.append(due * scale)
+        if (paced := self.pacer.next_deadline()) is not None:
+            out.append(paced * scale)
+        return out

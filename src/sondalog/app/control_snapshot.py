@@ -17,7 +17,7 @@ record that was rewritten since, some 600 pages, not 40,000 rows.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from sondalog.ala1.record import RecordChanges, RecordMemory, Sealed
 from sondalog.backends.store.ala1_nv import LoggerNvStore
@@ -58,6 +58,7 @@ def read_state(store: LoggerNvStore, record: RecordMemory) -> StoredState:
     params = conn.execute("SELECT key, value FROM param WHERE logger = ?", (key,)).fetchall()
     meta = dict(conn.execute("SELECT key, value FROM meta WHERE logger = ?", (key,)).fetchall())
     meta["record_head"] = str(first_seq(record))  # (the engine's, written or not)
+    meta["record_size"] = f"{first_seq(record)},{record.next_seq},{record.chars}"
     files = conn.execute("SELECT area, data FROM file WHERE logger = ?", (key,)).fetchall()
     return StoredState(
         tuple(params),
@@ -122,6 +123,14 @@ class Preloaded:
         wrapped, refused = meta.get("record_wrapped") == "1", meta.get("record_refused") == "1"
         rows = self.state.sealed or list(self.state.record)
         return rows, first, wrapped, refused
+
+    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
+        """As :meth:`load_record`, the pages in RAM let go once built: they were just
+        written, ``store`` loads them when read (issue 24)."""
+        rows, first, wrapped, refused = self.load_record()
+        if isinstance(rows, Sealed):
+            return replace(rows, source=self.store), first, wrapped, refused
+        return Sealed((), tuple(rows), 0, self.store), first, wrapped, refused
 
     def load_files(self) -> dict[str, bytes]:
         return dict(self.state.files)

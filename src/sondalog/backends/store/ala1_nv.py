@@ -34,7 +34,8 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
-from sondalog.ala1.record import RecordChanges
+from sondalog.ala1.record import RecordChanges, Sealed
+from sondalog.ala1.record_page import PAGE
 from sondalog.backends.store import record_pages
 from sondalog.io.private import connect_private
 
@@ -42,6 +43,8 @@ log = logging.getLogger(__name__)
 
 #: The key of a logger alone in its file (``ala1.sqlite``).
 SINGLE = ""
+
+assert record_pages.PAGE_ROWS == PAGE, "a page in RAM is a page on disk"
 
 _TABLES = (
     "CREATE TABLE IF NOT EXISTS param (logger TEXT NOT NULL, key TEXT NOT NULL, "
@@ -172,6 +175,11 @@ class NvDatabase:
             if not self._waiting:
                 self._schedule(self.flush)
             self._waiting.append((logger, commit))
+
+    def waiting(self, logger: str) -> bool:
+        """Whether a commit of ``logger`` waits for the end of the turn."""
+        with self._lock:
+            return any(key == logger for key, _ in self._waiting)
 
     def flush(self) -> None:
         """Write every waiting commit in one transaction (by the writer thread if any)."""
@@ -306,6 +314,9 @@ def _apply(
         conn.execute(_UPSERT_META, (logger, "record_head", str(record.head_seq)))
         conn.execute(_UPSERT_META, (logger, "record_wrapped", "1" if record.wrapped else "0"))
         conn.execute(_UPSERT_META, (logger, "record_refused", "1" if record.refused else "0"))
+        size = record.size()
+        if size is not None:  # (checked against the rows at start, :meth:`load_record`)
+            conn.execute(_UPSERT_META, (logger, "record_size", size))
 
 
 class LoggerNvStore:
@@ -348,12 +359,52 @@ class LoggerNvStore:
         rows, first = record_pages.load_rows(
             self.conn, self.logger, None if head is None else int(head)
         )
-        return (
-            rows,
-            first,
-            self._meta("record_wrapped") == "1",
-            self._meta("record_refused") == "1",
-        )
+        return rows, first, *self._flags()
+
+    def _flags(self) -> tuple[bool, bool]:
+        return self._meta("record_wrapped") == "1", self._meta("record_refused") == "1"
+
+    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
+        """The record for an engine that loads its older pages when read (:meth:`load_page`,
+        issue 24): only its newest page when the store knows its size, else every row; the
+        sequence number of its first row, and the wrapped/refused flags."""
+        head = self._meta("record_head")
+        lazy = self._lazy_record(head)
+        if lazy is not None:
+            return lazy, int(head or 0), *self._flags()
+        rows, first, wrapped, refused = self.load_record()
+        return Sealed((), tuple(rows), 0, self), first, wrapped, refused
+
+    def _lazy_record(self, head_text: str | None) -> Sealed | None:
+        """The record as its newest page and its size (``record_size``, written with every
+        commit: ``HEAD,END,CHARS``) if that agrees with the pages on disk."""
+        size = self._meta("record_size")
+        if head_text is None or size is None:
+            return None
+        head = int(head_text)
+        size_head, end, chars = map(int, size.split(","))
+        found = record_pages.newest(self.conn, self.logger, head)
+        # (rows dropped before they reached the store: the disk ends before the head)
+        if size_head != head or found is None or (found[0] != end and not found[0] < end == head):
+            return None
+        _, first, rows = found
+        low, last = head // PAGE * PAGE, end // PAGE * PAGE  # the first page; the tail's start
+        if end > last and first > max(last, head):
+            return None  # (rows missing above the head: the whole record is read)
+        tail = [""] * (end - max(last, head))
+        if end > last:  # rows of the unfinished page (those below the head stay "")
+            kept = rows[max(last, head) - first :]
+            tail[len(tail) - len(kept) :] = kept
+        if head >= last:  # every row in the tail
+            return Sealed((), tuple(tail), 0, self, chars)
+        return Sealed((None,) * ((last - low) // PAGE), tuple(tail), head - low, self, chars)
+
+    def load_page(self, page: int) -> tuple[int, list[str]]:
+        """Page ``page`` of the record (the engine's page source): what waits for the group
+        commit with rows of this logger is written first."""
+        if self.database.waiting(self.logger):
+            self.database.write([])
+        return record_pages.load_page(self.conn, self.logger, page)
 
     def load_files(self) -> dict[str, bytes]:
         return {

@@ -153,6 +153,36 @@ def load_rows(conn: sqlite3.Connection, logger: str, head: int | None) -> tuple[
     return rows, start
 
 
+def load_page(conn: sqlite3.Connection, logger: str, page: int) -> tuple[int, list[str]]:
+    """The rows of ``page`` (first sequence number, rows; none: ``page``'s first, [])."""
+    found = conn.execute(
+        "SELECT first, rows FROM record_page WHERE logger = ? AND page = ?", (logger, page)
+    ).fetchone()
+    return (page * PAGE_ROWS, []) if found is None else (int(found[0]), json.loads(found[1]))
+
+
+def newest(conn: sqlite3.Connection, logger: str, head: int) -> tuple[int, int, list[str]] | None:
+    """Where ``logger``'s record ends without reading it (issue 24: a fleet starting): the
+    sequence number after its newest row, and the rows of the newest page from its first
+    (their first's number, the rows); None if a page is missing between the head's and the
+    newest (the whole record is then read, :func:`load_rows`)."""
+    found = conn.execute(
+        "SELECT page, first, rows FROM record_page WHERE logger = ? ORDER BY page DESC LIMIT 1",
+        (logger,),
+    ).fetchone()
+    if found is None:
+        return head, head, []
+    page, first, rows = int(found[0]), int(found[1]), json.loads(found[2])
+    low = head // PAGE_ROWS
+    if page > low:
+        (count,) = conn.execute(
+            "SELECT count(*) FROM record_page WHERE logger = ? AND page >= ?", (logger, low)
+        ).fetchone()
+        if count != page - low + 1 or first != page * PAGE_ROWS:
+            return None
+    return first + len(rows), first, rows
+
+
 def write_record(
     conn: sqlite3.Connection,
     logger: str,

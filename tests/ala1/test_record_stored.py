@@ -210,6 +210,7 @@ def test_a_month_of_rows_keeps_only_its_newest_in_ram(tmp_path: Path, tiny_cache
         assert again._pages.count(None) == len(again._pages) > 400
         assert again.status() == memory.status() == "0,1.00,FULL"
         assert again.chars == memory.chars
+        assert again.rows() == memory.rows()  # (pages read in one go)
         assert again.rows(0, 3) == memory.rows(0, 3)
         assert again.rows(len(memory) - 2) == memory.rows(len(memory) - 2)
         point = "20200115"

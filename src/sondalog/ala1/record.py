@@ -31,8 +31,8 @@ import bisect
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
+from sondalog.ala1.record_page import BULK, Page, PageSource, decoded, loaded, read_pages
 from sondalog.ala1.record_page import PAGE as PAGE
-from sondalog.ala1.record_page import Page, PageSource, decoded, loaded
 
 _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 #: The newest rows (at least KEEP) stay plain strings.
@@ -185,6 +185,11 @@ class RecordMemory:
         )
         return Sealed(pages, tuple(self._tail), self._head - first * PAGE, None, self.chars)
 
+    @property
+    def paged(self) -> bool:
+        """Whether the older pages are in a source (the store), not all in RAM."""
+        return self._source is not None
+
     def _page_rows(self, index: int) -> list[str]:
         """The rows of page ``index`` in RAM, decoded or loaded from the source."""
         page = self._pages[index]
@@ -244,10 +249,15 @@ class RecordMemory:
         sealed = len(self._pages) * PAGE
         out: list[str] = []
         index = begin
+        many: dict[int, list[str]] = {}  # many pages let go: read in one go, not kept
+        if self._source is not None and min(end, sealed) - begin > BULK * PAGE:
+            first = self._seq0 // PAGE
+            many = read_pages(self._source, first + begin // PAGE, first + end // PAGE)
         while index < min(end, sealed):
             page, offset = divmod(index, PAGE)
             stop = min(end - page * PAGE, PAGE)
-            out.extend(self._page_rows(page)[offset:stop])
+            rows = many.get(self._seq0 // PAGE + page) if self._pages[page] is None else None
+            out.extend((rows or self._page_rows(page))[offset:stop])
             index = page * PAGE + stop
         if end > sealed:
             out.extend(self._tail[max(begin, sealed) - sealed : end - sealed])

@@ -24,6 +24,8 @@ _LEVEL, _WBITS = 1, -12
 
 #: Pages loaded from the stores, kept decoded for all loggers (about 6 KB each).
 LOADED_PAGES = 256
+#: A read of more pages than this reads them in one go (:func:`read_pages`).
+BULK = 8
 
 
 class PageSource(Protocol):
@@ -32,6 +34,10 @@ class PageSource(Protocol):
     def load_page(self, page: int) -> tuple[int, list[str]]:
         """The rows stored in page ``page`` (sequence numbers ``page * PAGE`` ..): the first
         one's sequence number and the rows, all it has of them (none: an empty list)."""
+        ...
+
+    def load_pages(self, first: int, last: int) -> list[tuple[int, int, list[str]]]:
+        """Pages ``first`` to ``last`` (those it has): (page, first sequence number, rows)."""
         ...
 
 
@@ -69,12 +75,23 @@ def loaded(key: object, page: int, source: PageSource) -> list[str]:
     if found is not None:
         _LOADED.move_to_end((key, page))
         return found
-    first, rows = source.load_page(page)
+    found = _aligned(page, *source.load_page(page))
+    _LOADED[key, page] = found
+    if len(_LOADED) > LOADED_PAGES:
+        _LOADED.popitem(last=False)
+    return found
+
+
+def read_pages(source: PageSource, first: int, last: int) -> dict[int, list[str]]:
+    """Pages ``first`` to ``last`` of ``source`` as :func:`loaded` gives each, by page (a
+    whole record read: one query, and the cache keeps what it held)."""
+    return {page: _aligned(page, at, rows) for page, at, rows in source.load_pages(first, last)}
+
+
+def _aligned(page: int, first: int, rows: list[str]) -> list[str]:
+    """The :data:`PAGE` rows of ``page`` from its rows from ``first`` ("" where none)."""
     at = first - page * PAGE
     assert at >= 0 and at + len(rows) <= PAGE, f"page {page} holds rows of another"
     found = [""] * PAGE
     found[at : at + len(rows)] = rows
-    _LOADED[key, page] = found
-    if len(_LOADED) > LOADED_PAGES:
-        _LOADED.popitem(last=False)
     return found

@@ -66,7 +66,7 @@ def read_state(store: LoggerNvStore, record: RecordMemory) -> StoredState:
         tuple((a, bytes(d)) for a, d in files),
         first_seq(record),
         tuple(record.rows()),
-        sealed=record.sealed(),
+        sealed=None if record.paged else record.sealed(),  # (paged: the restore reads)
     )
 
 
@@ -127,6 +127,8 @@ class Preloaded:
     def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
         """As :meth:`load_record`, the pages in RAM let go once built: they were just
         written, ``store`` loads them when read (issue 24)."""
+        if self.state.sealed is None:  # (the engine was paged: its newest page, its size)
+            return self.store.load_paged_record()
         rows, first, wrapped, refused = self.load_record()
         if isinstance(rows, Sealed):
             return replace(rows, source=self.store), first, wrapped, refused

@@ -406,6 +406,12 @@ class LoggerNvStore:
             self.database.write([])
         return record_pages.load_page(self.conn, self.logger, page)
 
+    def load_pages(self, first: int, last: int) -> list[tuple[int, int, list[str]]]:
+        """Pages ``first`` to ``last`` that exist, in one query (a whole record read)."""
+        if self.database.waiting(self.logger):
+            self.database.write([])
+        return record_pages.load_pages(self.conn, self.logger, first, last)
+
     def load_files(self) -> dict[str, bytes]:
         return {
             a: bytes(d)

@@ -161,6 +161,17 @@ def load_page(conn: sqlite3.Connection, logger: str, page: int) -> tuple[int, li
     return (page * PAGE_ROWS, []) if found is None else (int(found[0]), json.loads(found[1]))
 
 
+def load_pages(
+    conn: sqlite3.Connection, logger: str, low: int, high: int
+) -> list[tuple[int, int, list[str]]]:
+    """Pages ``low`` to ``high`` that exist: (page, first sequence number, rows)."""
+    found = conn.execute(
+        "SELECT page, first, rows FROM record_page WHERE logger = ? AND page BETWEEN ? AND ?",
+        (logger, low, high),
+    )
+    return [(int(page), int(first), json.loads(rows)) for page, first, rows in found]
+
+
 def newest(conn: sqlite3.Connection, logger: str, head: int) -> tuple[int, int, list[str]] | None:
     """Where ``logger``'s record ends without reading it (issue 24: a fleet starting): the
     sequence number after its newest row, and the rows of the newest page from its first

@@ -31,10 +31,14 @@ import sqlite3
 from collections.abc import Iterable, Sequence
 from itertools import groupby
 
+from sondalog.ala1.record import Sealed
+from sondalog.ala1.record_page import PAGE, PageSource
+
 log = logging.getLogger(__name__)
 
-#: Rows a page holds: 64 sampled rows of a few channels fit in one 4 KiB database page.
-PAGE_ROWS = 64
+#: Rows a page holds: 64 sampled rows of a few channels fit in one 4 KiB database page (a
+#: page in RAM is a page on disk: :data:`sondalog.ala1.record_page.PAGE`).
+PAGE_ROWS = PAGE
 
 TABLE = (
     "CREATE TABLE IF NOT EXISTS record_page (logger TEXT NOT NULL, page INTEGER NOT NULL, "
@@ -170,6 +174,30 @@ def load_pages(
         (logger, low, high),
     )
     return [(int(page), int(first), json.loads(rows)) for page, first, rows in found]
+
+
+def stored_record(
+    conn: sqlite3.Connection, logger: str, head: int, size: str, source: PageSource
+) -> Sealed | None:
+    """``logger``'s record as its newest page, its older pages in ``source``, if its size
+    (``record_size``: ``HEAD,END,CHARS``, written with every commit) agrees with the pages
+    on disk; None: the whole record must be read (:func:`load_rows`)."""
+    size_head, end, chars = map(int, size.split(","))
+    found = newest(conn, logger, head)
+    # (rows dropped before they reached the store: the disk ends before the head)
+    if size_head != head or found is None or (found[0] != end and not found[0] < end == head):
+        return None
+    _, first, rows = found
+    low, last = head // PAGE * PAGE, end // PAGE * PAGE  # the first page; the tail's start
+    if end > last and first > max(last, head):
+        return None  # (rows missing above the head)
+    tail = [""] * (end - max(last, head))
+    if end > last:  # rows of the unfinished page (those below the head stay "")
+        kept = rows[max(last, head) - first :]
+        tail[len(tail) - len(kept) :] = kept
+    if head >= last:  # every row in the tail
+        return Sealed((), tuple(tail), 0, source, chars)
+    return Sealed((None,) * ((last - low) // PAGE), tuple(tail), head - low, source, chars)
 
 
 def newest(conn: sqlite3.Connection, logger: str, head: int) -> tuple[int, int, list[str]] | None:

@@ -90,9 +90,12 @@ def write_state(store: LoggerNvStore, state: StoredState, record: RecordMemory) 
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?)",
             [(key, a, d) for a, d in state.files],
         )
-        write_record(
-            conn, key, state.first_seq, state.record, first_seq(record), record.rows(), state.pages
+        now_first = first_seq(record)  # (the rows now are read only if some may be kept)
+        apart = (
+            now_first >= state.first_seq + state.rows or now_first + len(record) <= state.first_seq
         )
+        now = () if apart else record.rows()
+        write_record(conn, key, state.first_seq, state.record, now_first, now, state.pages)
     except BaseException:
         conn.execute("ROLLBACK")
         raise

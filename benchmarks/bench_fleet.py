@@ -31,10 +31,11 @@ The module clocks follow the wall clock's local time (``write date``); the logge
 minutes start with the wall clock's in any time zone whose offset is whole minutes.
 
 ``--fill ROWS`` (a long run: a month of 1-minute rows is 43,200): before the first start
-every logger's memory gets ROWS record rows of 4 channels (a random walk, 1-minute stamps,
-written into the fleet's database as the loggers would have), so the RSS figures show what
-a fleet that has run for that long holds. Mind the disk: about 50 bytes a row and logger
-(``--loggers 1000 --fill 24000``: 1.2 GB; the factory record holds about 24,000 such rows).
+every logger's memory gets ROWS record rows of 4 channels (one of 8 random walks, 1-minute
+stamps, written into the fleet's database as the loggers would have, with the record's
+size), so the RSS figures show what a fleet that has run for that long holds. Mind the
+disk: about 50 bytes a row and logger (``--loggers 1000 --fill 24000``: 1.2 GB; the
+factory record holds about 24,000 such rows).
 """
 
 from __future__ import annotations
@@ -118,14 +119,20 @@ def prefill(count: int, work: Path, rows: int) -> None:
     rng = random.Random(24)
     began = time.perf_counter()
     start = int(time.time()) // 60 * 60 - rows * 60
-    for n in range(1, count + 1):
+    stamps = [time.strftime("%Y%m%d%H%M%S", time.localtime(start + s * 60)) for s in range(rows)]
+    variants = []  # (a few random walks, taken in turn: a fleet of thousands fills in minutes)
+    for _ in range(min(count, 8)):
         values = [12.0, 11.5, 20.0, 3.3]
         made = []
         for seq in range(rows):
             values = [round(v + rng.choice((-0.01, 0.0, 0.0, 0.01)), 2) for v in values]
-            stamp = time.strftime("%Y%m%d%H%M%S", time.localtime(start + seq * 60))
-            made.append((seq, f"{stamp}.0,1," + ",".join(f"{v:.2f}" for v in values)))
-        database.write([(f"F{n:05}", ({}, None, RecordChanges(made, 0, False, False), None))])
+            made.append((seq, f"{stamps[seq]}.0,1," + ",".join(f"{v:.2f}" for v in values)))
+        size = {"chars": sum(len(row) + 2 for _, row in made), "end": rows}  # (as an engine)
+        if "chars" not in RecordChanges.__dataclass_fields__:
+            size = {}  # (a tree before the record's size was stored: --fill compares it too)
+        variants.append(RecordChanges(made, 0, False, False, **size))
+    for n in range(1, count + 1):
+        database.write([(f"F{n:05}", ({}, None, variants[n % len(variants)], None))])
     database.close()
     print(f"prefilled {count} x {rows} rows in {time.perf_counter() - began:.0f} s")
 

@@ -132,13 +132,16 @@ class ListRecordMemory:
     # -- transactions ------------------------------------------------------------------------
     def mark(self) -> RecordMark:
         return RecordMark(
-            len(self._rows), self._head, self.chars, self.wrapped, self.refused, self._staged
+            len(self._rows),
+            *(self._head, self.chars, self.wrapped, self.refused, self._staged, self._stored_head),
         )
 
     def rollback(self, mark: RecordMark) -> None:
         del self._rows[mark.length :]
         self._head, self.chars = mark.head, mark.chars
         self.wrapped, self.refused, self._staged = mark.wrapped, mark.refused, mark.staged
+        if mark.stored_head is not None:
+            self._stored_head = mark.stored_head
 
     def take_changes(self) -> RecordChanges | None:
         """What changed since the last call; compacts dropped rows away."""
@@ -148,7 +151,8 @@ class ListRecordMemory:
         first_new = len(self._rows) - self._staged
         first_kept = max(first_new, self._head)  # rows dropped again before reaching the store
         new_rows = [(self._seq0 + i, self._rows[i]) for i in range(first_kept, len(self._rows))]
-        changes = RecordChanges(new_rows, head_seq, self.wrapped, self.refused)
+        end = self._seq0 + len(self._rows)
+        changes = RecordChanges(new_rows, head_seq, self.wrapped, self.refused, self.chars, end)
         self._staged = 0
         self._stored_head = head_seq
         if self._head > 4096 and self._head * 2 > len(self._rows):

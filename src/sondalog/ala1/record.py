@@ -11,26 +11,53 @@ atomic, and :meth:`RecordMemory.take_changes` hands the store what to write.
 In RAM the rows are kept compactly (issue 24: a month of 1-minute rows of 10,000 loggers was
 tens of GB as one string object a row): all but the newest rows are sealed into pages of
 :data:`PAGE` rows, each one zlib-compressed text with the rows' ends, decompressed when
-read (the last few decoded pages are kept, :func:`_decoded`).
+read (the last few decoded pages are kept, :func:`~sondalog.ala1.record_page.decoded`).
+
+With a :class:`~sondalog.ala1.record_page.PageSource` (the store, issue 24: a month of rows
+of 10,000 loggers was still 3.6 GB compressed) a sealed page leaves RAM once the store has its
+rows: RAM keeps a ``None`` in its place, and a read loads the page from the source (the last
+pages loaded, fleet-wide, are kept: :func:`~sondalog.ala1.record_page.loaded`). Page ``n``
+in RAM is page ``seq // PAGE`` on disk: the first page always starts at a multiple of
+:data:`PAGE` (rows before the record's first are empty strings, below the head). A page is
+let go only once the store was handed its rows and the line or sampling run that handed them
+was not rolled back (:meth:`RecordMemory.take_changes` lets go of what the call before
+handed); the page the oldest row is in comes back while rows are dropped from it (a cyclic
+record drops about one a row it writes: one load per :data:`PAGE` rows).
 """
 
 from __future__ import annotations
 
 import bisect
-import functools
-import itertools
-import zlib
-from array import array
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+from sondalog.ala1.record_page import BULK, Page, PageSource, decoded, loaded, read_pages
+from sondalog.ala1.record_page import PAGE as PAGE
 
 _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
-#: Rows sealed into one page; the newest rows (at least KEEP) stay plain strings.
-PAGE = 64
+#: The newest rows (at least KEEP) stay plain strings.
 KEEP = 16
-#: Raw deflate, level 1, a 4 KiB window: a page of 64 rows (about 5 KB) in 35 us instead
-#: of 90 us (level 6, 32 KiB: most of that is setting up the window), at about 10 bytes a
-#: row instead of 6; a simulated year seals some 8,000 pages.
-_LEVEL, _WBITS = 1, -12
+
+
+@runtime_checkable
+class PagedStore(Protocol):
+    """A store that is a :class:`PageSource` for the records it loads (the engine then
+    keeps only the newest rows in RAM)."""
+
+    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
+        """As ``NvStore.load_record``; the pages may be ``None`` (in the source)."""
+        ...
+
+
+class RecordStore(Protocol):
+    def load_record(self) -> tuple[list[str] | Sealed, int, bool, bool]: ...
+
+
+def load_record(store: RecordStore) -> RecordMemory:
+    """The record ``store`` holds (a :class:`PagedStore`: its newest rows in RAM), cyclic
+    and of no size until the parameters are applied."""
+    loaded = store.load_paged_record() if isinstance(store, PagedStore) else store.load_record()
+    return RecordMemory(*loaded[:2], 0, True, *loaded[2:])
 
 
 def row_key(row: str) -> str:
@@ -46,6 +73,17 @@ class RecordChanges:
     head_seq: int
     wrapped: bool
     refused: bool
+    #: The record's characters after these changes (the store keeps them: a start needs
+    #: not read every row to answer ``read record status``).
+    chars: int | None = None
+    #: The sequence number after the newest row.
+    end: int | None = None
+
+    def size(self) -> str | None:
+        """What the store keeps to start without reading the rows: ``HEAD,END,CHARS``."""
+        if self.chars is None or self.end is None:
+            return None
+        return f"{self.head_seq},{self.end},{self.chars}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,52 +96,38 @@ class RecordMark:
     wrapped: bool
     refused: bool
     staged: int
-
-
-class _Page:
-    """:data:`PAGE` rows in one compressed text, with where each row ends."""
-
-    __slots__ = ("data", "ends")
-
-    def __init__(self, rows: list[str]) -> None:
-        ends = list(itertools.accumulate(map(len, rows)))
-        self.ends = array("H" if ends[-1] < 65536 else "I", ends)  # 2 bytes a row if they fit
-        text = "".join(rows).encode("utf-8", "surrogatepass")
-        self.data = zlib.compress(text, _LEVEL, wbits=_WBITS)
-
-    def length(self, index: int) -> int:
-        """The length of row ``index`` of the page (without decompressing it)."""
-        return self.ends[index] - (self.ends[index - 1] if index else 0)
-
-
-@functools.lru_cache(maxsize=32)
-def _decoded(page: _Page) -> list[str]:
-    """The rows of ``page`` (the pages read last are kept decoded, for all modules)."""
-    text = zlib.decompress(page.data, wbits=_WBITS).decode("utf-8", "surrogatepass")
-    starts = itertools.chain((0,), page.ends)
-    return [text[start:end] for start, end in zip(starts, page.ends, strict=False)]
+    #: The head the store was last handed (a commit that failed after the mark did not).
+    stored_head: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
 class Sealed:
     """A record's rows as RAM holds them (:meth:`RecordMemory.sealed`): the sealed pages
     (immutable, so shared), then the plain rows; the first ``head`` rows are not in the
-    record. A snapshot keeps one, and a restore starts from it without sealing again."""
+    record. A snapshot keeps one, and a restore starts from it without sealing again.
 
-    pages: tuple[_Page, ...]
+    A store hands one with ``None`` pages (they are in ``source``) and the record's
+    characters (``known_chars``): a start that reads only the newest page."""
+
+    pages: tuple[Page | None, ...]
     tail: tuple[str, ...]
     head: int
+    source: PageSource | None = None
+    known_chars: int | None = None
 
     @property
     def chars(self) -> int:
         """The record's characters, each row with its CR LF."""
+        if self.known_chars is not None:
+            return self.known_chars
+        assert all(page is not None for page in self.pages), "pages not in RAM: known_chars"
         rows = len(self.pages) * PAGE + len(self.tail) - self.head
         whole, part = divmod(self.head, PAGE)  # the dropped rows: whole pages, then a part
         pages, kept = self.pages[whole:], self.tail
         if not pages:
             kept = self.tail[self.head - len(self.pages) * PAGE :]
-        text = sum(page.ends[-1] for page in pages) + sum(map(len, kept))
-        if pages and part:
+        text = sum(page.ends[-1] for page in pages if page) + sum(map(len, kept))
+        if pages and part and pages[0]:
             text -= pages[0].ends[part - 1]
         return text + 2 * rows
 
@@ -121,15 +145,25 @@ class RecordMemory:
         refused: bool = False,
     ) -> None:
         # rows [head:] of the pages' rows then the tail's are in the record; [:head] dropped
+        self._source: PageSource | None = None
         if isinstance(rows, Sealed):
-            self._pages: list[_Page] = list(rows.pages)
+            self._pages: list[Page | None] = list(rows.pages)
             self._tail: list[str] = list(rows.tail)
             self._head = rows.head
             self.chars = rows.chars
+            self._source = rows.source
         else:
             self._pages, self._tail, self._head = [], list(rows), 0
             self.chars = sum(map(len, rows)) + 2 * len(rows)  # (a restore: 40,000 rows, fast)
+        if not self._pages:  # the first page starts at a multiple of PAGE, as on disk
+            pad = (first_seq - self._head) % PAGE
+            self._tail[:0] = [""] * pad
+            self._head += pad
         self._seq0 = first_seq - self._head  # sequence number of the first page's first row
+        assert self._seq0 % PAGE == 0, "pages not aligned with the store's"
+        self._key = object()  # (this memory's pages among the loaded ones)
+        self._evicted = 0  # pages before this one are let go (None) but maybe one
+        self._held = -1  # a page loaded back to drop rows from it (:meth:`_length`)
         self.capacity = capacity
         self.cyclic = cyclic
         self.wrapped = wrapped
@@ -137,11 +171,45 @@ class RecordMemory:
         self._staged = 0  # rows at the end not yet handed to the store
         self._stored_head = first_seq
         self._seal()
+        self._durable = self.next_seq  # the store has every row before this one
+        self._evict()
 
     # -- the rows in RAM ---------------------------------------------------------------------
     def sealed(self) -> Sealed:
-        """The rows as RAM holds them, for a copy that a new record starts from."""
-        return Sealed(tuple(self._pages), tuple(self._tail), self._head)
+        """The rows as RAM holds them, for a copy that a new record starts from (pages let
+        go are loaded and sealed again: the store's change, the copy must not)."""
+        first = min(self._head // PAGE, len(self._pages))
+        pages = tuple(
+            page if page is not None else Page(self._page_rows(n))
+            for n, page in enumerate(self._pages[first:], first)
+        )
+        return Sealed(pages, tuple(self._tail), self._head - first * PAGE, None, self.chars)
+
+    @property
+    def paged(self) -> bool:
+        """Whether the older pages are in a source (the store), not all in RAM."""
+        return self._source is not None
+
+    def _page_rows(self, index: int) -> list[str]:
+        """The rows of page ``index`` in RAM, decoded or loaded from the source."""
+        page = self._pages[index]
+        if page is not None:
+            return decoded(page)
+        assert self._source is not None
+        return loaded(self._key, self._seq0 // PAGE + index, self._source)
+
+    def _evict(self) -> None:
+        """Let go of the pages the store has (:attr:`_durable`), with a source."""
+        if self._source is None:
+            return
+        pages = self._pages
+        limit = min((self._durable - self._seq0) // PAGE, len(pages))
+        for n in range(self._evicted, limit):
+            pages[n] = None
+        self._evicted = max(self._evicted, limit)
+        if 0 <= self._held < self._evicted and self._held != self._head // PAGE:
+            pages[self._held] = None
+            self._held = -1
 
     def _count(self) -> int:
         return len(self._pages) * PAGE + len(self._tail)
@@ -152,30 +220,44 @@ class RecordMemory:
         if len(tail) < PAGE + KEEP:
             return
         full = (len(tail) - KEEP) // PAGE
-        self._pages.extend(_Page(tail[n * PAGE : (n + 1) * PAGE]) for n in range(full))
+        self._pages.extend(Page(tail[n * PAGE : (n + 1) * PAGE]) for n in range(full))
         del tail[: full * PAGE]
 
     def _row(self, index: int) -> str:
         sealed = len(self._pages) * PAGE
         if index >= sealed:
             return self._tail[index - sealed]
-        return _decoded(self._pages[index // PAGE])[index % PAGE]
+        return self._page_rows(index // PAGE)[index % PAGE]
 
     def _length(self, index: int) -> int:
+        """The length of row ``index`` (the oldest, being dropped): a page let go comes
+        back into RAM while rows are dropped from it (one load per :data:`PAGE` rows)."""
         sealed = len(self._pages) * PAGE
         if index >= sealed:
             return len(self._tail[index - sealed])
-        return self._pages[index // PAGE].length(index % PAGE)
+        number = index // PAGE
+        page = self._pages[number]
+        if page is None:
+            page = self._pages[number] = Page(self._page_rows(number))
+            if 0 <= self._held < self._evicted and self._held != number:
+                self._pages[self._held] = None
+            self._held = number
+        return page.length(index % PAGE)
 
     def _slice(self, begin: int, end: int) -> list[str]:
         """Rows ``begin`` to ``end`` (indices in RAM, ``end`` excluded)."""
         sealed = len(self._pages) * PAGE
         out: list[str] = []
         index = begin
+        many: dict[int, list[str]] = {}  # many pages let go: read in one go, not kept
+        if self._source is not None and min(end, sealed) - begin > BULK * PAGE:
+            first = self._seq0 // PAGE
+            many = read_pages(self._source, first + begin // PAGE, first + end // PAGE)
         while index < min(end, sealed):
             page, offset = divmod(index, PAGE)
             stop = min(end - page * PAGE, PAGE)
-            out.extend(_decoded(self._pages[page])[offset:stop])
+            rows = many.get(self._seq0 // PAGE + page) if self._pages[page] is None else None
+            out.extend((rows or self._page_rows(page))[offset:stop])
             index = page * PAGE + stop
         if end > sealed:
             out.extend(self._tail[max(begin, sealed) - sealed : end - sealed])
@@ -284,23 +366,33 @@ class RecordMemory:
     # -- transactions ------------------------------------------------------------------------
     def mark(self) -> RecordMark:
         return RecordMark(
-            self._count(), self._head, self.chars, self.wrapped, self.refused, self._staged
+            self._count(),
+            *(self._head, self.chars, self.wrapped, self.refused, self._staged, self._stored_head),
         )
 
     def rollback(self, mark: RecordMark) -> None:
         sealed = len(self._pages) * PAGE
         if mark.length < sealed:  # rows sealed since the mark: their pages become plain
             first = mark.length // PAGE
-            rows = [row for page in self._pages[first:] for row in _decoded(page)]
+            pages = range(first, len(self._pages))
+            rows = [row for n in pages for row in self._page_rows(n)]
             del self._pages[first:]
             self._tail = rows + self._tail
             sealed = first * PAGE
+            self._evicted = min(self._evicted, first)
+            self._held = -1 if self._held >= first else self._held
         del self._tail[mark.length - sealed :]
         self._head, self.chars = mark.head, mark.chars
         self.wrapped, self.refused, self._staged = mark.wrapped, mark.refused, mark.staged
+        if mark.stored_head is not None:
+            self._stored_head = mark.stored_head
+        # (a commit that failed: the rows staged at the mark are not the store's)
+        self._durable = min(self._durable, self._seq0 + mark.length - mark.staged)
 
     def take_changes(self) -> RecordChanges | None:
-        """What changed since the last call; compacts dropped rows away."""
+        """What changed since the last call; compacts dropped rows away. The rows handed
+        by the call before are the store's now (this line or run goes on after it)."""
+        self._evict()
         head_seq = self._seq0 + self._head
         if not self._staged and head_seq == self._stored_head:
             return None
@@ -309,14 +401,19 @@ class RecordMemory:
         first_kept = max(first_new, self._head)  # rows dropped again before reaching the store
         rows = self._slice(first_kept, total)
         new_rows = list(zip(range(self._seq0 + first_kept, self._seq0 + total), rows, strict=True))
-        changes = RecordChanges(new_rows, head_seq, self.wrapped, self.refused)
+        changes = RecordChanges(
+            new_rows, head_seq, self.wrapped, self.refused, self.chars, self._seq0 + total
+        )
         self._staged = 0
         self._stored_head = head_seq
+        self._durable = self._seq0 + total
         if self._head > 4096 and self._head * 2 > total:
             pages = min(self._head // PAGE, len(self._pages))  # whole pages of dropped rows
             del self._pages[:pages]
             self._seq0 += pages * PAGE
             self._head -= pages * PAGE
+            self._evicted = max(self._evicted - pages, 0)
+            self._held = max(self._held - pages, -1)
         return changes
 
     @property

@@ -30,7 +30,7 @@ from sondalog.ala1.nvstore import NvStore as NvStore  # (re-exported: the engine
 from sondalog.ala1.ondemand import OnDemand, measure_now
 from sondalog.ala1.params import RESET_KEEPS, KeyInfo, storage_keys
 from sondalog.ala1.parser import Plan
-from sondalog.ala1.record import RecordMark, RecordMemory
+from sondalog.ala1.record import RecordMark, load_record
 from sondalog.ala1.sampling import Outputs, Sampler
 from sondalog.ala1.shared import Derived, derived_for
 from sondalog.ala1.tokens import format_stamp
@@ -97,8 +97,7 @@ class ModuleState:
         self.measurer = Measurer(self.hardware)
         files = store.load_files()
         self.measurer.tables = _tables(files.get("list", b""), files.get("data", b""))
-        rows, first_seq, wrapped, refused = store.load_record()
-        self.record = RecordMemory(rows, first_seq, 0, True, wrapped, refused)
+        self.record = load_record(store)  # (a store's older rows loaded when read: issue 24)
         self.outputs = Outputs(self.hardware)
         self.sampler = Sampler(self.measurer, self.outputs)
         self.on_demand = OnDemand(

@@ -17,7 +17,7 @@ record that was rewritten since, some 600 pages, not 40,000 rows.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from sondalog.ala1.record import RecordChanges, RecordMemory, Sealed
 from sondalog.backends.store.ala1_nv import LoggerNvStore
@@ -58,6 +58,7 @@ def read_state(store: LoggerNvStore, record: RecordMemory) -> StoredState:
     params = conn.execute("SELECT key, value FROM param WHERE logger = ?", (key,)).fetchall()
     meta = dict(conn.execute("SELECT key, value FROM meta WHERE logger = ?", (key,)).fetchall())
     meta["record_head"] = str(first_seq(record))  # (the engine's, written or not)
+    meta["record_size"] = f"{first_seq(record)},{record.next_seq},{record.chars}"
     files = conn.execute("SELECT area, data FROM file WHERE logger = ?", (key,)).fetchall()
     return StoredState(
         tuple(params),
@@ -65,7 +66,7 @@ def read_state(store: LoggerNvStore, record: RecordMemory) -> StoredState:
         tuple((a, bytes(d)) for a, d in files),
         first_seq(record),
         tuple(record.rows()),
-        sealed=record.sealed(),
+        sealed=None if record.paged else record.sealed(),  # (paged: the restore reads)
     )
 
 
@@ -89,9 +90,12 @@ def write_state(store: LoggerNvStore, state: StoredState, record: RecordMemory) 
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?)",
             [(key, a, d) for a, d in state.files],
         )
-        write_record(
-            conn, key, state.first_seq, state.record, first_seq(record), record.rows(), state.pages
+        now_first = first_seq(record)  # (the rows now are read only if some may be kept)
+        apart = (
+            now_first >= state.first_seq + state.rows or now_first + len(record) <= state.first_seq
         )
+        now = () if apart else record.rows()
+        write_record(conn, key, state.first_seq, state.record, now_first, now, state.pages)
     except BaseException:
         conn.execute("ROLLBACK")
         raise
@@ -122,6 +126,16 @@ class Preloaded:
         wrapped, refused = meta.get("record_wrapped") == "1", meta.get("record_refused") == "1"
         rows = self.state.sealed or list(self.state.record)
         return rows, first, wrapped, refused
+
+    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
+        """As :meth:`load_record`, the pages in RAM let go once built: they were just
+        written, ``store`` loads them when read (issue 24)."""
+        if self.state.sealed is None:  # (the engine was paged: its newest page, its size)
+            return self.store.load_paged_record()
+        rows, first, wrapped, refused = self.load_record()
+        if isinstance(rows, Sealed):
+            return replace(rows, source=self.store), first, wrapped, refused
+        return Sealed((), tuple(rows), 0, self.store), first, wrapped, refused
 
     def load_files(self) -> dict[str, bytes]:
         return dict(self.state.files)

@@ -34,7 +34,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
-from sondalog.ala1.record import RecordChanges
+from sondalog.ala1.record import RecordChanges, Sealed
 from sondalog.backends.store import record_pages
 from sondalog.io.private import connect_private
 
@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 
 #: The key of a logger alone in its file (``ala1.sqlite``).
 SINGLE = ""
+
 
 _TABLES = (
     "CREATE TABLE IF NOT EXISTS param (logger TEXT NOT NULL, key TEXT NOT NULL, "
@@ -157,6 +158,9 @@ class NvDatabase:
         self._writer = ThreadPoolExecutor(1, "sondalog-nv-writer") if background else None
         self._written: Future[None] | None = None  # the last group commit handed over
         self._in_batch = False  # inside batch(): its transaction is open
+        self._pending: set[str] = set()  # loggers with commits in _waiting
+        self._writing: set[str] = set()  # loggers in the group the writer thread writes
+        self._reader: sqlite3.Connection | None = None  # (:meth:`reader`)
         self.transactions = 0  # transactions written (for benchmarks and tests)
 
     def store(self, logger: str = SINGLE) -> LoggerNvStore:
@@ -172,6 +176,27 @@ class NvDatabase:
             if not self._waiting:
                 self._schedule(self.flush)
             self._waiting.append((logger, commit))
+            self._pending.add(logger)
+
+    def reader(self, logger: str) -> sqlite3.Connection:
+        """A connection that sees every row of ``logger`` handed to this database: what
+        waits with its rows is written first, a group commit with them is waited for; else
+        (a page of old rows) a connection of its own reads, the writer thread writing on."""
+        with self._lock:
+            waiting, writing = logger in self._pending, logger in self._writing
+        if waiting:
+            self.write([])
+        elif writing:
+            self.settle()
+        if self._writer is None or self._in_batch or str(self.path) == ":memory:":
+            return self.conn if waiting or writing else self._settled()
+        if self._reader is None:
+            self._reader = open_database(self.path)
+        return self._reader
+
+    def _settled(self) -> sqlite3.Connection:
+        self.settle()
+        return self.conn
 
     def flush(self) -> None:
         """Write every waiting commit in one transaction (by the writer thread if any)."""
@@ -185,10 +210,14 @@ class NvDatabase:
         (logged), as a failed group commit in the loop did."""
         with self._lock:
             batch, self._waiting = self._waiting, []
+            self._writing, self._pending = self._pending, set()
         try:
             self._transaction(batch)
         except Exception:
             log.exception("group commit of %d loggers' rows failed", len(batch))
+        finally:
+            with self._lock:
+                self._writing = set()
 
     def settle(self) -> None:
         """Wait until the writer thread has written every group handed to it: the
@@ -208,6 +237,7 @@ class NvDatabase:
             yield
             self._in_batch = False
             batch, self._waiting = self._waiting, []
+            self._pending = set()
             for logger, commit in batch:
                 _apply(self.conn, logger, *commit)
         except BaseException:
@@ -226,6 +256,7 @@ class NvDatabase:
         self.settle()
         with self._lock:
             batch, self._waiting = [*self._waiting, *commits], []
+            self._pending = set()
         self._transaction(batch)
 
     def _transaction(self, batch: list[tuple[str, _Commit]]) -> None:
@@ -248,6 +279,8 @@ class NvDatabase:
         self.write([])
         if self._writer is not None:
             self._writer.shutdown()
+        if self._reader is not None:
+            self._reader.close()
         self.conn.close()  # (the last connection: SQLite checkpoints the WAL)
 
 
@@ -306,6 +339,9 @@ def _apply(
         conn.execute(_UPSERT_META, (logger, "record_head", str(record.head_seq)))
         conn.execute(_UPSERT_META, (logger, "record_wrapped", "1" if record.wrapped else "0"))
         conn.execute(_UPSERT_META, (logger, "record_refused", "1" if record.refused else "0"))
+        size = record.size()
+        if size is not None:  # (checked against the rows at start, :meth:`load_record`)
+            conn.execute(_UPSERT_META, (logger, "record_size", size))
 
 
 class LoggerNvStore:
@@ -348,12 +384,31 @@ class LoggerNvStore:
         rows, first = record_pages.load_rows(
             self.conn, self.logger, None if head is None else int(head)
         )
-        return (
-            rows,
-            first,
-            self._meta("record_wrapped") == "1",
-            self._meta("record_refused") == "1",
-        )
+        return rows, first, *self._flags()
+
+    def _flags(self) -> tuple[bool, bool]:
+        return self._meta("record_wrapped") == "1", self._meta("record_refused") == "1"
+
+    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
+        """The record for an engine that loads its older pages when read (:meth:`load_page`,
+        issue 24): only its newest page when the store knows its size, else every row; the
+        sequence number of its first row, and the wrapped/refused flags."""
+        head, size = self._meta("record_head"), self._meta("record_size")
+        lazy = None
+        if head is not None and size is not None:
+            lazy = record_pages.stored_record(self.conn, self.logger, int(head), size, self)
+        if lazy is not None:
+            return lazy, int(head or 0), *self._flags()
+        rows, first, wrapped, refused = self.load_record()
+        return Sealed((), tuple(rows), 0, self), first, wrapped, refused
+
+    def load_page(self, page: int) -> tuple[int, list[str]]:
+        """Page ``page`` of the record (the engine's page source, :meth:`NvDatabase.reader`)."""
+        return record_pages.load_page(self.database.reader(self.logger), self.logger, page)
+
+    def load_pages(self, first: int, last: int) -> list[tuple[int, int, list[str]]]:
+        """Pages ``first`` to ``last`` that exist, in one query (a whole record read)."""
+        return record_pages.load_pages(self.database.reader(self.logger), self.logger, first, last)
 
     def load_files(self) -> dict[str, bytes]:
         return {

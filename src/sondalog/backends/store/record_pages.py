@@ -31,10 +31,14 @@ import sqlite3
 from collections.abc import Iterable, Sequence
 from itertools import groupby
 
+from sondalog.ala1.record import Sealed
+from sondalog.ala1.record_page import PAGE, PageSource
+
 log = logging.getLogger(__name__)
 
-#: Rows a page holds: 64 sampled rows of a few channels fit in one 4 KiB database page.
-PAGE_ROWS = 64
+#: Rows a page holds: 64 sampled rows of a few channels fit in one 4 KiB database page (a
+#: page in RAM is a page on disk: :data:`sondalog.ala1.record_page.PAGE`).
+PAGE_ROWS = PAGE
 
 TABLE = (
     "CREATE TABLE IF NOT EXISTS record_page (logger TEXT NOT NULL, page INTEGER NOT NULL, "
@@ -151,6 +155,71 @@ def load_rows(conn: sqlite3.Connection, logger: str, head: int | None) -> tuple[
         del rows[: head - start]
         start = head
     return rows, start
+
+
+def load_page(conn: sqlite3.Connection, logger: str, page: int) -> tuple[int, list[str]]:
+    """The rows of ``page`` (first sequence number, rows; none: ``page``'s first, [])."""
+    found = conn.execute(
+        "SELECT first, rows FROM record_page WHERE logger = ? AND page = ?", (logger, page)
+    ).fetchone()
+    return (page * PAGE_ROWS, []) if found is None else (int(found[0]), json.loads(found[1]))
+
+
+def load_pages(
+    conn: sqlite3.Connection, logger: str, low: int, high: int
+) -> list[tuple[int, int, list[str]]]:
+    """Pages ``low`` to ``high`` that exist: (page, first sequence number, rows)."""
+    found = conn.execute(
+        "SELECT page, first, rows FROM record_page WHERE logger = ? AND page BETWEEN ? AND ?",
+        (logger, low, high),
+    )
+    return [(int(page), int(first), json.loads(rows)) for page, first, rows in found]
+
+
+def stored_record(
+    conn: sqlite3.Connection, logger: str, head: int, size: str, source: PageSource
+) -> Sealed | None:
+    """``logger``'s record as its newest page, its older pages in ``source``, if its size
+    (``record_size``: ``HEAD,END,CHARS``, written with every commit) agrees with the pages
+    on disk; None: the whole record must be read (:func:`load_rows`)."""
+    size_head, end, chars = map(int, size.split(","))
+    found = newest(conn, logger, head)
+    # (rows dropped before they reached the store: the disk ends before the head)
+    if size_head != head or found is None or (found[0] != end and not found[0] < end == head):
+        return None
+    _, first, rows = found
+    low, last = head // PAGE * PAGE, end // PAGE * PAGE  # the first page; the tail's start
+    if end > last and first > max(last, head):
+        return None  # (rows missing above the head)
+    tail = [""] * (end - max(last, head))
+    if end > last:  # rows of the unfinished page (those below the head stay "")
+        kept = rows[max(last, head) - first :]
+        tail[len(tail) - len(kept) :] = kept
+    if head >= last:  # every row in the tail
+        return Sealed((), tuple(tail), 0, source, chars)
+    return Sealed((None,) * ((last - low) // PAGE), tuple(tail), head - low, source, chars)
+
+
+def newest(conn: sqlite3.Connection, logger: str, head: int) -> tuple[int, int, list[str]] | None:
+    """Where ``logger``'s record ends without reading it (issue 24: a fleet starting): the
+    sequence number after its newest row, and the rows of the newest page from its first
+    (their first's number, the rows); None if a page is missing between the head's and the
+    newest (the whole record is then read, :func:`load_rows`)."""
+    found = conn.execute(
+        "SELECT page, first, rows FROM record_page WHERE logger = ? ORDER BY page DESC LIMIT 1",
+        (logger,),
+    ).fetchone()
+    if found is None:
+        return head, head, []
+    page, first, rows = int(found[0]), int(found[1]), json.loads(found[2])
+    low = head // PAGE_ROWS
+    if page > low:
+        (count,) = conn.execute(
+            "SELECT count(*) FROM record_page WHERE logger = ? AND page >= ?", (logger, low)
+        ).fetchone()
+        if count != page - low + 1 or first != page * PAGE_ROWS:
+            return None
+    return first + len(rows), first, rows
 
 
 def write_record(

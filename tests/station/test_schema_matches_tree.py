@@ -170,6 +170,8 @@ def test_what_the_host_accepts_the_logger_takes_and_reads_back(  # type: ignore[
     try:
         if setting.pattern == "file list size" or setting.pattern == "file data size":
             logger.command("write file record size 256")
+            if int(value) > 1048576 - 256:
+                return  # the areas share the memory with the record's 256 (§6.15): refused
         dual = " all" if setting.dual else ""
         line = f"write {setting.name(n)}{dual}{setting.grammar.written(value)}"
         if host.fits_line(line):

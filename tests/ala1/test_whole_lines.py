@@ -4,6 +4,8 @@ discipline's loop (§3.4: terminators, ``+`` echo, BS/DEL, ESC, 120 characters).
 
 from __future__ import annotations
 
+import itertools
+
 from ala1_module import Module
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -36,20 +38,25 @@ PIECES = st.sampled_from(
 )
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=300, deadline=None)
 @given(
-    pieces=st.lists(st.tuples(PIECES, st.sampled_from([b"\r", b"\r\n", b"\n", b""])), max_size=12)
+    pieces=st.lists(st.tuples(PIECES, st.sampled_from([b"\r", b"\r\n", b"\n", b""])), max_size=12),
+    cuts=st.lists(st.integers(0, 2000), max_size=4),
 )
-def test_lines_at_once_answer_as_byte_by_byte(pieces: list[tuple[bytes, bytes]]) -> None:
+def test_lines_at_once_answer_as_byte_by_byte(
+    pieces: list[tuple[bytes, bytes]], cuts: list[int]
+) -> None:
+    """At once, and in chunks cut anywhere (TCP's segments), as byte by byte."""
     data = b"".join(text + end for text, end in pieces)
-    at_once, by_byte = Module(), Module()
+    ends = sorted({0, len(data), *(c % (len(data) + 1) for c in cuts)})
+    at_once, chunked, by_byte = Module(), Module(), Module()
     try:
-        got = at_once.feed(data)
         want = b"".join(by_byte.feed(bytes([b])) for b in data)
-        assert got == want
+        assert at_once.feed(data) == want
+        assert b"".join(chunked.feed(data[a:b]) for a, b in itertools.pairwise(ends)) == want
         # and the state after: the same partial line, the same settings
         tail = b"\rread channel 1 name\rread channel 2 name\r"
-        assert at_once.feed(tail) == by_byte.feed(tail)
+        assert at_once.feed(tail) == chunked.feed(tail) == by_byte.feed(tail)
     finally:
-        at_once.store.close()
-        by_byte.store.close()
+        for module in (at_once, chunked, by_byte):
+            module.store.close()

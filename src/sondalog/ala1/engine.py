@@ -331,45 +331,43 @@ class Engine:
         line.overflow = False
 
     def _feed(self, line_id: int, line: _Line, data: bytes, now: float) -> None:
+        """The line discipline (§3.4) over received bytes, a line at a time: a whole line
+        without echo or editing keys at once (issues 11, 24: a client's chained reads come as
+        many lines together), any other byte by byte (:meth:`_bytes`)."""
         data = self._flow_control(line, data, now)
-        if not line.buffer and line.started is None and (found := _WHOLE.match(data)):
-            # whole lines without echo or editing keys (issues 11, 24: a client's chained
-            # reads come as many lines at once): each as the loop below would take it
-            at = 0
-            while found is not None:
+        at = 0
+        while at < len(data):
+            if not line.buffer and line.started is None and (found := _WHOLE.match(data, at)):
                 at = found.end()
                 text = data[found.start() : at].rstrip(b"\n")[:-1].decode("latin-1")
                 self._complete(line_id, line, text, False, now)
-                if line.pending is not None:
-                    line.hold(data[at:])
-                    return
-                if line.transfer is not None:
-                    rest = transfers.take_input(self, line, data[at:], now)
-                    if rest:
-                        self._feed(line_id, line, rest, now)
-                    return
-                found = _WHOLE.match(data, at)
-            data = data[at:]
+            else:
+                at = self._bytes(line_id, line, data, at, now)
+            if line.pending is not None:
+                line.hold(data[at:])
+                return
+            if line.transfer is not None:  # the rest belongs to the XMODEM transfer
+                rest = transfers.take_input(self, line, data[at:], now)
+                if rest:
+                    self._feed(line_id, line, rest, now)
+                return
+
+    def _bytes(self, line_id: int, line: _Line, data: bytes, at: int, now: float) -> int:
+        """``data`` from ``at`` byte by byte up to the end of a line (run) or of ``data``;
+        where the next line starts."""
         echo = bytearray()
-        for index, byte in enumerate(data):
+        for index in range(at, len(data)):
+            byte = data[index]
             if byte in (CR, LF):
                 if line.echo:
                     echo += b"\r\n"
                 if echo:
                     self.send(line, bytes(echo), now)
-                    echo = bytearray()
                 text = "".join(line.buffer)
                 overflow = line.overflow
                 self._reset(line)
                 self._complete(line_id, line, text, overflow, now)
-                if line.pending is not None:
-                    line.hold(data[index + 1 :])
-                    return
-                if line.transfer is not None:  # the rest belongs to the XMODEM transfer
-                    rest = transfers.take_input(self, line, data[index + 1 :], now)
-                    if rest:
-                        self._feed(line_id, line, rest, now)
-                    return
+                return index + 1
             elif byte == ESC:
                 if echo:
                     self.send(line, bytes(echo), now)
@@ -395,6 +393,7 @@ class Engine:
                     line.overflow = True
         if echo:
             self.send(line, bytes(echo), now)
+        return len(data)
 
     def _complete(self, line_id: int, line: _Line, text: str, overflow: bool, now: float) -> None:
         answer, speed = self._command(line_id, line, text, overflow, now)

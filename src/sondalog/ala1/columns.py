@@ -71,16 +71,17 @@ def _calibrated(
     raw: Callable[[list[float]], list[Value]], mult: float, add: float
 ) -> Callable[[list[float]], list[Value]]:
     def column(times: list[float]) -> list[Value]:
-        return affine(raw(times), mult, add)
+        return affine(raw(times), mult, add, fresh=True)
 
     return column
 
 
-def affine(values: list[Value], mult: float, add: float) -> list[Value]:
-    """``v * mult + add`` of each value (None stays None), a new list: the values themselves
-    where that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
+def affine(values: list[Value], mult: float, add: float, fresh: bool = False) -> list[Value]:
+    """``v * mult + add`` of each value (None stays None), a new list (or ``values`` itself
+    when it is ``fresh``: made for this call, or only read): the values themselves where
+    that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
     if mult == 1.0 and add == 0.0 and 0.0 not in values:
-        return list(values)
+        return values if fresh else list(values)
     return [None if v is None else v * mult + add for v in values]
 
 
@@ -309,15 +310,15 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     mult, add = cfg.mult, cfg.add
     second = None if table2 is None else curve_column(table2)
 
-    def finish(ys: list[Value]) -> list[Value]:  # (channel_plan's finish)
-        ys = affine(ys, mult, add)
+    def finish(ys: list[Value], fresh: bool = True) -> list[Value]:  # (channel_plan's)
+        ys = affine(ys, mult, add, fresh)
         return ys if second is None else second(ys)
 
     if kind == 11 or kind == 12:  # (gsm_value: a 1-D table, or none)
         if isinstance(table1, Surface):
             return None
         if table1 is None:
-            return finish
+            return lambda xs: finish(xs, False)  # (the source's own column)
         gsm_table = curve_column(table1)
         return lambda xs: finish(gsm_table(xs))
     m1, a1 = cfg.inputs[0].cal2_mult, cfg.inputs[0].cal2_add
@@ -328,7 +329,7 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
         surface = surface_column(table1)
 
         def two_d(rs: list[Value], r2s: list[Value]) -> list[Value]:
-            return finish(surface(affine(rs, m1, a1), affine(r2s, m2, a2)))
+            return finish(surface(affine(rs, m1, a1, True), affine(r2s, m2, a2, True)))
 
         return two_d
     if isinstance(table1, Surface):
@@ -336,8 +337,9 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     first = None if table1 is None else curve_column(table1)
 
     def one_d(rs: list[Value]) -> list[Value]:
-        xs = affine(rs, m1, a1)
-        return finish(xs if first is None else first(xs))
+        if first is None:
+            return finish(affine(rs, m1, a1))
+        return finish(first(affine(rs, m1, a1, True)))  # (the table only reads it)
 
     if first is None and second is None:
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import operator
+import sys
 from collections.abc import Callable, Sequence
 from decimal import ROUND_CEILING, Decimal
 
@@ -77,6 +78,7 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
     # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
     least = int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
     last: int | Decimal | None = None  # the recorded text in units, once needed
+    units_of: dict[str, int] = {}  # (the texts compared in units: they repeat)
     n = len(texts)
     starts: Sequence[int]
     if len(set(texts)) * 4 < n:  # long runs of one text (events, a steady signal): each
@@ -111,7 +113,9 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
             if last is None:
                 last = _units(recorded, decimals)
             if isinstance(last, int):
-                units = int(text.replace(".", ""))  # (a text of the channel's format)
+                units = units_of.get(text)
+                if units is None:  # (a text of the channel's format)
+                    units = units_of[text] = int(text.replace(".", ""))
                 if abs(units - last) >= least:
                     write = text
             elif abs(Decimal(text) - Decimal(recorded)) >= change:
@@ -160,13 +164,27 @@ def _plain_bulk(
     return {times[k]: text for k, text in written}
 
 
-def _valid(samples: list[Value]) -> tuple[list[int], list[Value]]:
-    """The positions of the samples with a valid value, and those values (an average counts
-    only them, §6.5.15)."""
+def _valid(samples: list[Value]) -> tuple[list[int] | None, list[Value]]:
+    """The positions of the samples with a valid value (None: every one), and those values
+    (an average counts only them, §6.5.15)."""
     if None in samples:
         index = [k for k, value in enumerate(samples) if value is not None]
         return index, [samples[k] for k in index]
-    return list(range(len(samples))), samples
+    return None, samples
+
+
+def _reduced(values: list[Value], start: float) -> float:
+    """``((start + v0) + v1) + ...``: the sum as the event-by-event path adds it."""
+    return functools.reduce(operator.add, values, start)
+
+
+#: :func:`_reduced`, by the C loop of ``sum`` where it adds floats in that very order
+#: (Python 3.12 sums floats with compensation: there ``functools.reduce``).
+_sum: Callable[[list[Value], float], float]
+if sys.version_info < (3, 12):
+    _sum = sum  # type: ignore[assignment]
+else:
+    _sum = _reduced
 
 
 def _averaged_bulk(
@@ -184,10 +202,8 @@ def _averaged_bulk(
     add, reduce = operator.add, functools.reduce
     averages: list[float] = []
     if len(valid) >= need:
-        averages.append(reduce(add, valid[:need], partial) / n)
-        averages += [
-            reduce(add, valid[j : j + n], 0.0) / n for j in range(need, len(valid) - n + 1, n)
-        ]
+        averages.append(_sum(valid[:need], partial) / n)
+        averages += [_sum(valid[j : j + n], 0.0) / n for j in range(need, len(valid) - n + 1, n)]
         used = need + (len(averages) - 1) * n
         partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
     else:
@@ -198,6 +214,8 @@ def _averaged_bulk(
     for k, exc in values.faults.items():
         report(cfg.number, exc, times[k] - offset)
     run.sample, run.sampled = samples[-1], True
+    if index is None:
+        return {times[need - 1 + m * n]: text for m, text in written}
     return {times[index[need - 1 + m * n]]: text for m, text in written}
 
 
@@ -256,6 +274,8 @@ def _averaged(
         report(cfg.number, exc, times[k] - offset)
     samples = values.values
     index, valid = _valid(samples)
+    if index is None:
+        index = list(range(len(samples)))
     written: dict[int, str] = {}
     last = len(samples) - 1
     sample = samples[-1]

@@ -46,9 +46,14 @@ def curve_column(curve: Curve) -> CurveColumn:
             for x, i in zip(values, at, strict=True)
         ]
 
-    memo: dict[float, float] = {}  # (kept from stretch to stretch: readings come back)
+    memo: dict[float, float] = {}  # (kept from stretch to stretch: readings come back;
+    # never a zero: 0.0 and -0.0 are one key and may give different signs)
 
     def remembered(values: list[float]) -> list[float]:
+        try:  # (most stretches meet only readings met before)
+            return [memo[x] for x in values]
+        except KeyError:
+            pass
         distinct = set(values)
         if 0.0 in distinct:  # (0.0 and -0.0 are one key and may give different signs)
             return direct(values)
@@ -91,7 +96,7 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
         keys = [-1 if p <= p_first else -2 if p >= p_last else right(params, p) for p in ps]
         kinds = set(keys)
         if len(kinds) == 1:
-            return group(keys[0], list(xs), ps)
+            return group(keys[0], xs, ps)  # (the curves only read it)
         out: list[Value] = [None] * len(xs)
         for key in kinds:
             index = [k for k, of in enumerate(keys) if of == key]

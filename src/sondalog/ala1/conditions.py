@@ -15,8 +15,9 @@ from __future__ import annotations
 import functools
 import operator
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from decimal import ROUND_CEILING, Decimal
+from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
 from sondalog.ala1.measure import format_value, format_values
@@ -173,14 +174,14 @@ def _valid(samples: list[Value]) -> tuple[list[int] | None, list[Value]]:
     return None, samples
 
 
-def _reduced(values: list[Value], start: float) -> float:
+def _reduced(values: Iterable[Value], start: float) -> float:
     """``((start + v0) + v1) + ...``: the sum as the event-by-event path adds it."""
     return functools.reduce(operator.add, values, start)
 
 
 #: :func:`_reduced`, by the C loop of ``sum`` where it adds floats in that very order
 #: (Python 3.12 sums floats with compensation: there ``functools.reduce``).
-_sum: Callable[[list[Value], float], float]
+_sum: Callable[[Iterable[Value], float], float]
 if sys.version_info < (3, 12):
     _sum = sum  # type: ignore[assignment]
 else:
@@ -203,7 +204,9 @@ def _averaged_bulk(
     averages: list[float] = []
     if len(valid) >= need:
         averages.append(_sum(valid[:need], partial) / n)
-        averages += [_sum(valid[j : j + n], 0.0) / n for j in range(need, len(valid) - n + 1, n)]
+        rest = iter(valid[need:])  # (the next averages: zip takes n samples at a time)
+        groups = zip(*[rest] * n, strict=False)  # (an incomplete last group is left off)
+        averages += [total / n for total in map(_sum, groups, repeat(0.0))]
         used = need + (len(averages) - 1) * n
         partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
     else:

@@ -364,6 +364,9 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
         rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
     get = rendered.get  # (None for a value not rendered lately, None and NaN included)
     decimals, width = fmt.decimals, fmt.width
+    by_units = _BY_UNITS.get(fmt.width * 16 + fmt.decimals)
+    if by_units is None:
+        by_units = _BY_UNITS[fmt.width * 16 + fmt.decimals] = {}
 
     near, scale = NEAR_BELOW[decimals], SCALES[decimals]
 
@@ -374,12 +377,17 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
         if 0.4999 < scaled % 1.0 < 0.5001:
             return format_value(cfg, value)
         units = round(scaled)
-        if decimals:
-            digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
-            text = f"{digits[:-decimals]}.{digits[-decimals:]}"
-            text = ("-" + text if units < 0 else text).rjust(width)
-        else:
-            text = str(units).rjust(width)
+        text = by_units.get(units)  # (an average is a new float, seldom new units)
+        if text is None:
+            if decimals:
+                digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
+                text = f"{digits[:-decimals]}.{digits[-decimals:]}"
+                text = ("-" + text if units < 0 else text).rjust(width)
+            else:
+                text = str(units).rjust(width)
+            if len(by_units) >= _RENDERED_MAX:
+                by_units.clear()
+            by_units[units] = text
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
         rendered[value] = text
@@ -395,4 +403,6 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
 #: decimal rendering costs more than the rest of a measurement. -0.0 and 0.0 share an
 #: entry: both render without a sign.
 _RENDERED: dict[int, dict[float, str]] = {}  # by width * 16 + decimals
+#: The same texts by the value in units of the last decimal (far from a half).
+_BY_UNITS: dict[int, dict[int, str]] = {}
 _RENDERED_MAX = 8192

@@ -124,6 +124,8 @@ setup = st.fixed_dictionaries(
         "of_record": st.booleans(),
         # the device calibrations (§6.4.4): the ADC's and the timer's
         "device_cal": st.sampled_from([("1", "0"), ("1", "0"), ("0.5", "0.01")]),
+        # the DS18B20's (its factory value turns a reading into degrees Celsius)
+        "ds_cal": st.sampled_from([None, ("3200", "-1.5")]),
     }
 )
 
@@ -140,6 +142,8 @@ def configure(m: Module, case: dict[str, Any]) -> None:
     mult, add = case.get("device_cal", ("1", "0"))
     for device in (1, 4):
         m.ok(f"write device {device} cal mult {mult} write device {device} cal add {add}")
+    if case.get("ds_cal") is not None:
+        m.ok("write device 3 cal mult {} write device 3 cal add {}".format(*case["ds_cal"]))
     m.ok("write output 2 device 1 write output 2 address 6")
     m.ok("write output 3 device 1 write output 3 address 5")
     for ch, c in enumerate(channels, 1):

@@ -58,22 +58,20 @@ class ColumnHardware(Protocol):
     """Hardware that reads an input at many host times at once, the outputs as they are
     (the simulation): the very values of its one-time reads."""
 
-    def adc_column(self, device: int, address: int, times: list[float]) -> list[Value]: ...
-    def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[Value]: ...
-    def supply_column(self, times: list[float]) -> list[Value]: ...
+    # (each reading r as r * mult + add: a device calibration; the supply's times ``then``)
+    def adc_column(
+        self, device: int, address: int, times: list[float], mult: float, add: float
+    ) -> list[Value]: ...
+    def ds18b20_column(
+        self, pin: int, rom: int, times: list[float], mult: float, add: float
+    ) -> list[Value]: ...
+    def supply_column(
+        self, times: list[float], mult: float, add: float, then: float
+    ) -> list[Value]: ...
     def gsm_column(self, what: str, times: list[float]) -> list[Value]: ...
     def pulses_column(
         self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]
     ) -> list[int]: ...
-
-
-def _calibrated(
-    raw: Callable[[list[float]], list[Value]], mult: float, add: float
-) -> Callable[[list[float]], list[Value]]:
-    def column(times: list[float]) -> list[Value]:
-        return affine(raw(times), mult, add, fresh=True)
-
-    return column
 
 
 def affine(values: list[Value], mult: float, add: float, fresh: bool = False) -> list[Value]:
@@ -144,7 +142,7 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
 
             column = None
             if many is not None:
-                column = _calibrated(functools.partial(many.adc_column, device, address), dm, da)
+                column = functools.partial(many.adc_column, device, address, mult=dm, add=da)
             return Source(("adc", device, address, dm, da), analog, column=column)
         if device_type == "DS18B20":
             ds18b20, pin, rom = hw.ds18b20, inp.device_address, inp.address
@@ -155,7 +153,7 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
 
             column = None
             if many is not None:
-                column = _calibrated(functools.partial(many.ds18b20_column, pin, rom), dm, da)
+                column = functools.partial(many.ds18b20_column, pin, rom, mult=dm, add=da)
             return Source(("ds18b20", pin, rom, dm, da), thermometer, column=column)
         return Source(("none",), None, None)
     if kind == 1:
@@ -169,7 +167,7 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
 
         column = None
         if many is not None:
-            column = _supplied(_calibrated(many.supply_column, dm, da))
+            column = functools.partial(many.supply_column, mult=dm, add=da, then=SUPPLY_DIVIDER)
         return Source(("supply", dm, da), supplied, column=column)
     timer = device_type == "MSP430TA"  # types 2 and 6: pulses in the window
     if not timer and device_type != "MSP430ADC":
@@ -203,15 +201,6 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
     # (channels of a cohort with the same window count the same pulses: the series adds it)
     key = ("pulses", device, address, timer, limit, dm, da)
     return Source(key, counted, windowed=True, counts=counts)
-
-
-def _supplied(
-    calibrated: Callable[[list[float]], list[Value]],
-) -> Callable[[list[float]], list[Value]]:
-    def column(times: list[float]) -> list[Value]:
-        return [None if r is None else r * SUPPLY_DIVIDER for r in calibrated(times)]
-
-    return column
 
 
 def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, ...], Calc]:

@@ -20,6 +20,7 @@ from decimal import ROUND_CEILING, Decimal
 from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
+from sondalog.ala1.curves import has_none
 from sondalog.ala1.measure import format_value, format_values
 from sondalog.ala1.runs import ChannelRun, decide
 
@@ -168,7 +169,7 @@ def _plain_bulk(
 def _valid(samples: list[Value]) -> tuple[list[int] | None, list[Value]]:
     """The positions of the samples with a valid value (None: every one), and those values
     (an average counts only them, §6.5.15)."""
-    if None in samples:
+    if has_none(samples):
         index = [k for k, value in enumerate(samples) if value is not None]
         return index, [samples[k] for k in index]
     return None, samples

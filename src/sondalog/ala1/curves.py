@@ -143,7 +143,7 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
         return out
 
     def column(xs: list[Value], ps: list[Value]) -> list[Value]:
-        if None not in xs and None not in ps:
+        if not has_none(xs) and not has_none(ps):
             return valid_pairs(xs, ps)
         index = [
             k
@@ -159,13 +159,23 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
     return column
 
 
+def has_none(values: list[Any]) -> bool:
+    """Whether ``values`` holds a None (no value): summed in C where it holds only numbers,
+    several times faster than ``None in values`` (each float compared with None)."""
+    try:
+        sum(values, 0.0)  # (None raises a TypeError)
+    except Exception:
+        return None in values
+    return False
+
+
 def _no_segment(x: float) -> float:
     raise IndexError(f"no segment of the table holds {x!r}")
 
 
 def _over_valid(fn: Callable[[list[Any]], list[Any]], values: list[Value]) -> list[Value]:
     """``fn`` of the values that are not None, in their places; None stays None."""
-    if None not in values:
+    if not has_none(values):
         return fn(values)
     index = [k for k, x in enumerate(values) if x is not None]
     out: list[Value] = [None] * len(values)

@@ -237,8 +237,11 @@ class SimHardware:
         return None if signal is None else signal(t)
 
     # -- many instants at once (sondalog.ala1.columns.ColumnHardware, issue 24) ----------------
-    def adc_column(self, device: int, address: int, times: list[float]) -> list[float | None]:
-        """:meth:`adc` at each of ``times``, the outputs as they are."""
+    def adc_column(
+        self, device: int, address: int, times: list[float], mult: float = 1.0, add: float = 0.0
+    ) -> list[float | None]:
+        """:meth:`adc` at each of ``times``, the outputs as they are, each reading ``r`` as
+        ``r * mult + add`` (a device calibration, in the same pass)."""
         if address >= 32:
             source, reference = self.analog.get(address - 16), self.external_reference
         else:
@@ -248,12 +251,23 @@ class SimHardware:
         levels = ADC_LEVELS
         # (a NaN raises in round(), as in :meth:`adc`)
         return [
-            0.0 if (f := x / reference) <= 0.0 else 1.0 if f >= 1.0 else round(f * levels) / levels
+            (
+                0.0
+                if (f := x / reference) <= 0.0
+                else 1.0
+                if f >= 1.0
+                else round(f * levels) / levels
+            )
+            * mult
+            + add
             for x in signal_column(source.signal, times)
         ]
 
-    def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[float | None]:
-        """The normalised reading of :meth:`ds18b20` at each of ``times``."""
+    def ds18b20_column(
+        self, pin: int, rom: int, times: list[float], mult: float = 1.0, add: float = 0.0
+    ) -> list[float | None]:
+        """The normalised reading ``r`` of :meth:`ds18b20` at each of ``times``, as
+        ``r * mult + add`` (a device calibration, once per temperature)."""
         sensor = self._thermometer(pin, rom)
         if sensor is None or sensor.crc_error:
             return [None] * len(times)
@@ -263,27 +277,45 @@ class SimHardware:
         # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
         if len(distinct) * 2 > len(celsius):
             return [
-                round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+                round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16)
+                / 16
+                / scale
+                * mult
+                + add
                 for c in celsius
             ]
         reading = {
-            c: round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+            c: round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16)
+            / 16
+            / scale
+            * mult
+            + add
             for c in distinct
         }
         return [reading[c] for c in celsius]
 
-    def supply_column(self, times: list[float]) -> list[float | None]:
-        """:meth:`supply` at each of ``times``."""
+    def supply_column(
+        self, times: list[float], mult: float = 1.0, add: float = 0.0, then: float = 1.0
+    ) -> list[float | None]:
+        """:meth:`supply` ``r`` at each of ``times``, as ``(r * mult + add) * then`` (a device
+        calibration and the divider, in the same pass)."""
         signal = self.supply_signal
         if signal is None or not self.powered(self.supply_power):
             return [None] * len(times)
         levels, reference = ADC_LEVELS, INTERNAL_REFERENCE  # normalise() written out
         return [
-            1.0
-            if (f := x / SUPPLY_DIVIDER / reference) >= 1.0
-            else round(f * levels) / levels
-            if f > 0.0
-            else 0.0
+            (
+                (
+                    1.0
+                    if (f := x / SUPPLY_DIVIDER / reference) >= 1.0
+                    else round(f * levels) / levels
+                    if f > 0.0
+                    else 0.0
+                )
+                * mult
+                + add
+            )
+            * then
             for x in signal_column(signal, times)
         ]
 

@@ -95,3 +95,23 @@ def test_pulse_counts_are_the_counts_window_by_window(
     ]
     expected = [sources[0].count(a, b) for a, b in zip(starts, ends, strict=True)]
     assert sources[1].counts(starts, ends) == expected
+
+
+@given(
+    seed=st.integers(0, 1000),
+    first=st.one_of(st.integers(-200_000, 10**6).map(float), st.floats(-3000.0, 10**6)),
+    step=st.sampled_from([1.0, 10.0, 30.0, 45.0, 60.0, 120.0, 300.0, 600.0, 60.5]),
+    count=st.integers(0, 80),
+    start=st.sampled_from([None, 0.0, T0 - 12345.0, T0 - 12345.5]),
+)
+def test_a_column_of_regular_instants_is_the_signal_time_by_time(
+    seed: int, first: float, step: float, count: int, start: float | None
+) -> None:
+    """Sampling instants a period apart (a stretch of the series path): a random walk takes
+    its steps one after the other when the period is whole intervals (issue 24)."""
+    times = [T0 + first + k * step for k in range(count)]
+    for by_time, by_column in zip(models(seed), models(seed), strict=True):
+        if start is not None:
+            by_time, by_column = shifted(by_time, start), shifted(by_column, start)
+        assert signal_column(by_column, times) == [by_time(t) for t in times]
+        assert signal_column(by_column, times, 7.0) == [by_time(t - 7.0) for t in times]

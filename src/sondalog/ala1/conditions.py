@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import operator
+import re
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from decimal import ROUND_CEILING, Decimal
@@ -73,12 +74,16 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
         return out
     recorded, active = run.recorded, run.event_active
     events = cfg.type == 6
+    decimals = cfg.format.decimals
+    # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
+    least = _least(change, decimals)
+    if not events and change > _ZERO and recorded:
+        in_units = _units_all(texts, recorded, decimals)
+        if in_units is not None:  # (every text a number of the channel's format)
+            return _by_units(run, texts, in_units, least, samples)
     zero = format_value(cfg, 0.0) if events else ""
     same_writes = change <= _ZERO  # (runs._changed of two equal non-empty texts)
     numbers: dict[str, Decimal] = {}  # (Decimal(text) of the texts met, as runs.decimal_of)
-    decimals = cfg.format.decimals
-    # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
-    least = int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
     last: int | Decimal | None = None  # the recorded text in units, once needed
     units_of: dict[str, int] = {}  # (the texts compared in units: they repeat)
     n = len(texts)
@@ -142,6 +147,53 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
                 else:
                     since += end - k - 1
     run.recorded, run.since_write, run.event_active = recorded, since, active
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _least(change: Decimal, decimals: int) -> int:
+    """The least difference of two texts of ``decimals`` decimals, in units of the last
+    decimal, that makes a change of at least ``change``."""
+    return int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
+
+
+@functools.lru_cache(maxsize=16)
+def _format_of(decimals: int) -> re.Pattern[str]:
+    """A text of the channel's format: a whole number, or ``decimals`` decimals."""
+    return re.compile(rf" *-?[0-9]+\.[0-9]{{{decimals}}}" if decimals else " *-?[0-9]+")
+
+
+def _units_all(texts: Sequence[str], recorded: str, decimals: int) -> list[int] | None:
+    """Each of ``texts`` and ``recorded`` (the last) in units of the last decimal, when
+    every one is a number of the channel's format (then ``int`` of its digits is the
+    number :func:`_units` gives); else None."""
+    distinct = {*texts, recorded}
+    fits = _format_of(decimals).fullmatch
+    if not all(map(fits, distinct)):
+        return None
+    units_of = {text: int(text.replace(".", "")) for text in distinct}
+    return [*map(units_of.__getitem__, texts), units_of[recorded]]
+
+
+def _by_units(
+    run: ChannelRun, texts: Sequence[str], units: list[int], least: int, samples: int
+) -> list[tuple[int, str]]:
+    """:func:`record_all` of a channel whose texts are all numbers of its format and whose
+    recorded text is one (``units``: the texts' units, then the recorded text's): a text is
+    written when it differs from the recorded one by ``least`` units or more (§6.5.16.2),
+    or when ``samples`` samples have passed since the last write (§6.5.16.3)."""
+    last = units.pop()
+    since = run.since_write
+    limit = samples if samples > 0 else since + len(texts) + 1  # (never reached)
+    out: list[tuple[int, str]] = []
+    for k, u in enumerate(units):
+        since += 1
+        if u - last >= least or last - u >= least or since >= limit:
+            out.append((k, texts[k]))
+            last, since = u, 0
+    if out:
+        run.recorded = out[-1][1]
+    run.since_write = since
     return out
 
 

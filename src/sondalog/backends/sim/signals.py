@@ -29,14 +29,13 @@ from __future__ import annotations
 
 import bisect
 import csv
-import itertools
 import math
-import operator
 import random
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from sondalog.backends.sim.instants import stride_of, walk_clamped
 from sondalog.config import ConfigError, Table, of
 
 Signal = Callable[[float], float]
@@ -181,8 +180,6 @@ def shifted(signal: Signal, start: float) -> Signal:
 
 #: Steps of a random walk made ahead of need.
 _BATCH = 1024
-#: Steps of a clamped random walk summed at once, unless one of them is clamped.
-_RUN = 64
 
 
 class RandomWalk:
@@ -222,7 +219,7 @@ class RandomWalk:
         if top >= len(values):
             self._extend(top)
         first = values[0]
-        stride = _stride(times, origin if shift is None else shift + origin, interval)
+        stride = stride_of(times, origin if shift is None else shift + origin, interval)
         if stride:  # (the instants step by whole intervals: the steps one after the other)
             begin = int((times[0] - origin) // interval if shift is None else
                         (times[0] - shift - origin) // interval)  # fmt: skip
@@ -252,50 +249,12 @@ class RandomWalk:
         last = values[-1]
         append = values.append
         if isinstance(clamp, Clamp):  # min(max(v, lo), hi) written out
-            lo, hi = clamp.lo, clamp.hi
-            moves = [0.0 + z * step for z in steps]
-            for k in range(0, len(moves), _RUN):
-                run = moves[k : k + _RUN]
-                walked = list(itertools.accumulate(run, operator.add, initial=last))
-                if lo <= min(walked) and max(walked) <= hi:  # (nothing clamped: the sums)
-                    values += walked[1:]
-                    last = walked[-1]
-                    continue
-                for move in run:
-                    v = last + move
-                    v = lo if lo > v else v
-                    last = hi if hi < v else v
-                    append(last)
+            walk_clamped(values, [0.0 + z * step for z in steps], clamp.lo, clamp.hi)
         else:
             for z in steps:
                 last = clamp(last + (0.0 + z * step))
                 append(last)
         self._spare = spare
-
-
-def _stride(times: list[float], zero: float, interval: float) -> int:
-    """How many intervals the ``times`` step by, when every ``(t - zero) // interval`` is
-    exact (whole numbers of seconds well within a float's precision, positive times) and
-    each is the one before plus the stride; else 0."""
-    if len(times) < 3:
-        return 0
-    interval, zero = float(interval), float(zero)
-    step, first, last = times[1] - times[0], times[0], times[-1]
-    try:
-        if not (first > 0 and last < _EXACT and abs(zero) < _EXACT and step > 0 and interval > 0):
-            return 0
-        stride = step / interval
-        if not all(map(float.is_integer, (interval, zero, step, stride, *times))):
-            return 0  # (then the differences of the times are exact)
-    except TypeError:  # (a time that is not a float)
-        return 0
-    if not all(map(operator.eq, map(operator.sub, times[1:], times[:-1]), itertools.repeat(step))):
-        return 0
-    return int(stride)
-
-
-#: Whole numbers up to here are floats with room: sums and differences of them are exact.
-_EXACT = 2.0**50
 
 
 class Schedule:

@@ -85,7 +85,7 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
     same_writes = change <= _ZERO  # (runs._changed of two equal non-empty texts)
     numbers: dict[str, Decimal] = {}  # (Decimal(text) of the texts met, as runs.decimal_of)
     last: int | Decimal | None = None  # the recorded text in units, once needed
-    units_of: dict[str, int] = {}  # (the texts compared in units: they repeat)
+    units_of: dict[str, int | None] = {}  # (the texts compared in units: they repeat)
     n = len(texts)
     starts: Sequence[int]
     if len(set(texts)) * 4 < n:  # long runs of one text (events, a steady signal): each
@@ -121,8 +121,9 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
                 last = _units(recorded, decimals)
             if isinstance(last, int):
                 units = units_of.get(text)
-                if units is None:  # (a text of the channel's format)
-                    units = units_of[text] = int(text.replace(".", ""))
+                if units is None:  # (a number of the channel's format: its digits)
+                    units = units_of[text] = _unit_of(text, decimals)
+            if units is not None and isinstance(last, int):
                 if abs(units - last) >= least:
                     write = text
             elif abs(Decimal(text) - Decimal(recorded)) >= change:
@@ -166,13 +167,32 @@ def _format_of(decimals: int) -> re.Pattern[str]:
 def _units_all(texts: Sequence[str], recorded: str, decimals: int) -> list[int] | None:
     """Each of ``texts`` and ``recorded`` (the last) in units of the last decimal, when
     every one is a number of the channel's format (then ``int`` of its digits is the
-    number :func:`_units` gives); else None."""
-    distinct = {*texts, recorded}
-    fits = _format_of(decimals).fullmatch
-    if not all(map(fits, distinct)):
-        return None
-    units_of = {text: int(text.replace(".", "")) for text in distinct}
-    return [*map(units_of.__getitem__, texts), units_of[recorded]]
+    number :func:`_units` gives); else None. Texts met lately are looked up."""
+    known = _KNOWN.get(decimals)
+    if known is None:
+        known = _KNOWN[decimals] = {}
+    try:
+        got = [*map(known.__getitem__, texts), known[recorded]]
+    except KeyError:
+        fits = _format_of(decimals).fullmatch
+        new = {*texts, recorded}.difference(known)
+        if len(known) + len(new) > _KNOWN_MAX:
+            known.clear()
+            new = {*texts, recorded}
+        known.update((t, int(t.replace(".", "")) if fits(t) else None) for t in new)
+        got = [*map(known.__getitem__, texts), known[recorded]]
+    return None if has_none(got) else got  # type: ignore[return-value]
+
+
+def _unit_of(text: str, decimals: int) -> int | None:
+    """``text`` in units of the last decimal when it is a number of the channel's format
+    (``int`` of its digits), else None."""
+    return int(text.replace(".", "")) if _format_of(decimals).fullmatch(text) else None
+
+
+#: Texts in units of the last decimal (None: not a number of the format), by decimals.
+_KNOWN: dict[int, dict[str, int | None]] = {}
+_KNOWN_MAX = 8192
 
 
 def _by_units(

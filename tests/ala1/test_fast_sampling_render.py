@@ -92,6 +92,7 @@ def test_a_series_formats_as_each_value_through_decimal(
         for v in values
     ]
     assert format_values(_config(width, decimals), values) == expected
+    assert format_values(_config(width, decimals), values, fresh=True) == expected  # (averages)
 
 
 @given(
@@ -113,3 +114,4 @@ def test_values_of_the_same_units_format_alike(
         ]
         expected = [fmt.render(Decimal(repr(v))) for v in values]
         assert format_values(_config(width, decimals), values) == expected
+        assert format_values(_config(width, decimals), values, fresh=True) == expected

@@ -284,7 +284,7 @@ def _averaged_bulk(
         partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
     else:
         partial, have = reduce(add, valid, partial), have + len(valid)
-    texts = format_values(cfg, averages)
+    texts = format_values(cfg, averages, fresh=True)
     written = record_all(run, texts)
     run.avg_sum, run.avg_n = partial, have
     for k, exc in values.faults.items():

@@ -355,9 +355,12 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
     return text
 
 
-def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
+def format_values(
+    cfg: ChannelConfig, values: Sequence[float | None], fresh: bool = False
+) -> list[str]:
     """:func:`format_value` of each of ``values`` (issue 24: a series of samples), the texts
-    rendered lately looked up without a call."""
+    rendered lately looked up without a call: by the value, or by its units of the last
+    decimal when the values are ``fresh`` (averages: new floats, seldom new units)."""
     fmt = cfg.format
     rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
     if rendered is None:
@@ -393,6 +396,18 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
         rendered[value] = text
         return text
 
+    if fresh:  # (new() for anything but a value far from zero, a half and the limit)
+        units_text = by_units.get
+        return [
+            text
+            if value is not None
+            and -near < value < near
+            and not -1e-4 < value < 1e-4
+            and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
+            and (text := units_text(round(scaled))) is not None
+            else new(value)
+            for value in values
+        ]
     return [
         text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
         for value in values

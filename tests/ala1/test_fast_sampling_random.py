@@ -359,3 +359,29 @@ def test_a_delay_running_when_the_clock_is_set_back(monkeypatch: pytest.MonkeyPa
     assert fast == slow
     rows: list[str] = slow[-2]  # type: ignore[assignment]
     assert any(row.startswith("20070101000000") and row.split(",")[2] for row in rows), rows
+
+
+def test_calibrated_pulse_channels_without_pulses(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Windows without a pulse (a rain gauge on a dry day) read 0 * mult + add on the timer
+    and 0 on a pin, through the device's calibration, on both paths; the DS18B20's own
+    calibration too."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "5.3", "mult": "1", "second_switch": 0, "switch": 0, "advance": 0}
+    channels = [
+        base | {"input": "timer", "period": 10, "start": 0},
+        base | {"input": "pin", "period": 15, "start": 3},
+        base | {"input": "events", "period": 10, "start": 0, "average": 2},
+        base | {"input": "ds_rom", "period": 20, "start": 0},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 40)] * 30 + [("read", 1), ("advance", 3000)],  # (dry stretches)
+        "watch": 1,
+        "function": "up",
+        "threshold": "1",
+        "hysteresis": "0.2",
+        "of_record": False,
+        "device_cal": ("0.5", "0.01"),
+        "ds_cal": ("3200", "-1.5"),
+    }
+    assert run(case, True, monkeypatch) == run(case, False, monkeypatch)

@@ -189,6 +189,8 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
             starts = [t - window for t, window in zip(times, windows, strict=True)]
             got = many_pulses(device, address, timer, starts, times)
             caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
+            if not any(got) and min(caps.values(), default=0) >= 0:  # (no pulse: min(0, cap))
+                return [0 * dm + da if timer else 0.0] * len(got)
             if timer:  # (min(c, cap) * dm + da)
                 return [
                     (cap if (cap := caps[w]) < c else c) * dm + da

@@ -75,6 +75,8 @@ class PulseSource:
             return [0] * len(ends)
         self._extend(max(ends))
         events, burst, left = self._events, self.burst, bisect.bisect_left
+        if left(events, min(starts)) == left(events, max(ends)):  # (no pulse in any window)
+            return [0] * len(ends)
         at_ends = _before_each(events, ends)
         if starts[1:] == ends[:-1]:  # (windows one after the other: each start an end before)
             at_starts = [left(events, starts[0]), *at_ends[:-1]]

@@ -89,3 +89,52 @@ def test_a_surface_column_is_the_surface_value_by_value(
         assert expected is None
         return
     assert expected is not None and _same(got, expected), (column_x, column_p, got, expected)
+
+
+@given(
+    curve=curves(),
+    pool=st.lists(some, min_size=1, max_size=8),
+    first=st.lists(st.integers(0, 7), max_size=40),
+    second=st.lists(st.integers(0, 7), max_size=40),
+)
+def test_a_curve_column_remembers_from_column_to_column(
+    curve: Curve, pool: list[float | None], first: list[int], second: list[int]
+) -> None:
+    """The values a column remembers serve the next columns (a stretch after another)."""
+    column = curve_column(curve)
+    for picks in (first, second, first):
+        values = [pool[k % len(pool)] for k in picks]
+        expected = _one_by_one(curve, values)
+        try:
+            got = column(values)
+        except (IndexError, ValueError):
+            assert expected is None
+            continue
+        assert expected is not None and _same(got, expected), (values, got, expected)
+
+
+@given(
+    params=points,
+    data=st.data(),
+    xs=st.lists(some, min_size=1, max_size=80),
+    runs=st.lists(
+        st.tuples(st.one_of(finite, special, st.just(math.nan)), st.integers(1, 30)), max_size=6
+    ),
+)
+def test_a_surface_column_over_a_slow_parameter(
+    params: list[float],
+    data: st.DataObject,
+    xs: list[float | None],
+    runs: list[tuple[float, int]],
+) -> None:
+    """A parameter that stays for many samples (a temperature): the column run by run."""
+    surface = Surface(tuple(params), tuple(data.draw(curves()) for _ in params))
+    column_p: list[float | None] = [p for p, length in runs for _ in range(length)]
+    column_x = [xs[k % len(xs)] for k in range(len(column_p))]
+    expected = _one_by_one(surface, column_x, column_p)
+    try:
+        got = surface_column(surface)(column_x, column_p)
+    except (IndexError, ValueError):
+        assert expected is None
+        return
+    assert expected is not None and _same(got, expected), (column_x, column_p, got, expected)

@@ -124,6 +124,8 @@ setup = st.fixed_dictionaries(
         "of_record": st.booleans(),
         # the device calibrations (§6.4.4): the ADC's and the timer's
         "device_cal": st.sampled_from([("1", "0"), ("1", "0"), ("0.5", "0.01")]),
+        # the DS18B20's (its factory value turns a reading into degrees Celsius)
+        "ds_cal": st.sampled_from([None, ("3200", "-1.5")]),
     }
 )
 
@@ -140,6 +142,8 @@ def configure(m: Module, case: dict[str, Any]) -> None:
     mult, add = case.get("device_cal", ("1", "0"))
     for device in (1, 4):
         m.ok(f"write device {device} cal mult {mult} write device {device} cal add {add}")
+    if case.get("ds_cal") is not None:
+        m.ok("write device 3 cal mult {} write device 3 cal add {}".format(*case["ds_cal"]))
     m.ok("write output 2 device 1 write output 2 address 6")
     m.ok("write output 3 device 1 write output 3 address 5")
     for ch, c in enumerate(channels, 1):
@@ -355,3 +359,29 @@ def test_a_delay_running_when_the_clock_is_set_back(monkeypatch: pytest.MonkeyPa
     assert fast == slow
     rows: list[str] = slow[-2]  # type: ignore[assignment]
     assert any(row.startswith("20070101000000") and row.split(",")[2] for row in rows), rows
+
+
+def test_calibrated_pulse_channels_without_pulses(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Windows without a pulse (a rain gauge on a dry day) read 0 * mult + add on the timer
+    and 0 on a pin, through the device's calibration, on both paths; the DS18B20's own
+    calibration too."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "5.3", "mult": "1", "second_switch": 0, "switch": 0, "advance": 0}
+    channels = [
+        base | {"input": "timer", "period": 10, "start": 0},
+        base | {"input": "pin", "period": 15, "start": 3},
+        base | {"input": "events", "period": 10, "start": 0, "average": 2},
+        base | {"input": "ds_rom", "period": 20, "start": 0},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 40)] * 30 + [("read", 1), ("advance", 3000)],  # (dry stretches)
+        "watch": 1,
+        "function": "up",
+        "threshold": "1",
+        "hysteresis": "0.2",
+        "of_record": False,
+        "device_cal": ("0.5", "0.01"),
+        "ds_cal": ("3200", "-1.5"),
+    }
+    assert run(case, True, monkeypatch) == run(case, False, monkeypatch)

@@ -92,3 +92,26 @@ def test_a_series_formats_as_each_value_through_decimal(
         for v in values
     ]
     assert format_values(_config(width, decimals), values) == expected
+    assert format_values(_config(width, decimals), values, fresh=True) == expected  # (averages)
+
+
+@given(
+    units=st.lists(st.integers(-(10**5), 10**5), min_size=1, max_size=10),
+    offsets=st.lists(st.floats(-0.49, 0.49), min_size=1, max_size=30),
+    width=st.integers(0, 9),
+    decimals=st.integers(0, 4),
+)
+def test_values_of_the_same_units_format_alike(
+    units: list[int], offsets: list[float], width: int, decimals: int
+) -> None:
+    """Averages are new floats of units met before (texts kept by units, issue 24): each
+    still shows as ``NumberFormat.render`` of its repr, series after series."""
+    fmt = NumberFormat(width, decimals)
+    scale = 10.0**decimals
+    for shift in (0.0, 0.25):
+        values = [
+            (units[k % len(units)] + offset + shift) / scale for k, offset in enumerate(offsets)
+        ]
+        expected = [fmt.render(Decimal(repr(v))) for v in values]
+        assert format_values(_config(width, decimals), values) == expected
+        assert format_values(_config(width, decimals), values, fresh=True) == expected

@@ -58,29 +58,28 @@ class ColumnHardware(Protocol):
     """Hardware that reads an input at many host times at once, the outputs as they are
     (the simulation): the very values of its one-time reads."""
 
-    def adc_column(self, device: int, address: int, times: list[float]) -> list[Value]: ...
-    def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[Value]: ...
-    def supply_column(self, times: list[float]) -> list[Value]: ...
+    # (each reading r as r * mult + add: a device calibration; the supply's times ``then``)
+    def adc_column(
+        self, device: int, address: int, times: list[float], mult: float, add: float
+    ) -> list[Value]: ...
+    def ds18b20_column(
+        self, pin: int, rom: int, times: list[float], mult: float, add: float
+    ) -> list[Value]: ...
+    def supply_column(
+        self, times: list[float], mult: float, add: float, then: float
+    ) -> list[Value]: ...
     def gsm_column(self, what: str, times: list[float]) -> list[Value]: ...
     def pulses_column(
         self, device: int, address: int, timer: bool, starts: list[float], ends: list[float]
     ) -> list[int]: ...
 
 
-def _calibrated(
-    raw: Callable[[list[float]], list[Value]], mult: float, add: float
-) -> Callable[[list[float]], list[Value]]:
-    def column(times: list[float]) -> list[Value]:
-        return affine(raw(times), mult, add)
-
-    return column
-
-
-def affine(values: list[Value], mult: float, add: float) -> list[Value]:
-    """``v * mult + add`` of each value (None stays None), a new list: the values themselves
-    where that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
+def affine(values: list[Value], mult: float, add: float, fresh: bool = False) -> list[Value]:
+    """``v * mult + add`` of each value (None stays None), a new list (or ``values`` itself
+    when it is ``fresh``: made for this call, or only read): the values themselves where
+    that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
     if mult == 1.0 and add == 0.0 and 0.0 not in values:
-        return list(values)
+        return values if fresh else list(values)
     return [None if v is None else v * mult + add for v in values]
 
 
@@ -143,7 +142,7 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
 
             column = None
             if many is not None:
-                column = _calibrated(functools.partial(many.adc_column, device, address), dm, da)
+                column = functools.partial(many.adc_column, device, address, mult=dm, add=da)
             return Source(("adc", device, address, dm, da), analog, column=column)
         if device_type == "DS18B20":
             ds18b20, pin, rom = hw.ds18b20, inp.device_address, inp.address
@@ -154,7 +153,7 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
 
             column = None
             if many is not None:
-                column = _calibrated(functools.partial(many.ds18b20_column, pin, rom), dm, da)
+                column = functools.partial(many.ds18b20_column, pin, rom, mult=dm, add=da)
             return Source(("ds18b20", pin, rom, dm, da), thermometer, column=column)
         return Source(("none",), None, None)
     if kind == 1:
@@ -168,7 +167,7 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
 
         column = None
         if many is not None:
-            column = _supplied(_calibrated(many.supply_column, dm, da))
+            column = functools.partial(many.supply_column, mult=dm, add=da, then=SUPPLY_DIVIDER)
         return Source(("supply", dm, da), supplied, column=column)
     timer = device_type == "MSP430TA"  # types 2 and 6: pulses in the window
     if not timer and device_type != "MSP430ADC":
@@ -190,6 +189,8 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
             starts = [t - window for t, window in zip(times, windows, strict=True)]
             got = many_pulses(device, address, timer, starts, times)
             caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
+            if not any(got) and min(caps.values(), default=0) >= 0:  # (no pulse: min(0, cap))
+                return [0 * dm + da if timer else 0.0] * len(got)
             if timer:  # (min(c, cap) * dm + da)
                 return [
                     (cap if (cap := caps[w]) < c else c) * dm + da
@@ -202,15 +203,6 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
     # (channels of a cohort with the same window count the same pulses: the series adds it)
     key = ("pulses", device, address, timer, limit, dm, da)
     return Source(key, counted, windowed=True, counts=counts)
-
-
-def _supplied(
-    calibrated: Callable[[list[float]], list[Value]],
-) -> Callable[[list[float]], list[Value]]:
-    def column(times: list[float]) -> list[Value]:
-        return [None if r is None else r * SUPPLY_DIVIDER for r in calibrated(times)]
-
-    return column
 
 
 def channel_plan(measurer: Measurer, cfg: ChannelConfig) -> tuple[tuple[Source, ...], Calc]:
@@ -309,15 +301,15 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     mult, add = cfg.mult, cfg.add
     second = None if table2 is None else curve_column(table2)
 
-    def finish(ys: list[Value]) -> list[Value]:  # (channel_plan's finish)
-        ys = affine(ys, mult, add)
+    def finish(ys: list[Value], fresh: bool = True) -> list[Value]:  # (channel_plan's)
+        ys = affine(ys, mult, add, fresh)
         return ys if second is None else second(ys)
 
     if kind == 11 or kind == 12:  # (gsm_value: a 1-D table, or none)
         if isinstance(table1, Surface):
             return None
         if table1 is None:
-            return finish
+            return lambda xs: finish(xs, False)  # (the source's own column)
         gsm_table = curve_column(table1)
         return lambda xs: finish(gsm_table(xs))
     m1, a1 = cfg.inputs[0].cal2_mult, cfg.inputs[0].cal2_add
@@ -328,7 +320,7 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
         surface = surface_column(table1)
 
         def two_d(rs: list[Value], r2s: list[Value]) -> list[Value]:
-            return finish(surface(affine(rs, m1, a1), affine(r2s, m2, a2)))
+            return finish(surface(affine(rs, m1, a1, True), affine(r2s, m2, a2, True)))
 
         return two_d
     if isinstance(table1, Surface):
@@ -336,8 +328,9 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     first = None if table1 is None else curve_column(table1)
 
     def one_d(rs: list[Value]) -> list[Value]:
-        xs = affine(rs, m1, a1)
-        return finish(xs if first is None else first(xs))
+        if first is None:
+            return finish(affine(rs, m1, a1))
+        return finish(first(affine(rs, m1, a1, True)))  # (the table only reads it)
 
     if first is None and second is None:
 

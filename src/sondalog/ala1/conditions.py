@@ -14,10 +14,14 @@ from __future__ import annotations
 
 import functools
 import operator
-from collections.abc import Callable, Sequence
+import re
+import sys
+from collections.abc import Callable, Iterable, Sequence
 from decimal import ROUND_CEILING, Decimal
+from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
+from sondalog.ala1.curves import has_none
 from sondalog.ala1.measure import format_value, format_values
 from sondalog.ala1.runs import ChannelRun, decide
 
@@ -70,13 +74,18 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
         return out
     recorded, active = run.recorded, run.event_active
     events = cfg.type == 6
+    decimals = cfg.format.decimals
+    # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
+    least = _least(change, decimals)
+    if not events and change > _ZERO and recorded:
+        in_units = _units_all(texts, recorded, decimals)
+        if in_units is not None:  # (every text a number of the channel's format)
+            return _by_units(run, texts, in_units, least, samples)
     zero = format_value(cfg, 0.0) if events else ""
     same_writes = change <= _ZERO  # (runs._changed of two equal non-empty texts)
     numbers: dict[str, Decimal] = {}  # (Decimal(text) of the texts met, as runs.decimal_of)
-    decimals = cfg.format.decimals
-    # |a - b| >= change for texts of ``decimals`` decimals: |A - B| >= least in their units
-    least = int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
     last: int | Decimal | None = None  # the recorded text in units, once needed
+    units_of: dict[str, int | None] = {}  # (the texts compared in units: they repeat)
     n = len(texts)
     starts: Sequence[int]
     if len(set(texts)) * 4 < n:  # long runs of one text (events, a steady signal): each
@@ -111,7 +120,10 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
             if last is None:
                 last = _units(recorded, decimals)
             if isinstance(last, int):
-                units = int(text.replace(".", ""))  # (a text of the channel's format)
+                units = units_of.get(text)
+                if units is None:  # (a number of the channel's format: its digits)
+                    units = units_of[text] = _unit_of(text, decimals)
+            if units is not None and isinstance(last, int):
                 if abs(units - last) >= least:
                     write = text
             elif abs(Decimal(text) - Decimal(recorded)) >= change:
@@ -139,6 +151,72 @@ def record_all(run: ChannelRun, texts: Sequence[str]) -> list[tuple[int, str]]:
     return out
 
 
+@functools.lru_cache(maxsize=64)
+def _least(change: Decimal, decimals: int) -> int:
+    """The least difference of two texts of ``decimals`` decimals, in units of the last
+    decimal, that makes a change of at least ``change``."""
+    return int((change.scaleb(decimals)).to_integral_value(rounding=ROUND_CEILING))
+
+
+@functools.lru_cache(maxsize=16)
+def _format_of(decimals: int) -> re.Pattern[str]:
+    """A text of the channel's format: a whole number, or ``decimals`` decimals."""
+    return re.compile(rf" *-?[0-9]+\.[0-9]{{{decimals}}}" if decimals else " *-?[0-9]+")
+
+
+def _units_all(texts: Sequence[str], recorded: str, decimals: int) -> list[int] | None:
+    """Each of ``texts`` and ``recorded`` (the last) in units of the last decimal, when
+    every one is a number of the channel's format (then ``int`` of its digits is the
+    number :func:`_units` gives); else None. Texts met lately are looked up."""
+    known = _KNOWN.get(decimals)
+    if known is None:
+        known = _KNOWN[decimals] = {}
+    try:
+        got = [*map(known.__getitem__, texts), known[recorded]]
+    except KeyError:
+        fits = _format_of(decimals).fullmatch
+        new = {*texts, recorded}.difference(known)
+        if len(known) + len(new) > _KNOWN_MAX:
+            known.clear()
+            new = {*texts, recorded}
+        known.update((t, int(t.replace(".", "")) if fits(t) else None) for t in new)
+        got = [*map(known.__getitem__, texts), known[recorded]]
+    return None if has_none(got) else got  # type: ignore[return-value]
+
+
+def _unit_of(text: str, decimals: int) -> int | None:
+    """``text`` in units of the last decimal when it is a number of the channel's format
+    (``int`` of its digits), else None."""
+    return int(text.replace(".", "")) if _format_of(decimals).fullmatch(text) else None
+
+
+#: Texts in units of the last decimal (None: not a number of the format), by decimals.
+_KNOWN: dict[int, dict[str, int | None]] = {}
+_KNOWN_MAX = 8192
+
+
+def _by_units(
+    run: ChannelRun, texts: Sequence[str], units: list[int], least: int, samples: int
+) -> list[tuple[int, str]]:
+    """:func:`record_all` of a channel whose texts are all numbers of its format and whose
+    recorded text is one (``units``: the texts' units, then the recorded text's): a text is
+    written when it differs from the recorded one by ``least`` units or more (§6.5.16.2),
+    or when ``samples`` samples have passed since the last write (§6.5.16.3)."""
+    last = units.pop()
+    since = run.since_write
+    limit = samples if samples > 0 else since + len(texts) + 1  # (never reached)
+    out: list[tuple[int, str]] = []
+    for k, u in enumerate(units):
+        since += 1
+        if u - last >= least or last - u >= least or since >= limit:
+            out.append((k, texts[k]))
+            last, since = u, 0
+    if out:
+        run.recorded = out[-1][1]
+    run.since_write = since
+    return out
+
+
 def _units(text: str, decimals: int) -> int | Decimal:
     """The number ``text`` shows in units of ``10**-decimals``: an int when it is whole (a
     text of the channel's format), else the Decimal."""
@@ -160,13 +238,27 @@ def _plain_bulk(
     return {times[k]: text for k, text in written}
 
 
-def _valid(samples: list[Value]) -> tuple[list[int], list[Value]]:
-    """The positions of the samples with a valid value, and those values (an average counts
-    only them, §6.5.15)."""
-    if None in samples:
+def _valid(samples: list[Value]) -> tuple[list[int] | None, list[Value]]:
+    """The positions of the samples with a valid value (None: every one), and those values
+    (an average counts only them, §6.5.15)."""
+    if has_none(samples):
         index = [k for k, value in enumerate(samples) if value is not None]
         return index, [samples[k] for k in index]
-    return list(range(len(samples))), samples
+    return None, samples
+
+
+def _reduced(values: Iterable[Value], start: float) -> float:
+    """``((start + v0) + v1) + ...``: the sum as the event-by-event path adds it."""
+    return functools.reduce(operator.add, values, start)
+
+
+#: :func:`_reduced`, by the C loop of ``sum`` where it adds floats in that very order
+#: (Python 3.12 sums floats with compensation: there ``functools.reduce``).
+_sum: Callable[[Iterable[Value], float], float]
+if sys.version_info < (3, 12):
+    _sum = sum  # type: ignore[assignment]
+else:
+    _sum = _reduced
 
 
 def _averaged_bulk(
@@ -184,20 +276,22 @@ def _averaged_bulk(
     add, reduce = operator.add, functools.reduce
     averages: list[float] = []
     if len(valid) >= need:
-        averages.append(reduce(add, valid[:need], partial) / n)
-        averages += [
-            reduce(add, valid[j : j + n], 0.0) / n for j in range(need, len(valid) - n + 1, n)
-        ]
+        averages.append(_sum(valid[:need], partial) / n)
+        rest = iter(valid[need:])  # (the next averages: zip takes n samples at a time)
+        groups = zip(*[rest] * n, strict=False)  # (an incomplete last group is left off)
+        averages += [total / n for total in map(_sum, groups, repeat(0.0))]
         used = need + (len(averages) - 1) * n
         partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
     else:
         partial, have = reduce(add, valid, partial), have + len(valid)
-    texts = format_values(cfg, averages)
+    texts = format_values(cfg, averages, fresh=True)
     written = record_all(run, texts)
     run.avg_sum, run.avg_n = partial, have
     for k, exc in values.faults.items():
         report(cfg.number, exc, times[k] - offset)
     run.sample, run.sampled = samples[-1], True
+    if index is None:
+        return {times[need - 1 + m * n]: text for m, text in written}
     return {times[index[need - 1 + m * n]]: text for m, text in written}
 
 
@@ -256,6 +350,8 @@ def _averaged(
         report(cfg.number, exc, times[k] - offset)
     samples = values.values
     index, valid = _valid(samples)
+    if index is None:
+        index = list(range(len(samples)))
     written: dict[int, str] = {}
     last = len(samples) - 1
     sample = samples[-1]

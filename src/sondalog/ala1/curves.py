@@ -12,6 +12,7 @@ compute value by value.
 from __future__ import annotations
 
 import bisect
+import itertools
 from collections.abc import Callable
 from typing import Any
 
@@ -34,6 +35,25 @@ def curve_column(curve: Curve) -> CurveColumn:
     dys = (0.0, *(ys[i] - ys[i - 1] for i in range(1, len(ys))))
     dxs = (1.0, *(xs[i] - xs[i - 1] for i in range(1, len(xs))))
     right = bisect.bisect_right
+    if len(xs) == 2:  # a line: no segment to look for, nothing worth remembering
+        dy, dx = dys[1], dxs[1]
+
+        def line(values: list[Value]) -> list[Value]:
+            return _over_valid(
+                lambda values: [
+                    y_first
+                    if x <= x_first
+                    else y_first + dy * (x - x_first) / dx
+                    if x < x_last
+                    else y_last
+                    if x >= x_last
+                    else _no_segment(x)  # (a NaN, as Curve raises)
+                    for x in values
+                ],
+                values,
+            )
+
+        return line
 
     def direct(values: list[float]) -> list[float]:
         at = [right(xs, x) for x in values]  # (a NaN: len(xs), no segment: IndexError)
@@ -46,9 +66,14 @@ def curve_column(curve: Curve) -> CurveColumn:
             for x, i in zip(values, at, strict=True)
         ]
 
-    memo: dict[float, float] = {}  # (kept from stretch to stretch: readings come back)
+    memo: dict[float, float] = {}  # (kept from stretch to stretch: readings come back;
+    # never a zero: 0.0 and -0.0 are one key and may give different signs)
 
     def remembered(values: list[float]) -> list[float]:
+        try:  # (most stretches meet only readings met before)
+            return [memo[x] for x in values]
+        except KeyError:
+            pass
         distinct = set(values)
         if 0.0 in distinct:  # (0.0 and -0.0 are one key and may give different signs)
             return direct(values)
@@ -86,14 +111,31 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
             for y0, y1, p in zip(y0s, y1s, ps, strict=True)
         ]
 
-    def valid_pairs(xs: list[Any], ps: list[Any]) -> list[Value]:
+    def keys_of(ps: list[Any]) -> list[int]:
         # -1: at or below the first parameter, -2: at or above the last, else bisect_right
-        keys = [-1 if p <= p_first else -2 if p >= p_last else right(params, p) for p in ps]
-        kinds = set(keys)
-        if len(kinds) == 1:
-            return group(keys[0], list(xs), ps)
-        out: list[Value] = [None] * len(xs)
-        for key in kinds:
+        if len(params) == 3:  # (bisect_right written out; a NaN: 3, as bisect_right)
+            p1 = params[1]
+            return [
+                -1 if p <= p_first else -2 if p >= p_last else 1 if p < p1 else 2 if p >= p1 else 3
+                for p in ps
+            ]
+        return [-1 if p <= p_first else -2 if p >= p_last else right(params, p) for p in ps]
+
+    def valid_pairs(xs: list[Any], ps: list[Any]) -> list[Value]:
+        keys = keys_of(ps)
+        runs = [(key, len(list(same))) for key, same in itertools.groupby(keys)]
+        if len(runs) == 1:
+            return group(keys[0], xs, ps)
+        if len(runs) * 16 <= len(keys):  # a parameter that moves slowly: run by run
+            out: list[Value] = []
+            start = 0
+            for key, length in runs:
+                end = start + length
+                out += group(key, xs[start:end], ps[start:end])
+                start = end
+            return out
+        out = [None] * len(xs)
+        for key in set(keys):
             index = [k for k, of in enumerate(keys) if of == key]
             got = group(key, [xs[k] for k in index], [ps[k] for k in index])
             for k, y in zip(index, got, strict=True):
@@ -101,7 +143,7 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
         return out
 
     def column(xs: list[Value], ps: list[Value]) -> list[Value]:
-        if None not in xs and None not in ps:
+        if not has_none(xs) and not has_none(ps):
             return valid_pairs(xs, ps)
         index = [
             k
@@ -117,9 +159,23 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
     return column
 
 
+def has_none(values: list[Any]) -> bool:
+    """Whether ``values`` holds a None (no value): summed in C where it holds only numbers,
+    several times faster than ``None in values`` (each float compared with None)."""
+    try:
+        sum(values, 0.0)  # (None raises a TypeError)
+    except Exception:
+        return None in values
+    return False
+
+
+def _no_segment(x: float) -> float:
+    raise IndexError(f"no segment of the table holds {x!r}")
+
+
 def _over_valid(fn: Callable[[list[Any]], list[Any]], values: list[Value]) -> list[Value]:
     """``fn`` of the values that are not None, in their places; None stays None."""
-    if None not in values:
+    if not has_none(values):
         return fn(values)
     index = [k for k, x in enumerate(values) if x is not None]
     out: list[Value] = [None] * len(values)

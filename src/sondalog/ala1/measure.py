@@ -355,15 +355,21 @@ def format_value(cfg: ChannelConfig, value: float | None) -> str:
     return text
 
 
-def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
+def format_values(
+    cfg: ChannelConfig, values: Sequence[float | None], fresh: bool = False
+) -> list[str]:
     """:func:`format_value` of each of ``values`` (issue 24: a series of samples), the texts
-    rendered lately looked up without a call."""
+    rendered lately looked up without a call: by the value, or by its units of the last
+    decimal when the values are ``fresh`` (averages: new floats, seldom new units)."""
     fmt = cfg.format
     rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
     if rendered is None:
         rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
     get = rendered.get  # (None for a value not rendered lately, None and NaN included)
     decimals, width = fmt.decimals, fmt.width
+    by_units = _BY_UNITS.get(fmt.width * 16 + fmt.decimals)
+    if by_units is None:
+        by_units = _BY_UNITS[fmt.width * 16 + fmt.decimals] = {}
 
     near, scale = NEAR_BELOW[decimals], SCALES[decimals]
 
@@ -374,17 +380,34 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
         if 0.4999 < scaled % 1.0 < 0.5001:
             return format_value(cfg, value)
         units = round(scaled)
-        if decimals:
-            digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
-            text = f"{digits[:-decimals]}.{digits[-decimals:]}"
-            text = ("-" + text if units < 0 else text).rjust(width)
-        else:
-            text = str(units).rjust(width)
+        text = by_units.get(units)  # (an average is a new float, seldom new units)
+        if text is None:
+            if decimals:
+                digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
+                text = f"{digits[:-decimals]}.{digits[-decimals:]}"
+                text = ("-" + text if units < 0 else text).rjust(width)
+            else:
+                text = str(units).rjust(width)
+            if len(by_units) >= _RENDERED_MAX:
+                by_units.clear()
+            by_units[units] = text
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
         rendered[value] = text
         return text
 
+    if fresh:  # (new() for anything but a value far from zero, a half and the limit)
+        units_text = by_units.get
+        return [
+            text
+            if value is not None
+            and -near < value < near
+            and not -1e-4 < value < 1e-4
+            and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
+            and (text := units_text(round(scaled))) is not None
+            else new(value)
+            for value in values
+        ]
     return [
         text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
         for value in values
@@ -395,4 +418,6 @@ def format_values(cfg: ChannelConfig, values: Sequence[float | None]) -> list[st
 #: decimal rendering costs more than the rest of a measurement. -0.0 and 0.0 share an
 #: entry: both render without a sign.
 _RENDERED: dict[int, dict[float, str]] = {}  # by width * 16 + decimals
+#: The same texts by the value in units of the last decimal (far from a half).
+_BY_UNITS: dict[int, dict[int, str]] = {}
 _RENDERED_MAX = 8192

@@ -7,7 +7,6 @@ works in whole module seconds since 1970. At either end of the calendar the cloc
 
 from __future__ import annotations
 
-import functools
 import math
 from datetime import datetime, timedelta
 
@@ -38,15 +37,23 @@ def _held(seconds: float) -> int:
 
 def stamp(seconds: float) -> str:
     """The record's ``YYYYMMDDhhmmss`` of module ``seconds`` (§6.6.5: a row's time), as
-    :func:`from_seconds` and ``tokens.format_stamp`` give it, with the date of each day
-    worked out once: a simulated year writes a row every minute (issue 24)."""
-    day, rest = divmod(_held(seconds), 86400)
-    hours, rest = divmod(rest, 3600)
-    minutes, secs = divmod(rest, 60)
-    return f"{_date(day)}{hours:02d}{minutes:02d}{secs:02d}"
+    :func:`from_seconds` and ``tokens.format_stamp`` give it: the date of each day worked
+    out once, ``hhmm`` and ``ss`` looked up (a simulated year writes a row every minute,
+    issue 24)."""
+    held = seconds if type(seconds) is int and _LOW <= seconds <= _HIGH else _held(seconds)
+    day, rest = divmod(held, 86400)
+    date = _DATES.get(day)
+    if date is None:
+        if len(_DATES) >= 64:
+            _DATES.clear()
+        moment = _EPOCH + timedelta(days=day)
+        date = _DATES[day] = f"{moment.year:04d}{moment.month:02d}{moment.day:02d}"
+    minute, secs = divmod(rest, 60)
+    return date + _HHMM[minute] + _SS[secs]
 
 
-@functools.lru_cache(maxsize=16)
-def _date(day: int) -> str:
-    moment = _EPOCH + timedelta(days=day)
-    return f"{moment.year:04d}{moment.month:02d}{moment.day:02d}"
+_LOW, _HIGH = math.ceil(CLOCK_MIN), math.floor(CLOCK_MAX)
+#: Dates of the days stamped lately, by day since 1970.
+_DATES: dict[int, str] = {}
+_HHMM = [f"{h:02d}{m:02d}" for h in range(24) for m in range(60)]
+_SS = [f"{s:02d}" for s in range(60)]

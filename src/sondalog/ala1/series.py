@@ -250,10 +250,19 @@ def _sample_series(
         run.last_t = times[-1]
         run.next_t = times[-1] + run.cfg.period
     outputs.update(float(instants[-1]), offset)
-    rows = sorted({t for texts in written.values() for t in texts})
-    fields = [written.get(n, {}) for n in range(1, sampler.max_number + 1)]
+    # each row's fields filled text by text (a channel writes at few of the instants)
+    table: dict[int, list[str]] = {}
+    blank = [""] * sampler.max_number
+    for number, texts in written.items():
+        place = number - 1
+        for t, text in texts.items():
+            fields = table.get(t)
+            if fields is None:
+                fields = table[t] = blank.copy()
+            fields[place] = text
+    rows = sorted(table)
     for t in rows:
-        sink(t, [texts.get(t, "") for texts in fields])
+        sink(t, table[t])
     if sampler.series_observer is not None:
         sampler.series_observer(rows, samples)
 

@@ -44,29 +44,34 @@ class Crossing:
         """:meth:`sample` of each of ``texts`` in order (issue 24: a series of samples): the
         index of the first that triggers (None: none does); the side ends as after the last.
         Each text is parsed once; the crossings are found by ``list.index``."""
-        classes: dict[str, tuple[bool, bool, bool] | None] = {}
         half = self.hysteresis / 2
         high, low = self.value + half, self.value - half
+        # each text's code: 0 no valid value, 1 above value + h/2 (crosses up), 2 below
+        # value - h/2 (crosses down), 3 both (a negative hysteresis), 4 neither
+        codes: dict[str, int] = {}
         for text in set(texts):
             x = _number(text)
-            classes[text] = None if x is None else (x > high, x < low, x > self.value)
-        got = [classes[text] for text in texts]
-        ups = [c is not None and c[0] for c in got]
-        downs = [c is not None and c[1] for c in got]
+            codes[text] = 0 if x is None else (x > high) + 2 * (x < low) or 4
+        got = [codes[text] for text in texts]
         first: int | None = None
         k = 0
         if self.above is None:  # (the first valid sample tells the side)
-            k = next((k for k, c in enumerate(got) if c is not None), -1)
-            side = got[k] if k >= 0 else None
-            if side is None:
+            k = next((k for k, c in enumerate(got) if c), -1)
+            if k < 0:
                 return None
-            self.above = side[2]
+            x = _number(texts[k])
+            assert x is not None
+            self.above = x > self.value
             k += 1
+        both = 3 in codes.values()
         while True:
-            wanted = downs if self.above else ups
             try:
-                k = wanted.index(True, k)
-            except ValueError:
+                if both:
+                    wanted = (2, 3) if self.above else (1, 3)
+                    k = next(j for j in range(k, len(got)) if got[j] in wanted)
+                else:
+                    k = got.index(2 if self.above else 1, k)
+            except (ValueError, StopIteration):
                 return first
             self.above = not self.above
             if first is None and self.function == ("UP" if self.above else "DOWN"):

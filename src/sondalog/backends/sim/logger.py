@@ -9,7 +9,9 @@ ADC inputs, pulse sources, DS18B20 sensors and GSM values, each a signal of
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
+import operator
 import random
 from dataclasses import dataclass, field
 
@@ -73,7 +75,9 @@ class PulseSource:
             return [0] * len(ends)
         self._extend(max(ends))
         events, burst, left = self._events, self.burst, bisect.bisect_left
-        at_ends = [left(events, t1) for t1 in ends]
+        if left(events, min(starts)) == left(events, max(ends)):  # (no pulse in any window)
+            return [0] * len(ends)
+        at_ends = _before_each(events, ends)
         if starts[1:] == ends[:-1]:  # (windows one after the other: each start an end before)
             at_starts = [left(events, starts[0]), *at_ends[:-1]]
         else:
@@ -90,6 +94,21 @@ class PulseSource:
         while last < until:
             last += self._rng.expovariate(self.burst_rate)
             self._events.append(last)
+
+
+def _before_each(events: list[float], ends: list[float]) -> list[int]:
+    """``bisect_left(events, t)`` of each of ``ends``: when the ends ascend (sampling
+    instants), the few events among them placed once each instead of a search per end."""
+    left = bisect.bisect_left
+    first = left(events, ends[0])
+    among = events[first : left(events, ends[-1])]
+    if len(among) * 8 > len(ends) or not all(map(operator.le, ends, ends[1:])):
+        return [left(events, t) for t in ends]
+    steps = [first, *[0] * len(ends)]
+    right = bisect.bisect_right
+    for event in among:  # (each event counts from the first end above it on)
+        steps[right(ends, event)] += 1
+    return list(itertools.accumulate(steps))[: len(ends)]
 
 
 @dataclass
@@ -220,8 +239,11 @@ class SimHardware:
         return None if signal is None else signal(t)
 
     # -- many instants at once (sondalog.ala1.columns.ColumnHardware, issue 24) ----------------
-    def adc_column(self, device: int, address: int, times: list[float]) -> list[float | None]:
-        """:meth:`adc` at each of ``times``, the outputs as they are."""
+    def adc_column(
+        self, device: int, address: int, times: list[float], mult: float = 1.0, add: float = 0.0
+    ) -> list[float | None]:
+        """:meth:`adc` at each of ``times``, the outputs as they are, each reading ``r`` as
+        ``r * mult + add`` (a device calibration, in the same pass)."""
         if address >= 32:
             source, reference = self.analog.get(address - 16), self.external_reference
         else:
@@ -231,12 +253,23 @@ class SimHardware:
         levels = ADC_LEVELS
         # (a NaN raises in round(), as in :meth:`adc`)
         return [
-            0.0 if (f := x / reference) <= 0.0 else 1.0 if f >= 1.0 else round(f * levels) / levels
+            (
+                0.0
+                if (f := x / reference) <= 0.0
+                else 1.0
+                if f >= 1.0
+                else round(f * levels) / levels
+            )
+            * mult
+            + add
             for x in signal_column(source.signal, times)
         ]
 
-    def ds18b20_column(self, pin: int, rom: int, times: list[float]) -> list[float | None]:
-        """The normalised reading of :meth:`ds18b20` at each of ``times``."""
+    def ds18b20_column(
+        self, pin: int, rom: int, times: list[float], mult: float = 1.0, add: float = 0.0
+    ) -> list[float | None]:
+        """The normalised reading ``r`` of :meth:`ds18b20` at each of ``times``, as
+        ``r * mult + add`` (a device calibration, once per temperature)."""
         sensor = self._thermometer(pin, rom)
         if sensor is None or sensor.crc_error:
             return [None] * len(times)
@@ -246,27 +279,45 @@ class SimHardware:
         # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
         if len(distinct) * 2 > len(celsius):
             return [
-                round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+                round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16)
+                / 16
+                / scale
+                * mult
+                + add
                 for c in celsius
             ]
         reading = {
-            c: round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16) / 16 / scale
+            c: round((-55.0 if not c > -55.0 else c if c < 125.0 else 125.0) * 16)
+            / 16
+            / scale
+            * mult
+            + add
             for c in distinct
         }
         return [reading[c] for c in celsius]
 
-    def supply_column(self, times: list[float]) -> list[float | None]:
-        """:meth:`supply` at each of ``times``."""
+    def supply_column(
+        self, times: list[float], mult: float = 1.0, add: float = 0.0, then: float = 1.0
+    ) -> list[float | None]:
+        """:meth:`supply` ``r`` at each of ``times``, as ``(r * mult + add) * then`` (a device
+        calibration and the divider, in the same pass)."""
         signal = self.supply_signal
         if signal is None or not self.powered(self.supply_power):
             return [None] * len(times)
         levels, reference = ADC_LEVELS, INTERNAL_REFERENCE  # normalise() written out
         return [
-            1.0
-            if (f := x / SUPPLY_DIVIDER / reference) >= 1.0
-            else round(f * levels) / levels
-            if f > 0.0
-            else 0.0
+            (
+                (
+                    1.0
+                    if (f := x / SUPPLY_DIVIDER / reference) >= 1.0
+                    else round(f * levels) / levels
+                    if f > 0.0
+                    else 0.0
+                )
+                * mult
+                + add
+            )
+            * then
             for x in signal_column(signal, times)
         ]
 

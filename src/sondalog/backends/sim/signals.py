@@ -35,6 +35,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from sondalog.backends.sim.instants import stride_of, walk_clamped
 from sondalog.config import ConfigError, Table, of
 
 Signal = Callable[[float], float]
@@ -218,6 +219,12 @@ class RandomWalk:
         if top >= len(values):
             self._extend(top)
         first = values[0]
+        stride = stride_of(times, origin if shift is None else shift + origin, interval)
+        if stride:  # (the instants step by whole intervals: the steps one after the other)
+            begin = int((times[0] - origin) // interval if shift is None else
+                        (times[0] - shift - origin) // interval)  # fmt: skip
+            if begin > 0:
+                return values[begin : begin + (len(times) - 1) * stride + 1 : stride]
         if shift is None:
             return [values[i] if (i := int((t - origin) // interval)) > 0 else first for t in times]
         return [
@@ -242,12 +249,7 @@ class RandomWalk:
         last = values[-1]
         append = values.append
         if isinstance(clamp, Clamp):  # min(max(v, lo), hi) written out
-            lo, hi = clamp.lo, clamp.hi
-            for z in steps:
-                v = last + (0.0 + z * step)
-                v = lo if lo > v else v
-                last = hi if hi < v else v
-                append(last)
+            walk_clamped(values, [0.0 + z * step for z in steps], clamp.lo, clamp.hi)
         else:
             for z in steps:
                 last = clamp(last + (0.0 + z * step))

@@ -1,0 +1,80 @@
+"""Record conditions over a series of texts (issue 24, ``conditions.record_all``) against
+:func:`runs.record` text by text (§6.5.16): the very rows written and the very state after
+them, for change conditions of any size (in units of the last decimal or not), the samples
+condition, events (type 6), empty texts, texts of another format, runs of one text."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from decimal import Decimal
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sondalog.ala1.conditions import record_all
+from sondalog.ala1.measure import ChannelConfig, Input
+from sondalog.ala1.runs import ChannelRun, record
+from sondalog.ala1.tokens import NumberFormat
+
+NOTHING = Input(0, 0, "", 0, 1.0, 0.0, 1.0, 0.0, 0, 0)
+
+
+def _config(kind: int, decimals: int, change: str, samples: int) -> ChannelConfig:
+    return ChannelConfig(
+        1, kind, (NOTHING, NOTHING), "", "", 1.0, 0.0, NumberFormat(6, decimals), 60, "", 0,
+        Decimal(change), samples,
+    )  # fmt: skip
+
+
+@st.composite
+def texts(draw: st.DrawFn, decimals: int) -> list[str]:
+    """A walk of values shown in the format (repeats and runs), some empty, a few of
+    another format."""
+    units = draw(st.lists(st.integers(-30, 30), max_size=80))
+    level, out = 0, []
+    for step in units:
+        level += 0 if abs(step) < 15 else step // 10 if abs(step) < 27 else step  # (runs)
+        value = Decimal(level).scaleb(-decimals)
+        out.append(f"{value:.{decimals}f}".rjust(6))
+    for k in draw(st.lists(st.integers(0, 79), max_size=3)):
+        if k < len(out):
+            out[k] = draw(st.sampled_from(["", "12.5", " -0.0", "7"]))
+    return out
+
+
+@settings(max_examples=300)  # (fast: worth more examples)
+@given(
+    data=st.data(),
+    decimals=st.integers(0, 3),
+    kind=st.sampled_from([3, 3, 6]),
+    change=st.sampled_from(["0", "-1", "0.001", "0.01", "0.05", "0.5", "2", "0.015"]),
+    samples=st.sampled_from([0, 0, 1, 3, 10]),
+    recorded=st.one_of(
+        st.sampled_from([None, "", "  0.00", " 1.5", "3"]), st.integers(-20, 20), st.integers(-3, 3)
+    ),
+    since=st.integers(0, 12),
+    active=st.booleans(),
+)
+def test_record_all_is_record_text_by_text(
+    data: st.DataObject,
+    decimals: int,
+    kind: int,
+    change: str,
+    samples: int,
+    recorded: str | int | None,
+    since: int,
+    active: bool,
+) -> None:
+    cfg = _config(kind, decimals, change, samples)
+    if isinstance(recorded, int):  # (a text of the channel's format, mostly)
+        recorded = f"{Decimal(recorded).scaleb(-decimals):.{decimals}f}".rjust(6)
+    series = data.draw(texts(decimals))
+    one = ChannelRun(cfg, recorded=recorded, since_write=since, event_active=active)
+    many = replace(one)
+    expected = [(k, w) for k, text in enumerate(series) if (w := record(one, text)) is not None]
+    assert record_all(many, series) == expected
+    assert (many.recorded, many.since_write, many.event_active) == (
+        one.recorded,
+        one.since_write,
+        one.event_active,
+    )

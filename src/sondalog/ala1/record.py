@@ -28,6 +28,7 @@ record drops about one a row it writes: one load per :data:`PAGE` rows).
 from __future__ import annotations
 
 import bisect
+import itertools
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -163,7 +164,8 @@ class RecordMemory:
         assert self._seq0 % PAGE == 0, "pages not aligned with the store's"
         self._key = object()  # (this memory's pages among the loaded ones)
         self._evicted = 0  # pages before this one are let go (None) but maybe one
-        self._held = -1  # a page loaded back to drop rows from it (:meth:`_length`)
+        self._held = -1  # a page let go whose rows are being dropped (:meth:`_length`) ...
+        self._held_ends: list[int] = []  # ... and where each of its rows ends
         self.capacity = capacity
         self.cyclic = cyclic
         self.wrapped = wrapped
@@ -207,9 +209,8 @@ class RecordMemory:
         for n in range(self._evicted, limit):
             pages[n] = None
         self._evicted = max(self._evicted, limit)
-        if 0 <= self._held < self._evicted and self._held != self._head // PAGE:
-            pages[self._held] = None
-            self._held = -1
+        if self._held >= 0 and self._held != self._head // PAGE:  # its rows are dropped
+            self._held, self._held_ends = -1, []
 
     def _count(self) -> int:
         return len(self._pages) * PAGE + len(self._tail)
@@ -235,14 +236,17 @@ class RecordMemory:
         sealed = len(self._pages) * PAGE
         if index >= sealed:
             return len(self._tail[index - sealed])
-        number = index // PAGE
+        number, at = divmod(index, PAGE)
         page = self._pages[number]
-        if page is None:
-            page = self._pages[number] = Page(self._page_rows(number))
-            if 0 <= self._held < self._evicted and self._held != number:
-                self._pages[self._held] = None
-            self._held = number
-        return page.length(index % PAGE)
+        if page is not None:
+            return page.length(at)
+        if self._held != number:  # its rows' ends only: nothing compressed again
+            self._held, self._held_ends = (
+                number,
+                list(itertools.accumulate(map(len, self._page_rows(number)))),
+            )
+        ends = self._held_ends
+        return ends[at] - (ends[at - 1] if at else 0)
 
     def _slice(self, begin: int, end: int) -> list[str]:
         """Rows ``begin`` to ``end`` (indices in RAM, ``end`` excluded)."""

@@ -187,3 +187,27 @@ def test_input_held_while_local_is_dropped_whole_when_the_modem_takes_the_line()
     send(b"read com speed\r")
     run(now + 3.0)
     assert out.endswith(b"9600\r\nOK\r\n"), out
+
+
+def test_an_sms_whose_text_is_empty_lines_is_read_and_the_driver_goes_idle() -> None:
+    """Found by the liveness search: an SMS of one LF listed as ``+CMGL: ...`` then an empty
+    text line; the reader dropped empty lines, took the listing's ``OK`` for the text, and
+    the listing timed out and started again for good."""
+    for text in ("\n", "\r\n", "\n\n"):
+        w = World("wavecom41")
+        w.phone_sms(text)
+        w.run(120)
+        assert len(w.modem.store) == 0, repr(text)  # read and deleted
+        assert w.driver._job is None, repr(text)  # and the driver idle
+
+
+def test_the_reader_keeps_an_sms_text_even_when_empty() -> None:
+    reader = ModemReader()
+    head = '+CMGL: 1,"REC UNREAD","+420600000000",,"26/01/01,00:00:00+04"'
+    lines = reader.feed(f"\r\n{head}\r\n\n\r\n\r\nOK\r\n".encode())
+    assert lines == [head, "", "OK"]
+    assert reader.feed(b'\r\n+CMGR: "REC READ","+420600000000",,"x"\r\n+CMGL: 2\r\n\r\nOK\r\n') == [
+        '+CMGR: "REC READ","+420600000000",,"x"',
+        "+CMGL: 2",  # the text, not a header: the next empty line is dropped
+        "OK",
+    ]

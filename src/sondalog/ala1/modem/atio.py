@@ -159,6 +159,9 @@ class ModemReader:
     buffer: bytearray = field(default_factory=bytearray)
     raw: bool = False
     data: bytearray = field(default_factory=bytearray)
+    #: The next line is an SMS's text (after a ``+CMGR:``/``+CMGL:`` header): kept even
+    #: when empty (a text of one LF), else the listing's ``OK`` would be taken for it.
+    body: bool = False
 
     def feed(self, chunk: bytes) -> list[str]:
         """Lines completed by ``chunk`` (a prompt is the line ``"> "``)."""
@@ -181,7 +184,8 @@ class ModemReader:
                 return lines
             line = bytes(self.buffer[:end]).strip(b"\r").decode("latin-1")
             del self.buffer[: end + 1]
-            if line:
+            if line or self.body:
+                self.body = line.startswith(("+CMGR:", "+CMGL:")) and not self.body
                 lines.append(line)
                 if line.startswith("CONNECT"):  # data mode from the next byte on
                     self.raw = True

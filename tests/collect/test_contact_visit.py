@@ -22,7 +22,7 @@ from test_contact_pipeline import CHANNEL, ROW, stepwise
 from sondalog.client import Ala1Client
 from sondalog.client.ala1_codec import MAX_LINE, CrcMismatch, cksum
 from sondalog.client.download import Download
-from sondalog.client.visit import IDENT, Unexpected, Visit, parse, plan, visit
+from sondalog.client.visit import IDENT, Known, Unexpected, Visit, keep, parse, plan, visit
 from sondalog.collect.readings import rows_to_readings
 from sondalog.protocol.cksum import cksum as cksum_reference
 
@@ -42,7 +42,7 @@ def old_logger(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
 
 
 async def visited(
-    url: str, after: str | None, per: int, guess: int | None, last: Visit | None = None
+    url: str, after: str | None, per: int, guess: int | None, last: Known | None = None
 ) -> tuple[Any, ...]:
     async with await Ala1Client.connect(url) as client:
         download = Download(client, after=after, rows_per_chunk=per, max_rows=per)
@@ -130,10 +130,10 @@ def test_the_identification_of_the_last_contact_is_taken_when_it_answers_the_sam
     read and parsed again, the new name in the readings."""
     _configure(logger, [("A", "V", False), ("B", None, False)], [("value", 2, [1, 2])])
     first, _ = asyncio.run(visited(logger.url, None, 20, 2))
-    again, _ = asyncio.run(visited(logger.url, None, 20, 2, first))
+    again, _ = asyncio.run(visited(logger.url, None, 20, 2, keep(first)))
     assert again.key == first.key and again.info.channels is first.info.channels
     logger.ask("write channel 2 name/Level[m]/")
-    renamed, chunks = asyncio.run(visited(logger.url, None, 20, 2, again))
+    renamed, chunks = asyncio.run(visited(logger.url, None, 20, 2, keep(again)))
     assert renamed.key != first.key
     assert renamed.info.channels[2].name == "Level" and renamed.info.channels[2].unit == "m"
     readings = rows_to_readings(chunks[0].rows, renamed.info.snumber, renamed.info.channels)
@@ -232,6 +232,21 @@ def test_an_answer_of_another_shape_is_unexpected_once_every_line_is_answered() 
     broken = _answer(IDENTIFIED, record).replace(b"3.6", b"3.7")
     with pytest.raises(CrcMismatch):
         parse(lines, broken)
+
+
+@given(st.text("0123456789.-,x ", max_size=24))
+def test_a_row_of_numbers_is_told_as_field_by_field(body: str) -> None:
+    """parse_row's one match for the whole row: each field a number (§4.3.4) or empty."""
+    import re
+
+    from sondalog.client.records import parse_row
+
+    number = re.compile(r"-?\d+(\.\d+)?")
+    numbers = all(not f or number.fullmatch(f) for f in body.split(","))
+    row = parse_row(f"20070301120000.0,1,{body}")
+    assert (row.text is None) == numbers
+    if numbers:
+        assert row.values == tuple(float(f) if f else None for f in body.split(","))
 
 
 @given(st.binary(max_size=300))

@@ -26,12 +26,13 @@ otherwise (a 1.16 logger refuses nothing here, but a future one might) reads the
 from __future__ import annotations
 
 import functools
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from sondalog.client.ala1_codec import MAX_LINE, ChecksumError, NoAnswer, verify_crc
 from sondalog.client.download import Download, DownloadError, LoggerInfo
-from sondalog.client.records import split_name, stamp
+from sondalog.client.records import Channel, split_name, stamp
 
 #: The identification (§6.2, §6.5.1, §6.5.6, §6.5.7): five commands, one data line each.
 IDENT = "read i snumber read date read channel max number type format"
@@ -154,7 +155,7 @@ def _answer(plan: Plan, raw: bytes, text: str, lines: list[str]) -> Answer | Non
         pos = end + 1
     record = plan.lines[-1]
     _refused(lines, pos, last, record)
-    start = sum(len(line) for line in lines[:pos]) + 2 * pos  # bytes before the record's
+    start = sum(map(len, lines[:pos])) + 2 * pos  # bytes before the record's
     try:
         end = lines.index("OK", pos, last)
     except ValueError:
@@ -197,13 +198,26 @@ class Visit:
     names."""
 
 
-async def visit(download: Download, channels: int | None, last: Visit | None = None) -> Visit:
+#: What a source keeps of its last contact for :func:`visit`: the identification's key and
+#: the channels it named.
+Known = tuple[tuple[str, ...], dict[int, Channel]]
+
+
+def keep(visited: Visit) -> Known | None:
+    """What to keep of ``visited`` for the next contact (its strings shared with the other
+    sources' where they are the same: names, types, formats), or None."""
+    if visited.key is None:
+        return None
+    return tuple(sys.intern(text) for text in visited.key), visited.info.channels
+
+
+async def visit(download: Download, channels: int | None, last: Known | None = None) -> Visit:
     """A collector's contact over ``download``'s line: the identification, the record status,
     the channel types and formats and the download's first chunk in the lines of
     :func:`plan` (for up to eight channels two lines, one answer each, one write), with
-    ``channels`` (the channel count of the last contact) names. ``last`` is the last
-    contact's visit: when the identification answers the same (:attr:`Visit.key`), its
-    channels are taken as they are, not parsed again.
+    ``channels`` (the channel count of the last contact) names. ``last`` is what was kept of
+    the last contact (:func:`keep`): when the identification answers the same
+    (:attr:`Visit.key`), its channels are taken as they are, not parsed again.
 
     Any other shape (a refused or cut line, a failed ``crcsum``, a cursor too long for a
     line) goes the way of :meth:`Download.contact`, which reads the same things step by step
@@ -236,8 +250,8 @@ async def visit(download: Download, channels: int | None, last: Visit | None = N
     if not 1 <= count <= 99:
         raise DownloadError(f"the logger answers garbage: {count} channels")
     key: tuple[str, ...] | None = (ident[0], *ident[2 : IDENT_LINES + min(count, guess)])
-    if last is not None and key == last.key:
-        named = last.info.channels
+    if last is not None and key == last[0]:
+        named = last[1]
     else:
         names = list(ident[IDENT_LINES : IDENT_LINES + count])
         if count > guess:  # more channels than at the last contact: their names too

@@ -21,7 +21,7 @@ from sondalog.client import Ala1Client, BusMaster
 from sondalog.client.download import ClockReading, Download
 from sondalog.client.endpoints import Endpoint, parse_url
 from sondalog.client.records import UTC
-from sondalog.client.visit import Visit, visit
+from sondalog.client.visit import Known, Visit, keep, visit
 from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
 from sondalog.collect.config_watch import ConfigWatch
 from sondalog.collect.delivery import GSM_TYPES, Deliver
@@ -57,7 +57,7 @@ class LoggerSource:
         self._count: int | None = None  # the channel count of the last contact
         self._channels: int | None = None  # the hash of what set_channels last wrote
         self._endpoint: Endpoint | None = None
-        self._visit: Visit | None = None  # the last contact's identification
+        self._known: Known | None = None  # the last contact's identification
         self._gsm: dict[int, str] = {}  # channel -> the sources column of its GSM type
 
     async def poll(self, deliver: Deliver) -> str:
@@ -69,12 +69,12 @@ class LoggerSource:
         try:
             known = store.source(cfg.name) or {}
             download = Download(client, after=known.get("cursor"), zone=cfg.zone)
-            visited = await visit(download, self._count, self._visit)
+            visited = await visit(download, self._count, self._known)
             info = visited.info
             self._count = len(info.channels)
-            if visited.key is None or self._visit is None or visited.key != self._visit.key:
+            if self._known is None or visited.key != self._known[0]:
                 self._channels_read(visited)
-            self._visit = visited
+                self._known = keep(visited)
             gsm = self._gsm
             state = {
                 "logger": info.snumber,

@@ -68,6 +68,9 @@ _STATE_COLUMNS = (
 )
 
 
+_COLUMNS = frozenset(_STATE_COLUMNS)
+
+
 class StoreError(Exception):
     """The store cannot be used (not a collector store, a newer schema, unwritable)."""
 
@@ -192,7 +195,7 @@ class SqliteStore:
         return True
 
     def _pend(self, name: str, state: dict[str, Any]) -> None:
-        if set(state) - set(_STATE_COLUMNS):
+        if state.keys() - _COLUMNS:
             self._update(name, state)  # raises ValueError
         self._states.setdefault(name, {}).update(state)
         known = self._known.get(name)

@@ -249,14 +249,13 @@ async def visit(download: Download, channels: int | None, last: Known | None = N
         raise DownloadError(f"the logger answers garbage: {exc}") from None
     if not 1 <= count <= 99:
         raise DownloadError(f"the logger answers garbage: {count} channels")
-    key: tuple[str, ...] | None = (ident[0], *ident[2 : IDENT_LINES + min(count, guess)])
+    names = ident[IDENT_LINES : IDENT_LINES + count]
+    if count > guess:  # more channels than at the last contact: their names too
+        names += tuple(await download.names(guess + 1, count))
+    key = (ident[0], *ident[2:IDENT_LINES], *names)
     if last is not None and key == last[0]:
         named = last[1]
     else:
-        names = list(ident[IDENT_LINES : IDENT_LINES + count])
-        if count > guess:  # more channels than at the last contact: their names too
-            names += await download.names(guess + 1, count)
-            key = None
         named = {n: split_name(name) for n, name in enumerate(names, start=1)}
     elapsed = max(after - before, 1e-6) * len(answer.chunk) / max(len(raw), 1)
     download.prefetched(answer.rows, answer.chunk, answer.crc, elapsed)

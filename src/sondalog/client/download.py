@@ -23,7 +23,8 @@ names (§6.5.3) and notes the logger's clock offset against the host's clock.
 chunk in one pipelined write (the module answers the lines in order, §7): one round trip a
 contact when the channel count is the one of the last contact, which a slow serial line or a
 GSM call pays in seconds. A pipelined answer that fails its checks falls back to the step by
-step path, so both store the same rows.
+step path, so both store the same rows. The collector's contact chains all of it into fewer
+lines still (:func:`sondalog.client.visit.visit`, which falls back to :meth:`Download.contact`).
 """
 
 from __future__ import annotations

@@ -76,9 +76,36 @@ class Run:
 
 def start(count: int, work: Path) -> tuple[subprocess.Popen[bytes], list[int], float]:
     """``sondalog serve`` with one ``[[loggers]]`` range on consecutive ports from a random
-    free-looking base (port 0 for 10,000 listeners at once is not reliable)."""
+    free-looking base (port 0 for 10,000 listeners at once is not reliable); another base
+    when a port of the range is taken (another fleet on the machine)."""
+    for _ in range(5):
+        started = _start(count, work)
+        if started is not None:
+            return started
+    sys.exit(f"serve failed five times:\n{(work / 'serve.log').read_text()[-2000:]}")
+
+
+def _listening() -> set[int]:
+    """The TCP ports something listens on (``/proc/net/tcp``, state 0A)."""
+    ports = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with contextlib.suppress(OSError):
+            for line in Path(table).read_text().splitlines()[1:]:
+                fields = line.split()
+                if fields[3] == "0A":
+                    ports.add(int(fields[1].rsplit(":", 1)[1], 16))
+    return ports
+
+
+def _start(count: int, work: Path) -> tuple[subprocess.Popen[bytes], list[int], float] | None:
     low, _ = map(int, Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split())
-    base = random.randrange(10_000, max(10_001, low - count))  # below the ephemeral ports
+    taken = _listening()
+    bases = [
+        b
+        for b in range(10_000, max(10_001, low - count), 500)
+        if not any(b <= p < b + count for p in taken)
+    ]  # below the ephemeral ports, clear of other listeners (another fleet)
+    base = random.choice(bases) if bases else random.randrange(10_000, max(10_001, low - count))
     site = work / "fleet.toml"
     site.write_text(
         f'[[loggers]]\ncount = {count}\nserial_number = "F{{n:05}}"\nlisten = "127.0.0.1:{base}"\n'
@@ -96,6 +123,9 @@ def start(count: int, work: Path) -> tuple[subprocess.Popen[bytes], list[int], f
         line = proc.stdout.readline().decode() if ready else ""
         if not line.startswith("logger "):
             proc.kill()
+            proc.wait()
+            if "address already in use" in (work / "serve.log").read_text():
+                return None
             sys.exit(f"serve failed: {line!r}\n{(work / 'serve.log').read_text()[-2000:]}")
         ports.append(int(line.rsplit(":", 1)[1]))
     return proc, ports, time.perf_counter() - began

@@ -131,14 +131,19 @@ def test_a_collector_contact_is_one_round_trip(
         "write channel value",
     )
     writes: list[str] = []
-    original = Ala1Client.pipeline
+    original, exchange = Ala1Client.pipeline, Ala1Client.exchange
 
     async def counted(self: Ala1Client, requests: Any, **kw: Any) -> Any:
         requests = list(requests)
         writes.append(str(requests[0]))
         return await original(self, requests, **kw)
 
+    async def exchanged(self: Ala1Client, payload: bytes, parse: Any, **kw: Any) -> Any:
+        writes.append(payload.decode())
+        return await exchange(self, payload, parse, **kw)
+
     monkeypatch.setattr(Ala1Client, "pipeline", counted)
+    monkeypatch.setattr(Ala1Client, "exchange", exchanged)
     config = CollectorConfig(
         tmp_path / "c.toml",
         tmp_path / "store.sqlite",

@@ -15,6 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from sondalog.collect import blocks_sql
 from sondalog.collect.model import Reading
 from sondalog.collect.store_sqlite import SqliteStore
 
@@ -71,7 +72,10 @@ def _contents(path: Path) -> tuple[Any, ...]:
         readings = db.execute("SELECT * FROM readings ORDER BY 1, 2, 3, 4").fetchall()
         sources = db.execute("SELECT * FROM sources ORDER BY name").fetchall()
         events = db.execute("SELECT source, kind, text FROM events ORDER BY id").fetchall()
-    return readings, sources, events
+        blocks = []  # the dashboard's extremes (blocks_sql), kept with the readings
+        if blocks_sql.has_sqlite(db):
+            blocks = db.execute(f"SELECT * FROM {blocks_sql.TABLE} ORDER BY 1, 2, 3, 4").fetchall()
+    return readings, sources, events, blocks
 
 
 def _run(path: Path, steps: list[tuple[Any, ...]], behind: float | None) -> list[Any]:
@@ -99,7 +103,8 @@ def test_write_behind_stores_what_writing_at_once_stores(
     tmp_path_factory: pytest.TempPathFactory, steps: list[tuple[Any, ...]]
 ) -> None:
     """Random contacts' writes: readings, sources (cursors, states), events in their order,
-    and what a reader sees between them, the same with write-behind as without."""
+    the dashboard's block extremes, and what a reader sees between them, the same with
+    write-behind as without."""
     tmp = tmp_path_factory.mktemp("behind")
     at_once = _run(tmp / "now.sqlite", steps, None)
     behind = _run(tmp / "behind.sqlite", steps, 3600.0)  # only closing or a reader commits

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import asyncio
 import functools
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from types import TracebackType
-from typing import cast
+from typing import TypeVar, cast
 
 from sondalog.client.ala1_codec import (
     DEFAULT_QUIET_PERIOD,
@@ -27,6 +27,8 @@ from sondalog.client.ala1_codec import (
 from sondalog.client.endpoints import Endpoint, parse_url
 
 __all__ = ["Ala1Client", "Client"]
+
+T = TypeVar("T")
 
 
 class _Stream(asyncio.Protocol):
@@ -151,6 +153,37 @@ class Ala1Client:
             assert stream.transport is not None
             stream.transport.write(payload)
             return [await self._read_answer(stream, r, timeout) for r in reqs]
+
+    async def exchange(
+        self, payload: bytes, parse: Callable[[bytes], T | None], *, timeout: float | None = None
+    ) -> tuple[T | None, bytes]:
+        """Write ``payload`` (whole command lines, each with its CR) and read until ``parse``
+        makes something (not None) of every byte received, or the line stays silent for
+        ``timeout`` seconds after its last byte. Returns what ``parse`` made (None when it
+        never did) and the bytes received; ``parse`` may raise, a closed line raises
+        :class:`ConnectionLost`. One wait per burst
+        of bytes and no work per line: the collector's contact (:mod:`sondalog.client.visit`).
+        Bytes left over from an earlier answer are discarded first."""
+        stream = self._require_stream()
+        wait = self.timeout if timeout is None else timeout
+        async with self._lock:
+            stream.buffer.clear()
+            assert stream.transport is not None
+            stream.transport.write(payload)
+            while True:
+                if stream.buffer:
+                    raw = bytes(stream.buffer)
+                    result = parse(raw)
+                    if result is not None:
+                        stream.buffer.clear()
+                        return result, raw
+                if stream.closed or not await stream.wait(wait):
+                    raw = bytes(stream.buffer)
+                    stream.buffer.clear()
+                    if stream.closed:
+                        line = payload.split(b"\r", 1)[0].decode("latin-1")
+                        raise ConnectionLost(f"connection closed during {line!r} (got {raw!r})")
+                    return None, raw
 
     async def _read_answer(
         self, stream: _Stream, request: Request, timeout: float | None

@@ -23,7 +23,8 @@ names (§6.5.3) and notes the logger's clock offset against the host's clock.
 chunk in one pipelined write (the module answers the lines in order, §7): one round trip a
 contact when the channel count is the one of the last contact, which a slow serial line or a
 GSM call pays in seconds. A pipelined answer that fails its checks falls back to the step by
-step path, so both store the same rows.
+step path, so both store the same rows. The collector's contact chains all of it into fewer
+lines still (:func:`sondalog.client.visit.visit`, which falls back to :meth:`Download.contact`).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from sondalog.client.ala1_codec import (
     NoAnswer,
     Request,
     Response,
+    Status,
 )
 from sondalog.client.records import (
     Channel,
@@ -201,6 +203,43 @@ class Download:
         self._prefetched = (first, chunk, max(after - before, 1e-6) * len(chunk.raw) / total)
         return self._identified(head, names, before, after), list(rest[:-1])
 
+    def prefetched(
+        self, rows: Sequence[str], raw: bytes, crc: tuple[int, int], elapsed: float
+    ) -> None:
+        """The first chunk, read with other commands (:mod:`sondalog.client.visit`): the
+        lines and bytes (rows, ``crcsum`` line, ``OK``) the answer of :meth:`first` had."""
+        response = Response(f"crcsum {self.first}", tuple(rows), Status.OK, raw, crc=crc)
+        self._prefetched = (self.first, response, elapsed)
+
+    @property
+    def first(self) -> str:
+        """The command line of the next chunk (``crcsum`` not included)."""
+        return self._command(self.rows_per_chunk)
+
+    def identified(
+        self,
+        snumber: str,
+        channels: dict[int, Channel],
+        logger_time: datetime,
+        span: tuple[float, float],
+    ) -> LoggerInfo:
+        """:attr:`info` from what the caller read between the host times ``span``."""
+        self.info = LoggerInfo(snumber, channels, self._clock(logger_time, *span))
+        return self.info
+
+    async def names(self, first: int, last: int) -> list[str]:
+        """The names of channels ``first``..``last`` (§6.5.3), one command each, pipelined."""
+        answers = await self._ask([_name(n) for n in range(first, last + 1)])
+        try:
+            return [_single(answer) for answer in answers]
+        except ValueError as exc:
+            raise DownloadError(f"the logger answers garbage: {exc}") from None
+
+    def _clock(self, logger_time: datetime, before: float, after: float) -> ClockReading:
+        middle = (before + after) / 2
+        host = datetime.fromtimestamp(middle, self.zone).replace(tzinfo=None)
+        return ClockReading(logger_time, middle, (logger_time - host).total_seconds())
+
     def _identified(
         self, head: list[Response], names: list[Response], before: float, after: float
     ) -> LoggerInfo:
@@ -210,10 +249,7 @@ class Download:
             channels = {n: split_name(_single(r)) for n, r in enumerate(names, start=1)}
         except ValueError as exc:
             raise DownloadError(f"the logger answers garbage: {exc}") from None
-        middle = (before + after) / 2
-        host = datetime.fromtimestamp(middle, self.zone).replace(tzinfo=None)
-        clock = ClockReading(logger_time, middle, (logger_time - host).total_seconds())
-        self.info = LoggerInfo(snumber, channels, clock)
+        self.info = LoggerInfo(snumber, channels, self._clock(logger_time, before, after))
         return self.info
 
     async def chunks(self) -> AsyncIterator[Chunk]:

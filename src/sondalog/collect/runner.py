@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import logging
 import time
 from typing import Any
@@ -117,6 +118,11 @@ class Collector:
         ]
         if self.share is not None:  # the sources it holds, started and stopped by it
             tasks.append(asyncio.create_task(self.share.run(self._loop, once), name="cluster"))
+        if not once:
+            # what exists now (every source, its configuration, the modules) lives as long as
+            # the process: out of the cyclic collector's way, whose full passes over ten
+            # thousand sources' objects came with the contacts' garbage (issue 24)
+            gc.freeze()
         replay = asyncio.create_task(self._replay(), name="sink replay")
         background = [replay]
         if self.alarms is not None:
@@ -197,15 +203,14 @@ class Collector:
 
     async def _loop(self, source: Source, delay: float, once: bool) -> None:
         cfg = source.config
+        loop = asyncio.get_running_loop()
         await asyncio.sleep(delay)
         failures = 0
         while True:
             started = time.monotonic()
             # a contact still running after a second says so (the dashboard's "contacting");
             # a quicker one is never seen at a write-behind flush, and writes nothing
-            marking = asyncio.get_running_loop().call_later(
-                CONTACTING_AFTER, self._contacting, cfg.name
-            )
+            marking = loop.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
             if self.alarms is not None:
                 self.alarms.contact_started(cfg.name)
             try:

@@ -18,10 +18,10 @@ from datetime import datetime
 from typing import Any
 
 from sondalog.client import Ala1Client, BusMaster
-from sondalog.client.ala1_codec import Response
 from sondalog.client.download import ClockReading, Download
 from sondalog.client.endpoints import Endpoint, parse_url
 from sondalog.client.records import UTC
+from sondalog.client.visit import Known, Visit, keep, visit
 from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
 from sondalog.collect.config_watch import ConfigWatch
 from sondalog.collect.delivery import GSM_TYPES, Deliver
@@ -37,12 +37,14 @@ log = logging.getLogger(__name__)
 class LoggerSource:
     """An ALA1 logger: incremental download after the store's cursor (§6.6.1.1).
 
-    A contact is one pipelined write in the usual case (:meth:`Download.contact`: the
-    identification as chained lines, ``read record status``, the channel types and formats and
-    the first chunk together). Its store writes (each chunk with the source's state, the
-    runner's end of contact, ``contacting`` for a contact longer than a second) wait for the
-    store's write-behind flush: one transaction for the contacts of a second. The ``channels``
-    rows are written when they change (and at the first contact of this process).
+    A contact is one pipelined write of two lines in the usual case
+    (:func:`~sondalog.client.visit.visit`: the identification, ``read record status``, the
+    channel types and formats and the first chunk, chained); an identification that answers
+    as at the last contact is not parsed again. Its store writes (each chunk with the
+    source's state, the runner's end of contact, ``contacting`` for a contact longer than a
+    second) wait for the store's write-behind flush: one transaction for the contacts of a
+    second. The ``channels`` rows are written when they change (and at the first contact of
+    this process).
     """
 
     kind = "logger"
@@ -55,6 +57,8 @@ class LoggerSource:
         self._count: int | None = None  # the channel count of the last contact
         self._channels: int | None = None  # the hash of what set_channels last wrote
         self._endpoint: Endpoint | None = None
+        self._known: Known | None = None  # the last contact's identification
+        self._gsm: dict[int, str] = {}  # channel -> the sources column of its GSM type
 
     async def poll(self, deliver: Deliver) -> str:
         cfg, store = self.config, self.store
@@ -65,20 +69,18 @@ class LoggerSource:
         try:
             known = store.source(cfg.name) or {}
             download = Download(client, after=known.get("cursor"), zone=cfg.zone)
-            info, (status, kinds) = await download.contact(_EXTRA, self._count)
+            visited = await visit(download, self._count, self._known)
+            info = visited.info
             self._count = len(info.channels)
-            types, formats = _channel_types(kinds, len(info.channels))
-            rows_ = [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())]
-            written = hash((info.snumber, tuple(rows_), tuple(sorted(formats.items()))))
-            if self._channels != written:  # a hash: 10,000 sources keep no copies
-                store.set_channels(info.snumber, rows_, formats)
-                self._channels = written
-            gsm = {n: GSM_TYPES[t] for n, t in types.items() if t in GSM_TYPES}
+            if self._known is None or visited.key != self._known[0]:
+                self._channels_read(visited)
+                self._known = keep(visited)
+            gsm = self._gsm
             state = {
                 "logger": info.snumber,
                 "last_contact": now_text(),
                 "offset_s": info.clock.offset,
-                "record_fill": status.lines[0] if status.ok and status.lines else None,
+                "record_fill": visited.status,
             }
             if known.get("logger") not in (None, info.snumber):
                 text = (
@@ -121,10 +123,17 @@ class LoggerSource:
         self._hint = hint
         return summary if hint is None else f"{summary}; {hint}"
 
-
-#: What a contact asks beside the identification and the record (§6.6.5, §6.5.6, §6.5.7):
-#: both channel lists in one line.
-_EXTRA = ("read record status", "read channel type read channel format")
+    def _channels_read(self, visited: Visit) -> None:
+        """The ``channels`` rows of a contact whose identification differs from the last
+        one's (or was read step by step): written when they changed."""
+        info = visited.info
+        types, formats = _channel_types(visited.kinds, len(info.channels))
+        rows_ = [(n, c.name, c.unit, types.get(n)) for n, c in sorted(info.channels.items())]
+        written = hash((info.snumber, tuple(rows_), tuple(sorted(formats.items()))))
+        if self._channels != written:  # a hash: 10,000 sources keep no copies
+            self.store.set_channels(info.snumber, rows_, formats)
+            self._channels = written
+        self._gsm = {n: GSM_TYPES[t] for n, t in types.items() if t in GSM_TYPES}
 
 
 #: A logger clock this far from the host's was never set (a fresh logger reads 2000-01-01).
@@ -148,10 +157,9 @@ def idle_hint(rows: int, record_fill: str | None, clock: ClockReading) -> str | 
     return "; ".join(says) or None
 
 
-def _channel_types(response: Response, count: int) -> tuple[dict[int, int], dict[int, str]]:
-    """The answer of ``read channel type read channel format`` (one line): channel number ->
+def _channel_types(lines: tuple[str, ...], count: int) -> tuple[dict[int, int], dict[int, str]]:
+    """The answers of ``read channel type`` and ``read channel format``: channel number ->
     type, and -> value format (§6.5.7); {} for an answer that is not that."""
-    lines = response.lines if response.ok else []
     fields = [line.split(",") for line in lines[:2]]
     types: dict[int, int] = {}
     if fields and len(fields[0]) == count and all(f.strip().isdigit() for f in fields[0]):

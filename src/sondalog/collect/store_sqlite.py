@@ -68,6 +68,9 @@ _STATE_COLUMNS = (
 )
 
 
+_COLUMNS = frozenset(_STATE_COLUMNS)
+
+
 class StoreError(Exception):
     """The store cannot be used (not a collector store, a newer schema, unwritable)."""
 
@@ -109,7 +112,7 @@ class SqliteStore:
         self._db: sqlite3.Connection | None = None
         #: Seconds the writes of contacts wait to be committed together (None: at once).
         self.write_behind: float | None = None
-        self._readings: list[tuple[Any, ...]] = []
+        self._readings: list[Reading] = []
         self._states: dict[str, dict[str, Any]] = {}
         self._events: list[tuple[str, str, str, str]] = []
         self._flush: asyncio.TimerHandle | None = None
@@ -161,7 +164,7 @@ class SqliteStore:
         db = self._conn()
         with db:
             if self._readings:
-                db.executemany(_INSERT, self._readings)
+                self._insert(self._readings)
             for name, state in self._states.items():
                 self._update(name, state)
             if self._events:
@@ -192,7 +195,7 @@ class SqliteStore:
         return True
 
     def _pend(self, name: str, state: dict[str, Any]) -> None:
-        if set(state) - set(_STATE_COLUMNS):
+        if state.keys() - _COLUMNS:
             self._update(name, state)  # raises ValueError
         self._states.setdefault(name, {}).update(state)
         known = self._known.get(name)
@@ -290,7 +293,7 @@ class SqliteStore:
     def _insert(self, batch: Sequence[Reading]) -> None:
         if self.keep_readings:
             conn = self._conn()
-            done = conn.executemany(_INSERT, [row_of(r) for r in batch]).rowcount
+            done = conn.executemany(_INSERT, map(row_of, batch)).rowcount
             blocks_sql.after_batch_sqlite(conn, batch, done)  # the dashboard's extremes
 
     def commit_chunk(
@@ -302,7 +305,7 @@ class SqliteStore:
         if self._later():
             self._pend(source, state)
             if self.keep_readings:
-                self._readings.extend(row_of(r) for r in batch)
+                self._readings += batch
             return
         with self._conn():
             self._insert(batch)

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from setting_values import values
 from station_helpers import ask, every_read, explain_text, served
 
 from sondalog.client.station_apply import apply, make_plan, pull
@@ -57,41 +58,12 @@ def _valid(setting, limits):  # type: ignore[no-untyped-def]
 
 
 def _value(setting, limits) -> st.SearchStrategy[str]:  # type: ignore[no-untyped-def]
-    from sondalog.client import station_grammar as g
-
-    grammar = setting.grammar
-    match grammar:
-        case g.Integer():
-            return st.integers(grammar.lo, min(g._bound(grammar.hi, limits), 10**6)).map(str)
-        case g.ChannelAddress():
-            return st.integers(0, limits.channel_address_max).map(str)
-        case g.MemorySize():
-            return st.integers(grammar.minimum // 256, 4096).map(lambda k: str(k * 256))
-        case g.OneOf():
-            return st.sampled_from(grammar.options).map(str)
-        case g.Choice():
-            return st.sampled_from(grammar.options).map(
-                lambda o: f"{o},1" if o in dict(grammar.with_arg) else o
-            )
-        case g.Number():
-            return st.decimals(-999, 999, places=3).map(lambda d: format(abs(d), "f"))
-        case g.Format():
-            return st.tuples(st.integers(0, 9), st.integers(0, 9)).map(lambda t: f"{t[0]}.{t[1]}")
-        case g.Date():
-            return st.datetimes().map(lambda d: d.strftime("%Y%m%d%H%M%S"))
-        case g.Period():
-            return st.tuples(st.integers(0, 95), st.integers(0, 59), st.integers(0, 59)).map(
-                lambda t: f"{t[0]:02d}{t[1]:02d}{t[2]:02d}"
-            )
-        case g.IntList():
-            return st.lists(
-                st.integers(1, limits.addresses), min_size=1, max_size=limits.addresses_per_message
-            ).map(lambda items: ",".join(map(str, items)))
-        case g.OutputValue():
-            return st.sampled_from(["0", "1", "NO"])
-        case g.RestOfLine():
-            return st.text(_TEXT, min_size=1, max_size=20).map(lambda t: "/" + t)
-    return st.text(_TEXT, max_size=grammar.max_len or 30)
+    return values(
+        setting,
+        limits,
+        number=st.decimals(-999, 999, places=3).map(lambda d: format(abs(d), "f")),
+        text=lambda longest: st.text(_TEXT, max_size=longest or 30),
+    )
 
 
 async def _round_trip(tmp: Path, version: str, hand: list[str]) -> None:

@@ -14,6 +14,7 @@ from decimal import Decimal
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+from setting_values import values
 from station_helpers import ask, served
 
 from sondalog.ala1 import Version
@@ -53,40 +54,12 @@ def _number(setting: Setting) -> st.SearchStrategy[str]:
 
 
 def _value(setting: Setting, limits: g.Limits) -> st.SearchStrategy[str]:
-    grammar = setting.grammar
-    match grammar:
-        case g.Integer():
-            return st.integers(grammar.lo, min(g._bound(grammar.hi, limits), 10**6)).map(str)
-        case g.ChannelAddress():
-            return st.integers(0, limits.channel_address_max).map(str)
-        case g.MemorySize():
-            return st.integers(grammar.minimum // 256, 4096).map(lambda k: str(k * 256))
-        case g.OneOf():
-            return st.sampled_from(grammar.options).map(str)
-        case g.Choice():
-            return st.sampled_from(grammar.options).map(
-                lambda o: f"{o},1" if o in dict(grammar.with_arg) else o
-            )
-        case g.Number():
-            return _number(setting)
-        case g.Format():
-            return st.tuples(st.integers(0, 9), st.integers(0, 9)).map(lambda t: f"{t[0]}.{t[1]}")
-        case g.Date():
-            return st.datetimes().map(lambda d: d.strftime("%Y%m%d%H%M%S"))
-        case g.Period():
-            return st.tuples(st.integers(0, 95), st.integers(0, 59), st.integers(0, 59)).map(
-                lambda t: f"{t[0]:02d}{t[1]:02d}{t[2]:02d}"
-            )
-        case g.IntList():
-            return st.lists(
-                st.integers(1, limits.addresses), min_size=1, max_size=limits.addresses_per_message
-            ).map(lambda items: ",".join(map(str, items)))
-        case g.OutputValue():
-            return st.sampled_from(["0", "1", "NO"])
-        case g.RestOfLine():
-            return _TEXT.filter(lambda t: t.strip() != "").map(lambda t: "/" + t)
-    longest = getattr(grammar, "max_len", None)
-    return _TEXT.map(lambda t: t[:longest] if longest else t)
+    return values(
+        setting,
+        limits,
+        number=_number(setting),
+        text=lambda longest: _TEXT.map(lambda t: t[:longest] if longest else t),
+    )
 
 
 @st.composite

@@ -7,6 +7,7 @@ through the protocol; every line within the manual's limits (120 characters a co
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import re
 import string
 from decimal import Decimal
@@ -214,3 +215,24 @@ def test_a_refused_line_is_seen_without_waiting_for_the_timeout(tmp_path) -> Non
     )
     with pytest.raises(ClientError, match="did not answer"):
         ReadPlan("1.16", "", tuple(lines)).values(raw)
+
+
+def test_a_peer_that_talks_on_is_left_once_past_what_the_answers_can_be() -> None:
+    """Everything an outsider can fill is bounded: a peer sending bytes without end (noise
+    on a line, something else on the port) ends the read, it is not waited on for good."""
+
+    async def run() -> None:
+        async def talk(_: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            with contextlib.suppress(ConnectionError):
+                while True:
+                    writer.write(b"x" * 512)
+                    await writer.drain()
+                    await asyncio.sleep(0.001)
+
+        server = await asyncio.start_server(talk, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        async with server, await Ala1Client.connect(f"tcp://127.0.0.1:{port}", timeout=5) as c:
+            with pytest.raises(ClientError, match="more than the answers can be"):
+                await asyncio.wait_for(exchange(c, read_plan("2.10").lines), 30)
+
+    asyncio.run(run())

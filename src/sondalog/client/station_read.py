@@ -291,8 +291,11 @@ async def _answers(client: Ala1Client, batch: Sequence[Line], prefix: str) -> by
     """The answers to ``batch``: its lines' data lines and ``OK`` each, or fewer lines when
     one was refused (seen as soon as the refusal and what follows it are in)."""
     expected = sum(len(line.parts) + 1 for line in batch)
+    # the most the answers can be (answer lines of at most MAX_ANSWER, §3.3; a refused line
+    # echoed): a peer that talks on past it is not answering (its bytes are bounded)
+    most = sum(len(prefix) + len(line.text) + 9 for line in batch) + expected * (MAX_ANSWER + 2)
     chunks: list[bytes] = []
-    count = 0
+    count = size = 0
     tail = b""
     while count < expected:
         data = await client.receive_raw(client.timeout)
@@ -301,6 +304,10 @@ async def _answers(client: Ala1Client, batch: Sequence[Line], prefix: str) -> by
             if not got:
                 raise NoAnswer(f"no answer to {batch[0].text!r}")
             raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)
+        size += len(data)
+        if size > most:
+            got = b"".join(chunks)
+            raise IncompleteAnswer(f"more than the answers can be: ...{data[-60:]!r}", got)
         chunks.append(data)
         count += data.count(b"\n")
         if count < expected and b"ERROR\r\n" in tail + data:

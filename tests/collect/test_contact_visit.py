@@ -20,11 +20,11 @@ from served_logger import Served, sampling_logger, serving
 from test_contact_pipeline import CHANNEL, ROW, stepwise
 
 from sondalog.client import Ala1Client
-from sondalog.client.ala1_codec import MAX_LINE, CrcMismatch, cksum
+from sondalog.client.ala1_codec import MAX_LINE, CrcMismatch
 from sondalog.client.download import Download
 from sondalog.client.visit import IDENT, Known, Unexpected, Visit, keep, parse, plan, visit
 from sondalog.collect.readings import rows_to_readings
-from sondalog.protocol.cksum import cksum as cksum_reference
+from sondalog.protocol.cksum import cksum
 
 
 @pytest.fixture(scope="module")
@@ -247,6 +247,22 @@ def test_a_row_of_numbers_is_told_as_field_by_field(body: str) -> None:
     assert (row.text is None) == numbers
     if numbers:
         assert row.values == tuple(float(f) if f else None for f in body.split(","))
+
+
+def cksum_reference(data: bytes) -> int:
+    """POSIX ``cksum`` by its definition, bit by bit: the data, then its length's bytes."""
+    crc = 0
+    tail = []
+    length = len(data)
+    while length:
+        tail.append(length & 0xFF)
+        length >>= 8
+    for byte in bytes(data) + bytes(tail):
+        crc ^= byte << 24
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x04C11DB7) if crc & 0x80000000 else crc << 1
+            crc &= 0xFFFFFFFF
+    return ~crc & 0xFFFFFFFF
 
 
 @given(st.binary(max_size=300))

@@ -36,9 +36,10 @@ from __future__ import annotations
 
 import enum
 import re
-import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
+
+from sondalog.protocol.cksum import cksum
 
 #: §3.4.1: the module keeps at most this many characters of a command line.
 MAX_LINE = 120
@@ -192,26 +193,6 @@ def strip_sum(line: str) -> str:
     if int(match.group(1)) != line_sum(rest):
         raise SumMismatch(f"sum {match.group(1)} does not match {line_sum(rest):05d} in {line!r}")
     return rest
-
-
-#: Each byte value with its bits in the opposite order (bytes.translate).
-_REVERSED = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
-
-
-def cksum(data: bytes) -> int:
-    """POSIX ``cksum`` of ``data`` (§8.4.1; :func:`sondalog.protocol.cksum.cksum`, which
-    the tests hold it to), through :func:`zlib.crc32` in C: the same polynomial, least
-    significant bit first, so the bytes go in and the CRC comes out with their bits
-    reversed, and ``crc32``'s start value 0xFFFFFFFF is cksum's register 0. A chunk of rows
-    is verified ten times faster than byte by byte in Python."""
-    length = len(data)
-    tail = bytearray()
-    while length:
-        tail.append(length & 0xFF)
-        length >>= 8
-    crc = zlib.crc32(bytes(data).translate(_REVERSED), 0xFFFFFFFF)
-    crc = zlib.crc32(bytes(tail).translate(_REVERSED), crc)
-    return int.from_bytes(crc.to_bytes(4, "little").translate(_REVERSED), "big")
 
 
 def verify_crc(crc_line: str, preceding: bytes) -> tuple[int, int]:

@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from station_helpers import ask, explain_text, free_port, port_of, serve_gsm_world, served
 
 from sondalog.client.station_apply import apply, make_plan
@@ -56,6 +57,10 @@ def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     )  # fmt: skip
 
 
+# Three exchanges paced at the modem's line speed (about 11 s each alone) and two waits of up
+# to 90 s each: its own budget, so a slow run ends in an assertion that shows the CLI's last
+# answer instead of pytest's bare timeout (it overran the default 120 s once, in a full run).
+@pytest.mark.timeout(300)
 def test_over_a_gsm_data_call_and_the_gprs_port(tmp_path: Path) -> None:
     published = free_port()
     proc, lines = serve_gsm_world(tmp_path, published)

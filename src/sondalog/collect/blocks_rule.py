@@ -116,3 +116,76 @@ def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:
                 take(b, c[2], c[3], 2, 1)
         out += [(lg, coarse, st, ch, *c) for (lg, st, ch), c in blocks.items()]
     return out
+
+
+def _beats(v: float | None, t: int, old_v: float | None, old_t: int, better: int) -> bool:
+    """Whether ``(v, t)`` replaces ``(old_v, old_t)`` by the rule (exactly :data:`MERGE`'s
+    ``WHERE``: a smaller, ``better`` -1, or larger value; on a tie the earlier time; NULL
+    loses, and between NULLs the later time)."""
+    if v is None:
+        return old_v is None and t > old_t
+    if old_v is None:
+        return True
+    return (v < old_v if better < 0 else v > old_v) or (v == old_v and t < old_t)
+
+
+def _nan(*values: float | None) -> bool:
+    return any(v is not None and v != v for v in values)
+
+
+class Written:
+    """The blocks a sink knows to be stored at least this good (bounded): a block of a new
+    batch that would not change them is not sent (issue 24: most coarse blocks, batch after
+    batch, cost the server a key look-up and a row lock for nothing).
+
+    Sound because a stored block only ever takes better extremes (:data:`MERGE`; the coarse
+    blocks made again from the finer ones, :data:`REPLACE`, hold what those hold): what was
+    committed is a lower bound of what is stored for good. Noted only after the commit
+    (:meth:`note`); emptied by the sink whenever it connects (a server restored from a
+    backup, or another one behind the same name, may hold less). NaN (which PostgreSQL
+    orders above every number, Python nowhere) is always sent."""
+
+    #: Blocks remembered, the least recently written forgotten first (a few hundred bytes
+    #: each; a block's logger, size, start and channel).
+    LIMIT = 16_384
+
+    def __init__(self) -> None:
+        self._known: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+
+    def __len__(self) -> int:
+        return len(self._known)
+
+    def clear(self) -> None:
+        self._known.clear()
+
+    def changing(self, blocks: Iterable[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
+        """The ``blocks`` (rows of the table, as :func:`aggregate`'s) that may change the
+        stored ones: unknown, or better in an extreme than what is known."""
+        known = self._known
+        out: list[tuple[Any, ...]] = []
+        for b in blocks:
+            old = known.get(b[:4])
+            if (
+                old is None
+                or _beats(b[4], b[5], old[0], old[1], -1)
+                or _beats(b[6], b[7], old[2], old[3], 1)
+                or _nan(b[4], b[6], old[0], old[2])
+            ):
+                out.append(b)
+        return out
+
+    def note(self, blocks: Iterable[tuple[Any, ...]]) -> None:
+        """``blocks`` are committed: each known block takes them by the rule."""
+        known = self._known
+        for b in blocks:
+            key = b[:4]
+            old = known.pop(key, None)
+            if old is None:
+                known[key] = tuple(b[4:])
+                if len(known) > self.LIMIT:
+                    del known[next(iter(known))]
+                continue
+            c = list(old)
+            take(c, b[4], b[5], 0, -1)
+            take(c, b[6], b[7], 2, 1)
+            known[key] = tuple(c)

@@ -17,9 +17,9 @@ from __future__ import annotations
 import itertools
 import operator
 import struct
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from datetime import UTC, datetime, timedelta
-from typing import Any
+from typing import Any, TypeVar
 
 from sondalog.collect.model import Reading
 
@@ -35,6 +35,7 @@ _fields = operator.attrgetter(
 _key = operator.attrgetter("logger", "time", "counter")
 _cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
 _channel = operator.itemgetter(3)
+T = TypeVar("T")
 
 
 def _merged(cells: list[tuple[Any, ...]]) -> Row:
@@ -73,6 +74,55 @@ def group(batch: Iterable[Reading]) -> list[Row]:
     for at, cells in apart.items():
         out[at] = _merged(cells)
     return out
+
+
+def pieces(batch: Sequence[Reading], size: int) -> Iterator[list[Row]]:
+    """:func:`group` of ``batch`` a piece of about ``size`` readings at a time (each cut
+    at the end of a run of one key), so that a piece can be sent while the next is made.
+
+    Raises :class:`Apart` at the first piece holding a row of an earlier piece (the
+    caller's rows sent so far are then incomplete: it starts again with :func:`group`)."""
+    sent: set[tuple[str, datetime, int]] = set()
+    start = 0
+    while start < len(batch):
+        end = min(start + size, len(batch))
+        if end < len(batch):
+            last = _key(batch[end - 1])
+            while end < len(batch) and _key(batch[end]) == last:
+                end += 1
+        rows = group(batch[start:end])
+        keys = [r[:3] for r in rows]
+        if not sent.isdisjoint(keys):
+            raise Apart
+        sent.update(keys)
+        yield rows
+        start = end
+
+
+class Apart(Exception):
+    """A record row's readings are in two pieces of a batch (:func:`pieces`)."""
+
+
+_logger = operator.attrgetter("logger")
+
+
+def split(
+    batch: Sequence[T], n: int, logger: Callable[[T], str] = _logger
+) -> Sequence[Sequence[T]]:
+    """``batch`` (readings, or record rows with ``logger`` their logger) in at most ``n``
+    parts of similar size: by logger when that shares it out well (each part's rows then go
+    to other places of the primary key than the other parts', so their servers do not wait
+    for each other's pages), else in ``n`` slices."""
+    if n <= 1:
+        return [batch]
+    by_logger: list[list[T]] = [[] for _ in range(n)]
+    where: dict[str, int] = {}
+    for name, run in itertools.groupby(batch, key=logger):
+        by_logger[where.setdefault(name, len(where) % n)].extend(run)
+    if len(where) >= n and max(map(len, by_logger)) * n <= len(batch) * 5 // 4:
+        return list(by_logger)
+    size = -(-len(batch) // n)
+    return [batch[i : i + size] for i in range(0, len(batch), size)]
 
 
 def _in_order(channels: tuple[int, ...]) -> bool:

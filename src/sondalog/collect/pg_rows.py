@@ -214,6 +214,19 @@ class Encoder:
     def __init__(self) -> None:
         self._arrays: dict[tuple[int, tuple[object, ...]], bytes] = {}
         self._heads: dict[str, bytes] = {}  # a row's field count and its logger
+        #: A row's channels and types, and its texts, names and units, by those arrays.
+        self._layouts: dict[tuple[tuple[object, ...], ...], tuple[bytes, bytes]] = {}
+
+    def _layout(self, key: tuple[tuple[object, ...], ...]) -> tuple[bytes, bytes]:
+        ch, ty, tx, na, un = key
+        cached = self._cached
+        if len(self._layouts) >= self.LIMIT:
+            self._layouts.clear()
+        got = self._layouts[key] = (
+            cached(_INT4, ch) + cached(_INT2, ty),
+            cached(_TEXT, tx) + cached(_TEXT, na) + cached(_TEXT, un),
+        )
+        return got
 
     def _cached(self, oid: int, items: tuple[object, ...]) -> bytes:
         key = (oid, items)
@@ -239,8 +252,8 @@ class Encoder:
         (a long stream written in pieces: :data:`SIGNATURE`, bodies, :data:`TRAILER`)."""
         out: list[bytes] = []
         add = out.append
-        cached = self._cached
         heads = self._heads
+        layouts = self._layouts
         for logger, time, counter, utc, ch, ty, va, tx, na, un in rows:
             head = heads.get(logger)
             if head is None:
@@ -252,10 +265,9 @@ class Encoder:
             add(_i8(8, (time - _EPOCH) // _US))
             add(_i4(4, counter))
             add(_NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))
-            add(cached(_INT4, ch))
-            add(cached(_INT2, ty))
+            key = (ch, ty, tx, na, un)
+            arrays = layouts.get(key) or self._layout(key)
+            add(arrays[0])
             add(_values(va))
-            add(cached(_TEXT, tx))
-            add(cached(_TEXT, na))
-            add(cached(_TEXT, un))
+            add(arrays[1])
         return b"".join(out)

@@ -136,24 +136,25 @@ async def _copy(
     cur: psycopg.AsyncCursor[tuple[object, ...]],
     sql: str,
     pieces: Iterable[Sequence[pg_rows.Row]],
-    meanwhile: Callable[[], None] | None = None,
+    meanwhile: Callable[[Sequence[pg_rows.Row]], None] | None = None,
 ) -> int:
     """COPY the record rows of ``pieces`` in the binary format (:class:`pg_rows.Encoder`), a
     piece at a time, so that the server's work overlaps the making of the next piece; after
-    each piece the other parts of the batch get their turn. ``meanwhile`` runs once the
-    rows are sent and before the server's answer is awaited: its CPU overlaps the server's
-    too. The number of readings copied."""
-    n = 0
+    each piece the other parts of the batch get their turn. ``meanwhile`` runs on all the
+    rows once they are sent and before the server's answer is awaited: its CPU overlaps the
+    server's too. The number of readings copied."""
+    sent: list[pg_rows.Row] = []
     async with cur.copy(sql) as copy:
-        await copy.write(pg_rows.SIGNATURE)
+        head = pg_rows.SIGNATURE
         for rows in pieces:
-            n += pg_rows.readings_in(rows)
-            await copy.write(_ENCODER.body(rows))
+            sent += rows
+            await copy.write(head + _ENCODER.body(rows))
+            head = b""
             await asyncio.sleep(0)
-        await copy.write(pg_rows.TRAILER)
+        await copy.write(head + pg_rows.TRAILER)
         if meanwhile is not None:
-            meanwhile()
-    return n
+            meanwhile(sent)
+    return pg_rows.readings_in(sent)
 
 
 async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int:
@@ -166,7 +167,7 @@ async def insert_rows(
     cur: psycopg.AsyncCursor[tuple[object, ...]],
     batch: Sequence[Reading],
     direct: bool,
-    meanwhile: Callable[[], None] | None = None,
+    meanwhile: Callable[[Sequence[pg_rows.Row]], None] | None = None,
 ) -> tuple[int, int]:
     """Insert the record rows of ``batch`` in the cursor's transaction: the number of
     readings new to the table, and of the batch's readings (each counted once).
@@ -191,9 +192,9 @@ async def insert_rows(
 
 
 def _aggregate_into(
-    out: list[tuple[object, ...]], batch: Sequence[Reading], written: blocks_rule.Written
+    out: list[tuple[object, ...]], written: blocks_rule.Written, rows: Sequence[pg_rows.Row]
 ) -> None:
-    out.extend(written.changing(blocks_rule.aggregate(batch)))
+    out.extend(written.changing(blocks_rule.aggregate_rows(rows)))
 
 
 async def store_part(
@@ -210,7 +211,7 @@ async def store_part(
             async with conn.transaction(), conn.cursor() as cur:
                 # A direct COPY stores every reading or fails: the dashboard's extremes of
                 # the part are computed while the server stores its rows.
-                aggregate = functools.partial(_aggregate_into, blocks, batch, written)
+                aggregate = functools.partial(_aggregate_into, blocks, written)
                 new, total = await insert_rows(cur, batch, direct, aggregate if direct else None)
                 # Here the part is written and not yet committed: what must change with the
                 # readings runs here, in the same transaction: the dashboard's extremes

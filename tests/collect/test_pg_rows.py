@@ -102,8 +102,8 @@ def test_pieces_are_the_grouping_cut_between_rows(seed: int, n: int, size: int) 
 
 def test_a_row_is_never_cut_between_pieces() -> None:
     batch = rows("A", 0, 5, channels=3)
-    pieces = list(pg_rows.pieces(batch, 4))  # 4 readings: the second row finishes the first
-    assert [len(p) for p in pieces] == [2, 2, 1]
+    pieces = list(pg_rows.pieces(batch, 4))  # 1 reading, then 4: rows finish the pieces
+    assert [len(p) for p in pieces] == [1, 2, 2]
     assert [r for p in pieces for r in p] == pg_rows.group(batch)
     apart = [*batch, Reading("A", 9, batch[0].time, 0, 1, 1.0)]  # the first row, later
     with pytest.raises(pg_rows.Apart):

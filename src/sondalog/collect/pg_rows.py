@@ -78,14 +78,16 @@ def group(batch: Iterable[Reading]) -> list[Row]:
 
 def pieces(batch: Sequence[Reading], size: int) -> Iterator[list[Row]]:
     """:func:`group` of ``batch`` a piece of about ``size`` readings at a time (each cut
-    at the end of a run of one key), so that a piece can be sent while the next is made.
+    at the end of a run of one key), so that a piece can be sent while the next is made;
+    the first a quarter of that (the server starts sooner).
 
     Raises :class:`Apart` at the first piece holding a row of an earlier piece (the
     caller's rows sent so far are then incomplete: it starts again with :func:`group`)."""
     sent: set[tuple[str, datetime, int]] = set()
-    start = 0
+    start, step = 0, max(1, size // 4)
     while start < len(batch):
-        end = min(start + size, len(batch))
+        end = min(start + step, len(batch))
+        step = size
         if end < len(batch):
             last = _key(batch[end - 1])
             while end < len(batch) and _key(batch[end]) == last:

@@ -1,6 +1,8 @@
 """The rule by which a block of the dashboard's extremes takes new ones (issue 24), in
-Python (:func:`take`, :func:`aggregate`: a batch's blocks) and in SQL (:data:`MERGE`: the
-same rule on SQLite and PostgreSQL), for :mod:`.blocks_sql`.
+Python (:func:`take`, :func:`aggregate`: a batch's blocks; :func:`aggregate_rows`: the same
+from its record rows, by column) and in SQL (:data:`MERGE`: the same rule on SQLite and
+PostgreSQL), for :mod:`.blocks_sql`; :class:`Written`: the blocks a sink knows stored, which
+it need not send again.
 
 A smaller (``vmin``) or larger (``vmax``) value wins; on a tie the earlier time; NULL loses
 to any value, and between NULLs the later time wins.

@@ -4,6 +4,8 @@
 (:data:`sondalog.collect.schema_pg.COLUMNS`: the key, ``utc`` and the channels' parallel
 arrays ordered by channel). A reading seen twice in a batch (the same channel of the same
 row) is kept once, the first; a row's channels spread over the batch are merged.
+:func:`pieces` does it a piece of the batch at a time (the sink sends one while it makes the
+next); :func:`split` shares a batch out between writer connections.
 
 :func:`encode` writes rows in PostgreSQL's binary ``COPY`` format (the signature, each row's
 fields, the trailer) straight with :mod:`struct`: psycopg's array dumpers are Python per

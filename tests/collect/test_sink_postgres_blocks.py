@@ -12,7 +12,7 @@ from typing import Any
 import psycopg
 import pytest
 
-from sondalog.collect import blocks_rule, sink_postgres
+from sondalog.collect import blocks_rule, blocks_sql, sink_postgres
 from sondalog.collect.model import Reading
 
 T0 = datetime(2026, 1, 1, 5)
@@ -72,6 +72,13 @@ def test_blocks_not_sent_again_are_still_those_of_the_rows(
         return sent
 
     monkeypatch.setattr(blocks_rule.Written, "changing", counted)
+    after_batch = blocks_sql.after_batch_postgres
+
+    async def in_key_order(cur: Any, batch: Any, stored: int, blocks: Any = None) -> None:
+        assert blocks is None or blocks == sorted(blocks)  # locks taken in one order
+        await after_batch(cur, batch, stored, blocks)
+
+    monkeypatch.setattr(blocks_sql, "after_batch_postgres", in_key_order)
 
     async def run() -> None:
         sink = sink_postgres.create({"dsn": pg_dsn})

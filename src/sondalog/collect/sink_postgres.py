@@ -194,7 +194,9 @@ async def insert_rows(
 def _aggregate_into(
     out: list[tuple[object, ...]], written: blocks_rule.Written, rows: Sequence[pg_rows.Row]
 ) -> None:
-    out.extend(written.changing(blocks_rule.aggregate_rows(rows)))
+    # In the key's order: the server's look-ups go page after page of its index (measured:
+    # about a fifth less a new block), and concurrent collectors lock blocks in one order.
+    out.extend(sorted(written.changing(blocks_rule.aggregate_rows(rows))))
 
 
 async def store_part(

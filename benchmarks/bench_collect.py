@@ -6,8 +6,11 @@ port, like the tests) and writes batches through :class:`~sondalog.collect.sink_
 PostgresSink` (schema version 2: the readings grouped into record rows, binary COPY, a batch
 split between ``--writers`` connections; a batch with stored rows through a temporary table,
 ``INSERT ... ON CONFLICT DO NOTHING`` and the merge of missing channels; the per-block
-extremes of the dashboard kept in the same transaction): first new rows, then the same rows
-again (all duplicates, the cost of an idempotent replay). ``--runs``
+extremes of the dashboard kept in the same transaction, those the sink knows would not
+change left out): first new rows, then the same rows again (all duplicates, the cost of an
+idempotent replay). The readings: 20 loggers, rows of 8 channels a minute apart, each
+channel's values repeating every 5 rows (a 5,000-reading batch touches about 850 blocks of
+the 4 sizes, about 260 of them new or changed). ``--runs``
 fresh databases; best and median. Besides the rate it prints the CPU a reading costs this
 process (formatting, sending) and the server's backends (``/proc``; the server runs here):
 on a shared machine those move less than the rate does.

@@ -11,7 +11,7 @@ from typing import Any
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sondalog.collect import blocks_rule
+from sondalog.collect import blocks_rule, pg_rows
 from sondalog.collect.model import Reading
 
 T0 = datetime(2026, 1, 1)
@@ -64,3 +64,132 @@ def test_aggregate_matches_the_rule(items: list[tuple[str, int, int, float | Non
     assert finest.keys() == want.keys()
     for key, c in want.items():
         assert all(same(x, y) for x, y in zip(finest[key], c, strict=True)), key
+
+
+def blocks_of(out: list[tuple[Any, ...]]) -> dict[tuple[Any, ...], list[Any]]:
+    got = {row[:4]: list(row[4:]) for row in out}
+    assert len(got) == len(out)  # each block once
+    return got
+
+
+def assert_same_blocks(a: list[tuple[Any, ...]], b: list[tuple[Any, ...]]) -> None:
+    x, y = blocks_of(a), blocks_of(b)
+    assert x.keys() == y.keys()
+    for key, c in x.items():
+        assert all(same(p, q) for p, q in zip(c, y[key], strict=True)), (key, c, y[key])
+
+
+#: Record rows as a logger's download brings them: a row's readings together, by channel.
+ROWS = st.lists(
+    st.tuples(
+        st.sampled_from(["a", "b"]),
+        st.integers(0, 9000),  # seconds: several blocks of every size
+        st.sampled_from([(1, 2, 3), (1, 2, 3), (0,), (2, 5)]),
+        st.lists(VALUES, min_size=3, max_size=3),
+    ),
+    max_size=40,
+    unique_by=lambda r: (r[0], r[1]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(ROWS)
+def test_aggregate_of_rows_is_aggregate_of_their_readings(
+    items: list[tuple[str, int, tuple[int, ...], list[float | None]]],
+) -> None:
+    """By column (min/max of a block's rows of one channel) exactly as reading by reading,
+    NULLs, NaN, infinities, ties and rows out of time order included."""
+    batch = [
+        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
+        for lg, s, channels, values in items
+        for ch, v in zip(channels, values, strict=False)
+    ]
+    assert_same_blocks(
+        blocks_rule.aggregate_rows(pg_rows.group(batch)), blocks_rule.aggregate(batch)
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["a", "b"]),
+            st.integers(0, 3),
+            st.integers(0, 9000),
+            st.one_of(st.none(), st.floats(-10, 10, allow_nan=False)),
+        ),
+        max_size=60,
+        unique_by=lambda r: (r[0], r[1], r[2]),
+    )
+)
+def test_aggregate_of_rows_of_any_batch(items: list[tuple[str, int, int, float | None]]) -> None:
+    """Readings in any order (rows merged by :func:`pg_rows.group`), without NaN: the same."""
+    batch = [Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v) for lg, ch, s, v in items]
+    assert_same_blocks(
+        blocks_rule.aggregate_rows(pg_rows.group(batch)), blocks_rule.aggregate(batch)
+    )
+
+
+# -- the blocks a sink knows stored (blocks_rule.Written) ---------------------------------
+
+
+def stored_after(stored: dict[tuple[Any, ...], list[Any]], block: tuple[Any, ...]) -> None:
+    """The server's rule (blocks_rule.MERGE) without NaN: take the block's extremes."""
+    c = stored.get(block[:4])
+    if c is None:
+        stored[block[:4]] = list(block[4:])
+    else:
+        blocks_rule.take(c, block[4], block[5], 0, -1)
+        blocks_rule.take(c, block[6], block[7], 2, 1)
+
+
+BLOCK = st.tuples(
+    st.just("a"),
+    st.just(1800),
+    st.sampled_from([0, 1800]),
+    st.integers(1, 2),
+    st.one_of(st.none(), st.sampled_from([1.0, 2.0, 3.0])),
+    st.integers(0, 3),
+    st.one_of(st.none(), st.sampled_from([1.0, 2.0, 3.0])),
+    st.integers(0, 3),
+).map(lambda b: b if (b[4] is None) == (b[6] is None) else (*b[:6], b[4], b[7]))
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.tuples(st.lists(BLOCK, max_size=5), st.booleans()), max_size=12))
+def test_a_block_left_out_changes_nothing(batches: list[tuple[list[Any], bool]]) -> None:
+    """Batch after batch, some committed and some rolled back (not noted): a block that
+    ``changing`` leaves out would not change the stored one, and every block it keeps is
+    one the server would have to look at."""
+    written = blocks_rule.Written()
+    stored: dict[tuple[Any, ...], list[Any]] = {}
+    for blocks, committed in batches:
+        sent = written.changing(blocks)
+        assert all(b in sent for b in blocks if b[:4] not in stored)
+        for b in blocks:
+            if b not in sent:
+                before = dict((k, list(v)) for k, v in stored.items())
+                stored_after(stored, b)
+                assert stored == before, b
+        if committed:
+            for b in sent:
+                stored_after(stored, b)
+            written.note(sent)
+
+
+def test_nan_is_always_sent_and_the_memory_is_bounded() -> None:
+    written = blocks_rule.Written()
+    block = ("a", 1800, 0, 1, 1.0, 5, 2.0, 6)
+    written.note([block])
+    assert written.changing([block]) == []
+    assert written.changing([("a", 1800, 0, 1, 1.0, 4, 2.0, 6)]) != []  # a tie, earlier
+    nan = ("a", 1800, 0, 1, math.nan, 7, math.nan, 7)
+    assert written.changing([nan]) == [nan]
+    written.note([nan])
+    written.note([("a", 1800, 1800, 1, math.nan, 7, math.nan, 7)])
+    assert len(written) == 1  # NaN is not remembered
+    written.LIMIT = 3
+    written.note([("b", 1800, s, 1, 1.0, s, 1.0, s) for s in range(5)])
+    assert len(written) == 3 and written.changing([block]) == [block]  # the oldest forgotten
+    written.clear()
+    assert len(written) == 0

@@ -3,9 +3,11 @@ server: the grouping; the encoding is checked against the server by the sink's t
 
 from __future__ import annotations
 
+import itertools
 import random
 from datetime import datetime, timedelta
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from readings_gen import rows, text_row
@@ -72,3 +74,38 @@ def test_encoding_is_a_whole_binary_copy_stream() -> None:
     data = pg_rows.Encoder().encode(pg_rows.group(rows("A", 0, 2)))
     assert data.startswith(pg_rows.SIGNATURE) and data.endswith(pg_rows.TRAILER)
     assert pg_rows.Encoder().encode([]) == pg_rows.SIGNATURE + pg_rows.TRAILER
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32), st.integers(1, 80), st.integers(1, 12))
+def test_pieces_are_the_grouping_cut_between_rows(seed: int, n: int, size: int) -> None:
+    """A batch a piece at a time: the rows of :func:`pg_rows.group`, in order, each piece
+    cut after whole rows; a row whose readings are in two pieces raises ``Apart``."""
+    rng = random.Random(seed)
+    t0 = datetime(2026, 1, 1)
+    batch = [
+        Reading(rng.choice("AB"), rng.randrange(4), t0 + timedelta(minutes=rng.randrange(4)),
+                0, 1, float(i))
+        for i in range(n)
+    ]  # fmt: skip
+    got: list[pg_rows.Row] = []
+    try:
+        for piece in pg_rows.pieces(batch, size):
+            assert piece
+            got += piece
+    except pg_rows.Apart:  # only when a row's readings are in two runs of the batch
+        runs = [k for k, _ in itertools.groupby(batch, key=lambda r: (r.logger, r.time))]
+        assert len(set(runs)) < len(runs)
+        return
+    assert got == pg_rows.group(batch)
+
+
+def test_a_row_is_never_cut_between_pieces() -> None:
+    batch = rows("A", 0, 5, channels=3)
+    pieces = list(pg_rows.pieces(batch, 4))  # 1 reading, then 4: rows finish the pieces
+    assert [len(p) for p in pieces] == [1, 2, 2]
+    assert [r for p in pieces for r in p] == pg_rows.group(batch)
+    apart = [*batch, Reading("A", 9, batch[0].time, 0, 1, 1.0)]  # the first row, later
+    with pytest.raises(pg_rows.Apart):
+        list(pg_rows.pieces(apart, 4))
+    assert len(list(pg_rows.pieces(apart, 100))) == 1  # one piece: merged as before

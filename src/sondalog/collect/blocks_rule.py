@@ -1,6 +1,8 @@
 """The rule by which a block of the dashboard's extremes takes new ones (issue 24), in
-Python (:func:`take`, :func:`aggregate`: a batch's blocks) and in SQL (:data:`MERGE`: the
-same rule on SQLite and PostgreSQL), for :mod:`.blocks_sql`.
+Python (:func:`take`, :func:`aggregate`: a batch's blocks; :func:`aggregate_rows`: the same
+from its record rows, by column) and in SQL (:data:`MERGE`: the same rule on SQLite and
+PostgreSQL), for :mod:`.blocks_sql`; :class:`Written`: the blocks a sink knows stored, which
+it need not send again.
 
 A smaller (``vmin``) or larger (``vmax``) value wins; on a tie the earlier time; NULL loses
 to any value, and between NULLs the later time wins.
@@ -8,7 +10,8 @@ to any value, and between NULLs the later time wins.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import itertools
+from collections.abc import Iterable, Sequence
 from datetime import UTC, datetime
 from typing import Any
 
@@ -90,20 +93,28 @@ def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:
         if r.time != last:
             last, sec = r.time, epoch(r.time)
             start = sec - sec % size
-        key = (r.logger, start, r.channel)
-        c = fine.get(key)
-        v = r.value
-        if c is None:
-            fine[key] = [v, sec, v, sec]
-        elif v is not None and c[0] is not None and c[2] is not None:  # _take, inlined
-            if v < c[0] or (v == c[0] and sec < c[1]):
-                c[0], c[1] = v, sec
-            if v > c[2] or (v == c[2] and sec < c[3]):
-                c[2], c[3] = v, sec
-        else:
-            take(c, v, sec, 0, -1)
-            take(c, v, sec, 2, 1)
-    out = [(lg, size, st, ch, *c) for (lg, st, ch), c in fine.items()]
+        _add(fine, (r.logger, start, r.channel), r.value, sec)
+    return _coarser(fine)
+
+
+def _add(fine: dict[tuple[str, int, int], list[Any]], key: Any, v: Any, sec: int) -> None:
+    """One reading into its finest block."""
+    c = fine.get(key)
+    if c is None:
+        fine[key] = [v, sec, v, sec]
+    elif v is not None and c[0] is not None and c[2] is not None:  # take, inlined
+        if v < c[0] or (v == c[0] and sec < c[1]):
+            c[0], c[1] = v, sec
+        if v > c[2] or (v == c[2] and sec < c[3]):
+            c[2], c[3] = v, sec
+    else:
+        take(c, v, sec, 0, -1)
+        take(c, v, sec, 2, 1)
+
+
+def _coarser(fine: dict[tuple[str, int, int], list[Any]]) -> list[tuple[Any, ...]]:
+    """The finest blocks as rows of the table, and the blocks of every coarser size."""
+    out = [(lg, SIZES[0], st, ch, *c) for (lg, st, ch), c in fine.items()]
     for coarse in SIZES[1:]:
         blocks: dict[tuple[str, int, int], list[Any]] = {}
         for (lg, st, ch), c in fine.items():
@@ -116,3 +127,138 @@ def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:
                 take(b, c[2], c[3], 2, 1)
         out += [(lg, coarse, st, ch, *c) for (lg, st, ch), c in blocks.items()]
     return out
+
+
+def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
+    """:func:`aggregate` of the readings of record ``rows`` as :func:`sondalog.collect.
+    pg_rows.group` makes them (``logger, time, counter, utc, channels, types, values, ...``;
+    channels rising), by column: the rows of one logger and finest block, of the same
+    channels and in time order, give each channel's extremes by ``min``/``max`` and ``index``
+    (the first, so the earliest time, as the rule wants on a tie); other rows (NULLs, out of
+    time order or of other channels) go reading by reading. With a NaN anywhere (which the
+    rule orders nowhere, so the order met counts) every reading goes in the rows' order."""
+    fine: dict[tuple[str, int, int], list[Any]] = {}
+    size = SIZES[0]
+    seconds: dict[datetime, int] = {}
+    blocks: dict[tuple[str, int], list[tuple[int, tuple[Any, ...]]]] = {}
+    for r in rows:
+        sec = seconds.get(r[1])
+        if sec is None:
+            sec = seconds[r[1]] = epoch(r[1])
+        got = blocks.get((r[0], sec - sec % size))
+        if got is None:
+            blocks[r[0], sec - sec % size] = [(sec, r)]
+        else:
+            got.append((sec, r))
+    for (lg, start), got in blocks.items():
+        secs = [sec for sec, _ in got]
+        channels = got[0][1][4]
+        ordered = all(a <= b for a, b in itertools.pairwise(secs))
+        if not all(r[4] == channels for _, r in got):
+            slow = [(sec, ch, v) for sec, r in got for ch, v in zip(r[4], r[6], strict=True)]
+            if any(v != v for _, _, v in slow):
+                return _by_reading(rows, seconds)
+            for sec, ch, v in slow:
+                if ch > 0:
+                    _add(fine, (lg, start, ch), v, sec)
+            continue
+        for ch, col in zip(channels, zip(*(r[6] for _, r in got), strict=True), strict=True):
+            if ch <= 0:
+                continue
+            key = (lg, start, ch)
+            if None in col:
+                if any(v != v for v in col):
+                    return _by_reading(rows, seconds)
+                for v, sec in zip(col, secs, strict=True):
+                    _add(fine, key, v, sec)
+            elif (total := sum(col)) != total:  # NaN (or both infinities)
+                return _by_reading(rows, seconds)
+            elif not ordered:
+                for v, sec in zip(col, secs, strict=True):
+                    _add(fine, key, v, sec)
+            else:
+                lo, hi = min(col), max(col)
+                fine[key] = [lo, secs[col.index(lo)], hi, secs[col.index(hi)]]
+    return _coarser(fine)
+
+
+def _by_reading(rows: Sequence[tuple[Any, ...]], seconds: dict[datetime, int]) -> list[Any]:
+    """:func:`aggregate_rows` reading by reading, in the rows' order (as :func:`aggregate`)."""
+    fine: dict[tuple[str, int, int], list[Any]] = {}
+    size = SIZES[0]
+    for r in rows:
+        sec = seconds[r[1]]
+        for ch, v in zip(r[4], r[6], strict=True):
+            if ch > 0:
+                _add(fine, (r[0], sec - sec % size, ch), v, sec)
+    return _coarser(fine)
+
+
+def _beats(v: float | None, t: int, old_v: float | None, old_t: int, better: int) -> bool:
+    """Whether ``(v, t)`` replaces ``(old_v, old_t)`` by the rule (exactly :data:`MERGE`'s
+    ``WHERE``: a smaller, ``better`` -1, or larger value; on a tie the earlier time; NULL
+    loses, and between NULLs the later time)."""
+    if v is None:
+        return old_v is None and t > old_t
+    if old_v is None:
+        return True
+    return (v < old_v if better < 0 else v > old_v) or (v == old_v and t < old_t)
+
+
+class Written:
+    """The blocks a sink knows to be stored at least this good (bounded): a block of a new
+    batch that would not change them is not sent (issue 24: most coarse blocks, batch after
+    batch, cost the server a key look-up and a row lock for nothing).
+
+    Sound because a stored block only ever takes better extremes (:data:`MERGE`; the coarse
+    blocks made again from the finer ones, :data:`REPLACE`, hold what those hold): what was
+    committed is a lower bound of what is stored for good. Noted only after the commit
+    (:meth:`note`); emptied by the sink whenever it connects (a server restored from a
+    backup, or another one behind the same name, may hold less). NaN (which PostgreSQL
+    orders above every number, Python nowhere) is always sent."""
+
+    #: Blocks remembered, the least recently written forgotten first (about 400 bytes each,
+    #: 3.3 MB in all; a batch of 20 loggers of 8 channels keeps about 1,000 current).
+    LIMIT = 8_192
+
+    def __init__(self) -> None:
+        self._known: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+
+    def __len__(self) -> int:
+        return len(self._known)
+
+    def clear(self) -> None:
+        self._known.clear()
+
+    def changing(self, blocks: Iterable[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
+        """The ``blocks`` (rows of the table, as :func:`aggregate`'s) that may change the
+        stored ones: unknown, or better in an extreme than what is known."""
+        known = self._known
+        out: list[tuple[Any, ...]] = []
+        for b in blocks:
+            old = known.get(b[:4])
+            if (
+                old is None
+                or b[4] != b[4]  # NaN (NULL: None == None)
+                or b[6] != b[6]
+                or _beats(b[4], b[5], old[0], old[1], -1)
+                or _beats(b[6], b[7], old[2], old[3], 1)
+            ):
+                out.append(b)
+        return out
+
+    def note(self, blocks: Iterable[tuple[Any, ...]]) -> None:
+        """``blocks`` are committed: each known block takes them by the rule."""
+        known = self._known
+        for b in blocks:
+            key = b[:4]
+            old = known.pop(key, None)
+            c = list(b[4:])
+            if old is not None:
+                c = list(old)
+                take(c, b[4], b[5], 0, -1)
+                take(c, b[6], b[7], 2, 1)
+            if c[0] == c[0] and c[2] == c[2]:  # NaN is not remembered: always sent
+                known[key] = tuple(c)
+                if len(known) > self.LIMIT:
+                    del known[next(iter(known))]

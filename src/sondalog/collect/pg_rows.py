@@ -4,6 +4,8 @@
 (:data:`sondalog.collect.schema_pg.COLUMNS`: the key, ``utc`` and the channels' parallel
 arrays ordered by channel). A reading seen twice in a batch (the same channel of the same
 row) is kept once, the first; a row's channels spread over the batch are merged.
+:func:`pieces` does it a piece of the batch at a time (the sink sends one while it makes the
+next); :func:`split` shares a batch out between writer connections.
 
 :func:`encode` writes rows in PostgreSQL's binary ``COPY`` format (the signature, each row's
 fields, the trailer) straight with :mod:`struct`: psycopg's array dumpers are Python per
@@ -17,9 +19,9 @@ from __future__ import annotations
 import itertools
 import operator
 import struct
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from datetime import UTC, datetime, timedelta
-from typing import Any
+from typing import Any, TypeVar
 
 from sondalog.collect.model import Reading
 
@@ -35,6 +37,7 @@ _fields = operator.attrgetter(
 _key = operator.attrgetter("logger", "time", "counter")
 _cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
 _channel = operator.itemgetter(3)
+T = TypeVar("T")
 
 
 def _merged(cells: list[tuple[Any, ...]]) -> Row:
@@ -73,6 +76,57 @@ def group(batch: Iterable[Reading]) -> list[Row]:
     for at, cells in apart.items():
         out[at] = _merged(cells)
     return out
+
+
+def pieces(batch: Sequence[Reading], size: int) -> Iterator[list[Row]]:
+    """:func:`group` of ``batch`` a piece of about ``size`` readings at a time (each cut
+    at the end of a run of one key), so that a piece can be sent while the next is made;
+    the first a quarter of that (the server starts sooner).
+
+    Raises :class:`Apart` at the first piece holding a row of an earlier piece (the
+    caller's rows sent so far are then incomplete: it starts again with :func:`group`)."""
+    sent: set[tuple[str, datetime, int]] = set()
+    start, step = 0, max(1, size // 4)
+    while start < len(batch):
+        end = min(start + step, len(batch))
+        step = size
+        if end < len(batch):
+            last = _key(batch[end - 1])
+            while end < len(batch) and _key(batch[end]) == last:
+                end += 1
+        rows = group(batch[start:end])
+        keys = [r[:3] for r in rows]
+        if not sent.isdisjoint(keys):
+            raise Apart
+        sent.update(keys)
+        yield rows
+        start = end
+
+
+class Apart(Exception):
+    """A record row's readings are in two pieces of a batch (:func:`pieces`)."""
+
+
+_logger = operator.attrgetter("logger")
+
+
+def split(
+    batch: Sequence[T], n: int, logger: Callable[[T], str] = _logger
+) -> Sequence[Sequence[T]]:
+    """``batch`` (readings, or record rows with ``logger`` their logger) in at most ``n``
+    parts of similar size: by logger when that shares it out well (each part's rows then go
+    to other places of the primary key than the other parts', so their servers do not wait
+    for each other's pages), else in ``n`` slices."""
+    if n <= 1:
+        return [batch]
+    by_logger: list[list[T]] = [[] for _ in range(n)]
+    where: dict[str, int] = {}
+    for name, run in itertools.groupby(batch, key=logger):
+        by_logger[where.setdefault(name, len(where) % n)].extend(run)
+    if len(where) >= n and max(map(len, by_logger)) * n <= len(batch) * 5 // 4:
+        return list(by_logger)
+    size = -(-len(batch) // n)
+    return [batch[i : i + size] for i in range(0, len(batch), size)]
 
 
 def _in_order(channels: tuple[int, ...]) -> bool:
@@ -164,6 +218,19 @@ class Encoder:
     def __init__(self) -> None:
         self._arrays: dict[tuple[int, tuple[object, ...]], bytes] = {}
         self._heads: dict[str, bytes] = {}  # a row's field count and its logger
+        #: A row's channels and types, and its texts, names and units, by those arrays.
+        self._layouts: dict[tuple[tuple[object, ...], ...], tuple[bytes, bytes]] = {}
+
+    def _layout(self, key: tuple[tuple[object, ...], ...]) -> tuple[bytes, bytes]:
+        ch, ty, tx, na, un = key
+        cached = self._cached
+        if len(self._layouts) >= self.LIMIT:
+            self._layouts.clear()
+        got = self._layouts[key] = (
+            cached(_INT4, ch) + cached(_INT2, ty),
+            cached(_TEXT, tx) + cached(_TEXT, na) + cached(_TEXT, un),
+        )
+        return got
 
     def _cached(self, oid: int, items: tuple[object, ...]) -> bytes:
         key = (oid, items)
@@ -189,8 +256,8 @@ class Encoder:
         (a long stream written in pieces: :data:`SIGNATURE`, bodies, :data:`TRAILER`)."""
         out: list[bytes] = []
         add = out.append
-        cached = self._cached
         heads = self._heads
+        layouts = self._layouts
         for logger, time, counter, utc, ch, ty, va, tx, na, un in rows:
             head = heads.get(logger)
             if head is None:
@@ -202,10 +269,9 @@ class Encoder:
             add(_i8(8, (time - _EPOCH) // _US))
             add(_i4(4, counter))
             add(_NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))
-            add(cached(_INT4, ch))
-            add(cached(_INT2, ty))
+            key = (ch, ty, tx, na, un)
+            arrays = layouts.get(key) or self._layout(key)
+            add(arrays[0])
             add(_values(va))
-            add(cached(_TEXT, tx))
-            add(cached(_TEXT, na))
-            add(cached(_TEXT, un))
+            add(arrays[1])
         return b"".join(out)

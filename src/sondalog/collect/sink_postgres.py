@@ -16,16 +16,18 @@ version 1) is created and migrated by the sink when it connects, under an adviso
 that several collectors sharing one database do not race; ``meta`` holds ``schema_version``
 and ``layout``.
 
-Writing a batch (:meth:`PostgresSink.write`): the readings are grouped into record rows
-(:func:`sondalog.collect.pg_rows.group`) and copied (``COPY ... (FORMAT BINARY)``, encoded by
-:class:`~sondalog.collect.pg_rows.Encoder`) straight into ``record_rows`` in one transaction.
-When a row of it is there already (two collectors, a replay after a crash: the primary key
-refuses it and the whole COPY with it) the transaction is rolled back and the batch copied
-into a temporary table instead: its new rows inserted by ``INSERT ... ON CONFLICT DO NOTHING``,
-and a stored row that lacks some of its channels (a record row whose readings came in two
-batches) given them, a channel stored already keeping its reading. After such a batch the
-next one goes that way at once (a replay brings many), until one that had no stored reading.
-Either way a reading seen twice is stored once.
+Writing a batch (:meth:`PostgresSink.write`): the readings are grouped into record rows a piece
+at a time (:func:`sondalog.collect.pg_rows.pieces`) and copied (``COPY ... (FORMAT BINARY)``,
+:class:`~sondalog.collect.pg_rows.Encoder`) straight into ``record_rows`` in one transaction,
+the server storing a piece while the next is made. When a row of it is there already (two
+collectors, a replay after a crash: the primary key refuses it and the whole COPY with it) the
+transaction is rolled back and the batch copied into a temporary table instead: its new rows
+inserted by ``INSERT ... ON CONFLICT DO NOTHING``, and a stored row that lacks some of its
+channels (a record row whose readings came in two batches) given them, a channel stored
+already keeping its reading. After such a batch the next one goes that way at once (a replay
+brings many), until one that had no stored reading. Either way a reading seen twice is stored
+once. The dashboard's blocks of the batch are merged in the same transaction, but not those
+the sink knows would not change (:class:`~sondalog.collect.blocks_rule.Written`).
 
 The server's work is mostly the primary key's B-tree, one entry a record row (version 1 had
 one a reading, about five times the server's CPU: issue 24). A batch of :data:`SPLIT_AT`
@@ -49,18 +51,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-import itertools
 import logging
-import operator
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypeVar
 
 import psycopg
 from psycopg import conninfo
 
 from sondalog.collect import blocks_rule, blocks_sql, pg_rows, schema_pg
 from sondalog.collect.model import Reading, SinkUnavailable
+from sondalog.collect.pg_rows import split
 from sondalog.collect.schema_pg import (
     BRIN,
     HYPERTABLE,
@@ -124,56 +124,37 @@ MAX_WRITERS = 8
 _DEADLOCKS = 3
 
 Conn = psycopg.AsyncConnection[tuple[object, ...]]
-T = TypeVar("T")
 #: The arrays met are encoded once for every batch of the process (encoding is synchronous).
 _ENCODER = pg_rows.Encoder()
 
-_logger = operator.attrgetter("logger")
-
-
-def split(
-    batch: Sequence[T], n: int, logger: Callable[[T], str] = _logger
-) -> Sequence[Sequence[T]]:
-    """``batch`` (readings, or record rows with ``logger`` their logger) in at most ``n``
-    parts of similar size: by logger when that shares it out well (each part's rows then go
-    to other places of the primary key than the other parts', so their servers do not wait
-    for each other's pages), else in ``n`` slices."""
-    if n <= 1:
-        return [batch]
-    by_logger: list[list[T]] = [[] for _ in range(n)]
-    where: dict[str, int] = {}
-    for name, run in itertools.groupby(batch, key=logger):
-        by_logger[where.setdefault(name, len(where) % n)].extend(run)
-    if len(where) >= n and max(map(len, by_logger)) * n <= len(batch) * 5 // 4:
-        return list(by_logger)
-    size = -(-len(batch) // n)
-    return [batch[i : i + size] for i in range(0, len(batch), size)]
-
-
-#: Record rows encoded and sent at a time: the server stores one piece while the next is
-#: encoded (about 100 KB for rows of 8 channels; psycopg sends from 32 KB on).
-_PIECE = 256
+#: Readings grouped, encoded and sent at a time (256 rows of 8 channels, about 100 KB): the
+#: server stores one piece while the next is made.
+_PIECE = 2_048
 
 
 async def _copy(
     cur: psycopg.AsyncCursor[tuple[object, ...]],
     sql: str,
-    rows: Sequence[pg_rows.Row],
-    meanwhile: Callable[[], None] | None = None,
-) -> None:
-    """COPY ``rows`` in the binary format (:class:`pg_rows.Encoder`), encoded and sent in
-    pieces of :data:`_PIECE` rows, so that the server's work overlaps the encoding; after
-    each piece the other parts of the batch get their turn. ``meanwhile`` runs once the
-    rows are sent and before the server's answer is awaited: its CPU overlaps the server's
-    too."""
+    pieces: Iterable[Sequence[pg_rows.Row]],
+    meanwhile: Callable[[Sequence[pg_rows.Row]], None] | None = None,
+) -> int:
+    """COPY the record rows of ``pieces`` in the binary format (:class:`pg_rows.Encoder`), a
+    piece at a time, so that the server's work overlaps the making of the next piece; after
+    each piece the other parts of the batch get their turn. ``meanwhile`` runs on all the
+    rows once they are sent and before the server's answer is awaited: its CPU overlaps the
+    server's too. The number of readings copied."""
+    sent: list[pg_rows.Row] = []
     async with cur.copy(sql) as copy:
-        await copy.write(pg_rows.SIGNATURE)
-        for at in range(0, len(rows), _PIECE):
-            await copy.write(_ENCODER.body(rows[at : at + _PIECE]))
+        head = pg_rows.SIGNATURE
+        for rows in pieces:
+            sent += rows
+            await copy.write(head + _ENCODER.body(rows))
+            head = b""
             await asyncio.sleep(0)
-        await copy.write(pg_rows.TRAILER)
+        await copy.write(head + pg_rows.TRAILER)
         if meanwhile is not None:
-            meanwhile()
+            meanwhile(sent)
+    return pg_rows.readings_in(sent)
 
 
 async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int:
@@ -184,51 +165,56 @@ async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int
 
 async def insert_rows(
     cur: psycopg.AsyncCursor[tuple[object, ...]],
-    rows: Sequence[pg_rows.Row],
+    batch: Sequence[Reading],
     direct: bool,
-    meanwhile: Callable[[], None] | None = None,
-) -> int:
-    """Insert record ``rows`` in the cursor's transaction; the number of readings new to the
-    table.
+    meanwhile: Callable[[Sequence[pg_rows.Row]], None] | None = None,
+) -> tuple[int, int]:
+    """Insert the record rows of ``batch`` in the cursor's transaction: the number of
+    readings new to the table, and of the batch's readings (each counted once).
 
-    ``direct``: one COPY into ``record_rows`` (raises ``UniqueViolation`` when a row is
-    stored already, which aborts the transaction); otherwise through ``record_rows_in``:
-    new rows inserted, stored rows given the channels they lack (a row whose channels came
-    in two batches), nothing stored twice. ``meanwhile``: as :func:`_copy`'s."""
+    ``direct``: one COPY into ``record_rows``, the rows grouped a piece at a time while the
+    server stores the piece before (:func:`pg_rows.pieces`; raises ``UniqueViolation`` when
+    a row is stored already, and :class:`pg_rows.Apart` when a row's readings are in two
+    pieces, either aborting the transaction); otherwise the rows grouped at once
+    (:func:`pg_rows.group`) through ``record_rows_in``: new rows inserted, stored rows given
+    the channels they lack (a row whose channels came in two batches), nothing stored twice.
+    ``meanwhile``: as :func:`_copy`'s."""
     if direct:
-        await _copy(cur, _COPY_NEW, rows, meanwhile)
-        return pg_rows.readings_in(rows)
-    await _copy(cur, _COPY, rows, meanwhile)
+        new = await _copy(cur, _COPY_NEW, pg_rows.pieces(batch, _PIECE), meanwhile)
+        return new, new
+    rows = pg_rows.group(batch)
+    total = await _copy(cur, _COPY, (rows[i : i + 256] for i in range(0, len(rows), 256)))
     new = await _number(cur, _MOVE)
     if len(rows) and (gained := await _number(cur, _LACKING)):
         await cur.execute(_MERGE)
         new += gained
-    return new
+    return new, total
 
 
-def _aggregate_into(out: list[tuple[object, ...]], batch: Sequence[Reading]) -> None:
-    out.extend(blocks_rule.aggregate(batch))
+def _aggregate_into(
+    out: list[tuple[object, ...]], written: blocks_rule.Written, rows: Sequence[pg_rows.Row]
+) -> None:
+    # In the key's order: the server's look-ups go page after page of its index (measured:
+    # about a fifth less a new block), and concurrent collectors lock blocks in one order.
+    out.extend(sorted(written.changing(blocks_rule.aggregate_rows(rows))))
 
 
 async def store_part(
-    conn: Conn, batch: Sequence[Reading], rows: Sequence[pg_rows.Row], direct: bool
+    conn: Conn, batch: Sequence[Reading], direct: bool, written: blocks_rule.Written
 ) -> tuple[int, bool]:
-    """Store one part of a batch (its readings, and their record ``rows``) in one
-    transaction of ``conn``: ``(readings new, conflicted)``, ``conflicted`` when some were
-    stored already (a replay: the next batch had better go through ``ON CONFLICT`` at once)."""
-    conflicted, deadlocks, total = False, 0, pg_rows.readings_in(rows)
+    """Store one part of a batch in one transaction of ``conn``: ``(readings new,
+    conflicted)``, ``conflicted`` when some were stored already (a replay: the next batch
+    had better go through ``ON CONFLICT`` at once). ``written``: the sink's blocks known
+    stored (:class:`blocks_rule.Written`), which take the part's once committed."""
+    conflicted, deadlocks = False, 0
     while True:
         try:
             blocks: list[tuple[object, ...]] = []
             async with conn.transaction(), conn.cursor() as cur:
                 # A direct COPY stores every reading or fails: the dashboard's extremes of
                 # the part are computed while the server stores its rows.
-                new = await insert_rows(
-                    cur,
-                    rows,
-                    direct,
-                    functools.partial(_aggregate_into, blocks, batch) if direct else None,
-                )
+                aggregate = functools.partial(_aggregate_into, blocks, written)
+                new, total = await insert_rows(cur, batch, direct, aggregate if direct else None)
                 # Here the part is written and not yet committed: what must change with the
                 # readings runs here, in the same transaction: the dashboard's extremes
                 # (unchanged when no reading was new: a replay reads nothing back).
@@ -236,7 +222,11 @@ async def store_part(
                     await blocks_sql.after_batch_postgres(
                         cur, batch, new, blocks if direct else None
                     )
+            if direct and new == len(batch):  # the blocks of every reading were merged
+                written.note(blocks)
             return new, conflicted or new < total
+        except pg_rows.Apart:
+            direct = False  # rolled back: again, the rows grouped at once
         except psycopg.errors.UniqueViolation:
             direct, conflicted = False, True  # rolled back: again, merging into stored rows
         except psycopg.errors.DeadlockDetected:
@@ -264,6 +254,7 @@ class PostgresSink:
         self.inserted = 0  # rows new to the table (duplicates not counted)
         self._conns: list[Conn | None] = [None] * self.writers
         self._replay = False  # the last batch had stored rows: go through ON CONFLICT at once
+        self._written = blocks_rule.Written()  # blocks known stored (emptied on connecting)
         self._lock = asyncio.Lock()
 
     async def open(self) -> None:
@@ -289,7 +280,7 @@ class PostgresSink:
             direct = not self._replay
             done = await asyncio.gather(
                 *(
-                    store_part(c, p, pg_rows.group(p), direct)
+                    store_part(c, p, direct, self._written)
                     for c, p in zip(conns, parts, strict=True)
                 ),
                 return_exceptions=True,
@@ -321,6 +312,7 @@ class PostgresSink:
         if conn is not None and not conn.broken and not conn.closed:
             return conn
         await self._drop(i)
+        self._written.clear()  # perhaps another server now, or one restored from a backup
         try:
             conn = await psycopg.AsyncConnection.connect(
                 self.dsn, connect_timeout=self.connect_timeout, autocommit=True

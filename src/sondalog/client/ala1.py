@@ -80,6 +80,35 @@ class _Stream(asyncio.Protocol):
             timer.cancel()
             self._waiter = None
 
+    async def wait_counted(
+        self, lines: int, most: int, stop: bytes, timeout: float, seen: int = 0
+    ) -> bool:
+        """Wait, woken once, until the buffer holds ``lines`` line ends, a ``stop`` line
+        after its first ``seen`` bytes, more than ``most`` bytes, or the line closes; False
+        when ``timeout`` seconds pass after the last byte (:mod:`~sondalog.client.answer_wait`)."""
+        from sondalog.client.answer_wait import CountedWait
+
+        if self.closed:
+            return False
+        waiter = CountedWait(
+            asyncio.get_running_loop(),
+            self.buffer,
+            lines=lines,
+            most=most,
+            stop=stop,
+            timeout=timeout,
+            seen=seen,
+        )
+        if waiter.enough():  # what is in already makes an end
+            waiter.cancel()
+            return True
+        self._waiter = waiter
+        try:
+            return await waiter
+        finally:
+            waiter.cancel()  # its timer, when it did not end by itself
+            self._waiter = None
+
 
 @functools.lru_cache(maxsize=1024)
 def _plain(text: str) -> Request:
@@ -284,6 +313,52 @@ class Ala1Client:
         if not data and stream.closed:
             raise ConnectionLost("connection closed")
         return data
+
+    async def read_counted(
+        self,
+        payload: bytes,
+        lines: int,
+        most: int,
+        complete: Callable[[bytes], bool],
+        *,
+        timeout: float | None = None,
+    ) -> bytes:
+        """Write ``payload`` (pipelined command lines) and return the bytes received once
+        they hold ``lines`` line ends, or once an ``ERROR`` line came and ``complete`` says
+        the bytes are whole answers (a refused line answers with fewer lines, §3.3.1). The
+        coroutine is woken once, not for each piece (:meth:`_Stream.wait_counted`).
+
+        Raises :class:`NoAnswer` when nothing arrives within ``timeout`` (the client's by
+        default), :class:`IncompleteAnswer` when the answers stop short for that long after
+        their last byte or grow past ``most`` bytes (a peer that talks on), and
+        :class:`ConnectionLost` when the line closes. Bytes left over from an earlier answer
+        are discarded first."""
+        stream = self._require_stream()
+        wait = self.timeout if timeout is None else timeout
+        async with self._lock:
+            stream.buffer.clear()
+            assert stream.transport is not None
+            stream.transport.write(payload)
+            seen, stop = 0, b"ERROR\r\n"
+            while True:
+                woke = await stream.wait_counted(lines, most, stop, wait, seen)
+                got = bytes(stream.buffer)
+                if len(got) > most:
+                    stream.buffer.clear()
+                    raise IncompleteAnswer(f"more than the answers can be: ...{got[-60:]!r}", got)
+                if got.count(b"\n") >= lines or (woke and b"ERROR\r\n" in got and complete(got)):
+                    stream.buffer.clear()
+                    return got
+                if not woke or stream.closed:
+                    stream.buffer.clear()
+                    line = payload.split(b"\r", 1)[0].decode("latin-1")
+                    if stream.closed:
+                        raise ConnectionLost(f"connection closed during {line!r} (got {got!r})")
+                    if not got:
+                        raise NoAnswer(f"no answer to {line!r}")
+                    raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)
+                # a refusal, the answers not whole yet: each piece from now on may end them
+                seen, stop = len(got), b""
 
 
 class Client:

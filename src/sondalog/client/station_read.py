@@ -35,7 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from sondalog.client.ala1 import Ala1Client
-from sondalog.client.ala1_codec import MAX_LINE, ClientError, IncompleteAnswer, NoAnswer
+from sondalog.client.ala1_codec import MAX_LINE, ClientError
 from sondalog.client.station_grammar import (
     LIMITS,
     ChannelAddress,
@@ -215,6 +215,17 @@ class ReadPlan:
         limits = LIMITS[self.version]
         return tuple(s.name(n) for s in SETTINGS for n in range(1, s.count(limits) + 1))
 
+    @functools.cached_property
+    def batches(self) -> tuple[_Batch, ...]:
+        """:attr:`lines` as they are sent, worked out once."""
+        return batches(self.lines, self.prefix)
+
+    @functools.cached_property
+    def identified(self) -> tuple[_Batch, ...]:
+        """:data:`IDENTIFY` and :attr:`lines` as they are sent: the identity in the first
+        batch (:func:`read_config` with the version the logger had)."""
+        return batches((IDENTIFY, *self.lines), self.prefix)
+
     def values(self, raw: bytes) -> dict[str, str]:
         """The settings in ``raw``, the answers to :attr:`lines` (file order); ClientError
         when they are not such answers."""
@@ -274,48 +285,53 @@ def _complete(raw: bytes, batch: Sequence[Line], prefix: str) -> bool:
     return at == len(texts)
 
 
+@dataclass(frozen=True, slots=True)
+class _Batch:
+    """Lines sent together: their bytes, the line ends their answers hold, the most bytes
+    the answers can be (answer lines of at most :data:`MAX_ANSWER`, §3.3; a refused line
+    echoed): a peer that talks on past it is not answering (its bytes are bounded)."""
+
+    lines: tuple[Line, ...]
+    prefix: str
+    payload: bytes
+    expected: int
+    most: int
+
+    def complete(self, raw: bytes) -> bool:
+        return _complete(raw, self.lines, self.prefix)
+
+
+def batches(lines: Sequence[Line], prefix: str) -> tuple[_Batch, ...]:
+    """``lines`` in batches of :data:`BATCH` (a :class:`ReadPlan` keeps its own)."""
+    out = []
+    for start in range(0, len(lines), BATCH):
+        batch = tuple(lines[start : start + BATCH])
+        expected = sum(len(line.parts) + 1 for line in batch)
+        most = sum(len(prefix) + len(line.text) + 9 for line in batch)
+        most += expected * (MAX_ANSWER + 2)
+        out.append(_Batch(batch, prefix, _payload(prefix, batch), expected, most))
+    return tuple(out)
+
+
 async def exchange(client: Ala1Client, lines: Sequence[Line], prefix: str = "") -> bytes:
-    """Send ``lines``, :data:`BATCH` at a time, and return their raw answers, CR LF and all.
+    """Send ``lines``, :data:`BATCH` at a time, and return their raw answers, CR LF and all:
+    each batch's lines' data lines and ``OK`` each, or fewer lines when one was refused (seen
+    as soon as the refusal and what follows it are in).
 
     Raises :class:`NoAnswer` or :class:`IncompleteAnswer` when the answers stop short (the
-    timeout is the client's, from the last byte received)."""
-    received: list[bytes] = []
-    for start in range(0, len(lines), BATCH):
-        batch = lines[start : start + BATCH]
-        await client.send_raw(_payload(prefix, batch))
-        received.append(await _answers(client, batch, prefix))
+    timeout is the client's, from the last byte received) or grow past what they can be."""
+    return await _exchange(client, batches(lines, prefix))
+
+
+async def _exchange(client: Ala1Client, sent: Sequence[_Batch]) -> bytes:
+    """The answers to ``sent``, batch after batch; the client is woken once a batch
+    (:meth:`~sondalog.client.ala1.Ala1Client.read_counted`), not for each piece."""
+    received = []
+    for batch in sent:
+        received.append(
+            await client.read_counted(batch.payload, batch.expected, batch.most, batch.complete)
+        )
     return b"".join(received)
-
-
-async def _answers(client: Ala1Client, batch: Sequence[Line], prefix: str) -> bytes:
-    """The answers to ``batch``: its lines' data lines and ``OK`` each, or fewer lines when
-    one was refused (seen as soon as the refusal and what follows it are in)."""
-    expected = sum(len(line.parts) + 1 for line in batch)
-    # the most the answers can be (answer lines of at most MAX_ANSWER, §3.3; a refused line
-    # echoed): a peer that talks on past it is not answering (its bytes are bounded)
-    most = sum(len(prefix) + len(line.text) + 9 for line in batch) + expected * (MAX_ANSWER + 2)
-    chunks: list[bytes] = []
-    count = size = 0
-    tail = b""
-    while count < expected:
-        data = await client.receive_raw(client.timeout)
-        if not data:
-            got = b"".join(chunks)
-            if not got:
-                raise NoAnswer(f"no answer to {batch[0].text!r}")
-            raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)
-        size += len(data)
-        if size > most:
-            got = b"".join(chunks)
-            raise IncompleteAnswer(f"more than the answers can be: ...{data[-60:]!r}", got)
-        chunks.append(data)
-        count += data.count(b"\n")
-        if count < expected and b"ERROR\r\n" in tail + data:
-            raw = b"".join(chunks)
-            if _complete(raw, batch, prefix):
-                return raw
-        tail = data[-8:]
-    return b"".join(chunks)
 
 
 @dataclass(frozen=True)
@@ -330,7 +346,9 @@ class ConfigRead:
     @functools.cached_property
     def digest(self) -> bytes:
         """SHA-256 of the identity and the raw answers: equal digests, equal settings."""
-        return hashlib.sha256(f"{self.version}\n{self.serial}\n".encode() + self.raw).digest()
+        digest = hashlib.sha256(f"{self.version}\n{self.serial}\n".encode())
+        digest.update(self.raw)
+        return digest.digest()
 
     def values(self) -> dict[str, str]:
         return self.plan.values(self.raw)
@@ -352,18 +370,15 @@ async def read_config(client: Ala1Client, version: str | None, prefix: str = "")
     lines: those same in every version come first, so a logger of the other version answers
     them too, and its settings are then read with its own lines. Without it, the identity
     is read first (one more round trip)."""
-    head = await exchange(client, [IDENTIFY], prefix) if version is None else b""
-    if head:
-        version = _identity(head)[0]
-    assert version is not None
+    if version is None:
+        found, serial, _ = _identity(await exchange(client, [IDENTIFY], prefix))
+        plan = read_plan(found, prefix)
+        return ConfigRead(found, serial, plan, await _exchange(client, plan.batches))
     plan = read_plan(version, prefix)
-    lines = plan.lines
-    if not head:
-        head = await exchange(client, [IDENTIFY, *lines[: BATCH - 1]], prefix)
-        lines = lines[BATCH - 1 :]
+    first, *rest = plan.identified
+    head = await _exchange(client, [first])
     found, serial, at = _identity(head)
     if found != version:  # another logger at the line: its own lines, all of them
         plan = read_plan(found, prefix)
-        return ConfigRead(found, serial, plan, await exchange(client, plan.lines, prefix))
-    rest = await exchange(client, lines, prefix) if lines else b""
-    return ConfigRead(found, serial, plan, head[at:] + rest)
+        return ConfigRead(found, serial, plan, await _exchange(client, plan.batches))
+    return ConfigRead(found, serial, plan, head[at:] + await _exchange(client, rest))

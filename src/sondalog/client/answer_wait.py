@@ -1,0 +1,99 @@
+"""A wait woken once, when a batch of pipelined answers is in (issue 24; §3.3, §7).
+
+The client's stream wakes its one waiter for every piece of bytes the line delivers (a
+logger answers chained lines one at a time: about 15 pieces for 32 lines on loopback). A
+reader that knows how many lines the answers hold (:mod:`sondalog.client.station_read`:
+every command answers one line, then ``OK``) need not be woken for each: :class:`CountedWait`
+stands in the stream's waiter slot, counts the line ends of each piece as it arrives (in C,
+over the new bytes only) and resolves only when
+
+- the buffer holds ``lines`` line ends (the answers are in; bytes after them are the
+  caller's to judge),
+- a ``stop`` line arrived (``ERROR``: a refused line answers with fewer lines, §3.3.1; the
+  caller checks whether that completes the answers and, if not, waits again with an empty
+  ``stop``: every further piece wakes it until they are whole),
+- the buffer holds more than ``most`` bytes (everything an outsider can fill is bounded), or
+- the line is closed (woken with no new bytes): True in each case;
+- ``timeout`` seconds pass after the last byte received (the timeout runs from the last
+  byte, so an answer still arriving on a slow line is never cut): False.
+"""
+
+from __future__ import annotations
+
+import asyncio
+
+
+class CountedWait(asyncio.Future[bool]):
+    """The stream's waiter for :meth:`~sondalog.client.ala1._Stream.wait_counted`: the
+    stream calls :meth:`set_result` for every piece of bytes (and for the close)."""
+
+    def __init__(
+        self,
+        loop: asyncio.AbstractEventLoop,
+        buffer: bytearray,
+        *,
+        lines: int,
+        most: int,
+        stop: bytes,
+        timeout: float,
+        seen: int = 0,
+    ) -> None:
+        super().__init__(loop=loop)
+        self._clock = loop.time
+        self._buffer = buffer
+        self._lines = lines
+        self._most = most
+        self._stop = stop
+        self._timeout = timeout
+        self._seen = min(seen, len(buffer))  # bytes already looked at (a wait after a stop)
+        self._count = buffer.count(b"\n", 0, self._seen)
+        self._last = loop.time()
+        self._timer: asyncio.TimerHandle | None = loop.call_at(self._last + timeout, self._due)
+
+    def set_result(self, result: bool) -> None:
+        """Bytes arrived (or the line closed: no new bytes): resolve only at an end."""
+        if self.done():
+            return
+        if result and len(self._buffer) > self._seen and not self.enough():
+            return
+        self._end(result)
+
+    def enough(self) -> bool:
+        """Take the bytes that arrived since the last look: True when they make an end."""
+        buffer, seen = self._buffer, self._seen
+        size = len(buffer)
+        if size <= seen:
+            return False
+        self._count += buffer.count(b"\n", seen)
+        self._seen = size
+        self._last = self._clock()
+        return (
+            self._count >= self._lines
+            or size > self._most
+            or not self._stop  # every piece wakes
+            or buffer.find(self._stop, max(seen - len(self._stop) + 1, 0)) >= 0
+        )
+
+    def cancel(self, msg: object = None) -> bool:
+        self._drop_timer()
+        return super().cancel(msg)
+
+    def _due(self) -> None:
+        """The timer: silent for ``timeout`` since the last byte, or set again from it."""
+        self._timer = None
+        if self.done():
+            return
+        due = self._last + self._timeout
+        if self._clock() < due:
+            self._timer = self.get_loop().call_at(due, self._due)
+            return
+        self._end(False)
+
+    def _end(self, result: bool) -> None:
+        self._drop_timer()
+        super().set_result(result)
+
+    def _drop_timer(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None

@@ -105,6 +105,15 @@ def _count_traffic(counts: dict[str, int]) -> None:
             for key in TRAFFIC:
                 counts[f"check_{key}"] += counts[key] - before[key]
 
+    counted = getattr(ala1.Ala1Client, "read_counted", None)  # not in older trees
+
+    async def counted_read(self: Any, payload: bytes, *args: Any, **kw: Any) -> Any:
+        counts["trips"] += 1
+        counts["sent"] += len(payload)
+        return await counted(self, payload, *args, **kw)
+
+    if counted is not None:
+        ala1.Ala1Client.read_counted = counted_read  # type: ignore[method-assign]
     ala1.Ala1Client.pipeline = counted_pipeline  # type: ignore[method-assign]
     ala1.Ala1Client.send_raw = counted_send  # type: ignore[method-assign]
     ala1._Stream.data_received = counted_received  # type: ignore[method-assign]

@@ -1,0 +1,225 @@
+"""The client's wait for a batch of pipelined answers (``Ala1Client.read_counted``,
+``client/answer_wait.py``, issue 24) against a real TCP peer that cuts a logger's answers
+anywhere, stalls, refuses a line, talks on past the answers, goes silent or hangs up: the
+answers come back whole, every failure ends (``IncompleteAnswer``, ``NoAnswer``,
+``ConnectionLost``), and the reader is woken once, not for each piece."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import time
+from collections.abc import AsyncIterator, Sequence
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from sondalog.ala1 import Version
+from sondalog.app.virtual import VirtualLogger
+from sondalog.client.ala1 import Ala1Client
+from sondalog.client.ala1_codec import ConnectionLost, IncompleteAnswer, NoAnswer
+from sondalog.client.answer_wait import CountedWait
+from sondalog.client.station_read import Line, Part, batches, exchange, read_plan
+from sondalog.client.station_schema import BY_PATTERN
+
+PLAN = read_plan("2.10")
+LINES = PLAN.lines[:32]  # one batch
+BATCH = batches(LINES, "")[0]
+
+
+def _answers() -> bytes:
+    logger = VirtualLogger(version=Version.V2_10)
+    logger.command("write channel 1 name/a,b OK/")
+    return logger.send(BATCH.payload)
+
+
+ANSWERS = _answers()
+
+#: What the peer does once the request is in: pieces of bytes, each after a pause (s);
+#: ``None``: hang up.
+Script = Sequence[tuple[float, bytes | None]]
+
+
+@contextlib.asynccontextmanager
+async def peer(script: Script, expect: bytes = BATCH.payload) -> AsyncIterator[str]:
+    """A TCP peer that reads the request (``expect``'s count of CRs), then plays ``script``;
+    then it answers every further request of one batch with :data:`ANSWERS` at once."""
+
+    async def request(reader: asyncio.StreamReader, payload: bytes) -> None:
+        for _ in range(payload.count(b"\r")):
+            await reader.readuntil(b"\r")
+
+    async def play(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        with contextlib.suppress(ConnectionError, asyncio.IncompleteReadError):
+            await request(reader, expect)
+            for pause, data in script:
+                await asyncio.sleep(pause)
+                if data is None:
+                    writer.close()
+                    return
+                writer.write(data)
+                await writer.drain()
+            while True:
+                await request(reader, BATCH.payload)
+                writer.write(ANSWERS)
+
+    server = await asyncio.start_server(play, "127.0.0.1", 0)
+    async with server:
+        yield f"tcp://127.0.0.1:{server.sockets[0].getsockname()[1]}"
+
+
+async def _read(url: str, timeout: float = 5.0) -> bytes:
+    async with await Ala1Client.connect(url, timeout=timeout) as client:
+        return await asyncio.wait_for(
+            client.read_counted(BATCH.payload, BATCH.expected, BATCH.most, BATCH.complete), 30
+        )
+
+
+def _cut(data: bytes, cuts: list[int]) -> list[bytes]:
+    at = sorted({c % (len(data) + 1) for c in cuts} | {0, len(data)})
+    return [data[a:b] for a, b in itertools.pairwise(at) if b > a]
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=list(HealthCheck))
+@given(
+    cuts=st.lists(st.integers(0, len(ANSWERS)), max_size=30),
+    pauses=st.lists(st.sampled_from([0.0, 0.0, 0.001, 0.02]), min_size=31, max_size=31),
+)
+def test_answers_cut_anywhere_come_back_whole(cuts: list[int], pauses: list[float]) -> None:
+    """A logger's answers in any pieces, with pauses between them shorter than the timeout
+    (which runs from the last byte): exactly the answers, and the settings in them."""
+    pieces = _cut(ANSWERS, cuts)
+    script = [(pauses[i % len(pauses)], piece) for i, piece in enumerate(pieces)]
+
+    async def run() -> bytes:
+        async with peer(script) as url:
+            return await _read(url, timeout=0.5)
+
+    assert asyncio.run(run()) == ANSWERS
+
+
+def test_a_stall_longer_than_the_timeout_ends_the_read_with_what_came() -> None:
+    half = ANSWERS[: len(ANSWERS) // 2]
+
+    async def run() -> None:
+        async with peer([(0, half), (3.0, ANSWERS[len(half) :])]) as url:
+            start = time.monotonic()
+            with pytest.raises(IncompleteAnswer, match="stopped short") as caught:
+                await _read(url, timeout=0.3)
+            assert caught.value.raw == half
+            assert time.monotonic() - start < 2.5
+
+    asyncio.run(run())
+
+
+def test_a_slow_answer_is_never_cut_while_bytes_keep_coming() -> None:
+    """Pieces 0.15 s apart for over a second, timeout 0.4 s: the timeout runs from the
+    last byte, not from the request."""
+    pieces = _cut(ANSWERS, list(range(0, len(ANSWERS), len(ANSWERS) // 8)))
+
+    async def run() -> bytes:
+        async with peer([(0.15, piece) for piece in pieces]) as url:
+            return await _read(url, timeout=0.4)
+
+    assert asyncio.run(run()) == ANSWERS
+
+
+def test_silence_is_no_answer_and_a_hang_up_is_a_lost_connection() -> None:
+    async def run() -> None:
+        async with peer([]) as url:
+            with pytest.raises(NoAnswer):
+                await _read(url, timeout=0.2)
+        async with peer([(0, ANSWERS[:100]), (0.01, None)]) as url:
+            with pytest.raises(ConnectionLost):
+                await _read(url, timeout=5)
+
+    asyncio.run(run())
+
+
+def test_a_peer_that_talks_on_is_bounded() -> None:
+    """Bytes without line ends past what the answers can be: left at once, not waited on."""
+    noise = b"x" * 1024
+
+    async def run() -> None:
+        script = [(0.0005, noise)] * (BATCH.most // len(noise) + 3)
+        async with peer(script) as url:
+            with pytest.raises(IncompleteAnswer, match="more than the answers can be"):
+                await _read(url, timeout=5)
+
+    asyncio.run(run())
+
+
+def test_bytes_after_the_answers_are_not_the_next_reads() -> None:
+    """The answers, then a stray line: the read ends at its line count; the stray line is
+    dropped before the next read, whose answers are its own. A stray line in the same
+    piece as the answers is returned with them (the caller's parse refuses it)."""
+
+    async def run() -> None:
+        script = [(0, ANSWERS), (0.05, b"stray\r\n")]
+        args = (BATCH.expected, BATCH.most, BATCH.complete)
+        async with peer(script) as url, await Ala1Client.connect(url, timeout=5) as client:
+            assert await client.read_counted(BATCH.payload, *args) == ANSWERS
+            await asyncio.sleep(0.2)  # the stray line is in
+            assert await client.read_counted(BATCH.payload, *args) == ANSWERS
+        async with peer([(0, ANSWERS + b"stray\r\n")]) as url:
+            assert await _read(url) == ANSWERS + b"stray\r\n"
+
+    asyncio.run(run())
+
+
+def test_a_refusal_whose_answers_follow_in_pieces_ends_the_read_at_once() -> None:
+    """A refused line answers with its echo and ERROR: fewer lines than counted. The read
+    ends as soon as the lines after it are in, however they are cut."""
+    channel = BY_PATTERN["channel {ch} name"]
+    lines = [
+        Line("read i name", (Part(BY_PATTERN["i name"], ("i name",)),)),
+        Line("read channel 12 name 11 name", (Part(channel, ("x",)), Part(channel, ("y",)))),
+        Line("read channel 1 name 2 name", (Part(channel, ("a",)), Part(channel, ("b",)))),
+    ]
+    answers = b"\r\nOK\r\nread channel 12 name 11 name\r\nERROR\r\nSupply[V]\r\nSupply[V]\r\nOK\r\n"
+    expect = batches(lines, "")[0].payload
+    at = answers.index(b"ERROR") + 7
+
+    async def run() -> bytes:
+        pieces = [answers[:at], answers[at : at + 5], answers[at + 5 : -2], answers[-2:]]
+        script = [(0.02, piece) for piece in pieces]
+        async with peer(script, expect) as url, await Ala1Client.connect(url, timeout=60) as c:
+            start = time.monotonic()
+            raw = await asyncio.wait_for(exchange(c, lines), 20)
+            assert time.monotonic() - start < 5
+            return raw
+
+    assert asyncio.run(run()) == answers
+
+
+def test_the_reader_is_woken_once_for_all_the_pieces() -> None:
+    """The wait resolves only when the counted line ends are in, whatever the pieces."""
+
+    async def run() -> None:
+        buffer = bytearray()
+        wait = CountedWait(
+            asyncio.get_running_loop(),
+            buffer,
+            lines=BATCH.expected,
+            most=BATCH.most,
+            stop=b"ERROR\r\n",
+            timeout=5,
+        )
+        pieces = _cut(ANSWERS, list(range(0, len(ANSWERS), 37)))
+        for piece in pieces[:-1]:
+            buffer += piece
+            wait.set_result(True)  # as the stream does for every piece
+            assert not wait.done()
+        buffer += pieces[-1]
+        wait.set_result(True)
+        assert wait.done() and wait.result() is True
+        assert wait._timer is None  # its timer let go
+
+        closed = CountedWait(asyncio.get_running_loop(), bytearray(b"OK"), lines=9, most=99,
+                             stop=b"ERROR\r\n", timeout=5, seen=2)  # fmt: skip
+        closed.set_result(True)  # woken with no new bytes: the line closed
+        assert closed.result() is True
+
+    asyncio.run(run())

@@ -1,8 +1,9 @@
-"""The client's wait for a batch of pipelined answers (``Ala1Client.read_counted``,
-``client/answer_wait.py``, issue 24) against a real TCP peer that cuts a logger's answers
-anywhere, stalls, refuses a line, talks on past the answers, goes silent or hangs up: the
-answers come back whole, every failure ends (``IncompleteAnswer``, ``NoAnswer``,
-``ConnectionLost``), and the reader is woken once, not for each piece."""
+"""The client's wait for pipelined answers (``Ala1Client.read_counted``,
+``client/answer_wait.py``, issue 24) against a real TCP peer: a logger that answers each
+line as it comes, its answers cut anywhere, with never more than ``BATCH`` lines unanswered
+(the window); a peer that stalls, refuses a line, talks on past the answers, goes silent or
+hangs up. The answers come back whole, every failure ends (``IncompleteAnswer``,
+``NoAnswer``, ``ConnectionLost``), and the reader is woken once, not for each piece."""
 
 from __future__ import annotations
 
@@ -21,21 +22,34 @@ from sondalog.app.virtual import VirtualLogger
 from sondalog.client.ala1 import Ala1Client
 from sondalog.client.ala1_codec import ConnectionLost, IncompleteAnswer, NoAnswer
 from sondalog.client.answer_wait import CountedWait
-from sondalog.client.station_read import Line, Part, batches, exchange, read_plan
+from sondalog.client.station_read import (
+    BATCH as WINDOW,
+)
+from sondalog.client.station_read import (
+    IDENTIFY,
+    Line,
+    Part,
+    _exchange,
+    exchange,
+    read_plan,
+    sending,
+)
 from sondalog.client.station_schema import BY_PATTERN
 
 PLAN = read_plan("2.10")
-LINES = PLAN.lines[:32]  # one batch
-BATCH = batches(LINES, "")[0]
+LINES = PLAN.lines[:WINDOW]  # sent at once
+BATCH = sending(LINES, "")
+assert not BATCH.pieces
 
 
-def _answers() -> bytes:
+def _logger() -> VirtualLogger:
     logger = VirtualLogger(version=Version.V2_10)
     logger.command("write channel 1 name/a,b OK/")
-    return logger.send(BATCH.payload)
+    logger.command("write channel 2 name/ERROR/")
+    return logger
 
 
-ANSWERS = _answers()
+ANSWERS = _logger().send(BATCH.payload)
 
 #: What the peer does once the request is in: pieces of bytes, each after a pause (s);
 #: ``None``: hang up.
@@ -73,7 +87,7 @@ async def peer(script: Script, expect: bytes = BATCH.payload) -> AsyncIterator[s
 async def _read(url: str, timeout: float = 5.0) -> bytes:
     async with await Ala1Client.connect(url, timeout=timeout) as client:
         return await asyncio.wait_for(
-            client.read_counted(BATCH.payload, BATCH.expected, BATCH.most, BATCH.complete), 30
+            client.read_counted(BATCH.payload, BATCH.expected, BATCH.most, BATCH.answered), 30
         )
 
 
@@ -98,6 +112,75 @@ def test_answers_cut_anywhere_come_back_whole(cuts: list[int], pauses: list[floa
             return await _read(url, timeout=0.5)
 
     assert asyncio.run(run()) == ANSWERS
+
+
+WHOLE = PLAN.identified  # the collector's read: 81 lines, in a window of BATCH
+LOGGER = _logger()
+PER_LINE = [LOGGER.send(f"{line.text}\r".encode("latin-1")) for line in WHOLE.lines]
+
+
+@contextlib.asynccontextmanager
+async def logger_peer(cuts: list[int], pauses: list[float], ahead: list[int]) -> AsyncIterator[str]:
+    """A logger as a TCP peer: it answers each line once it has come, in order, line i's
+    answer cut at ``cuts[i]`` with ``pauses`` before the pieces; ``ahead`` gets, at each
+    line received, how many received lines were not answered yet."""
+
+    async def play(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        came: asyncio.Queue[int] = asyncio.Queue()
+        received = answered = 0
+
+        async def receive() -> None:
+            nonlocal received
+            while received < len(PER_LINE):
+                await reader.readuntil(b"\r")
+                received += 1
+                ahead.append(received - answered)
+                came.put_nowait(received - 1)
+
+        task = asyncio.create_task(receive())
+        with contextlib.suppress(ConnectionError, asyncio.IncompleteReadError):
+            for _ in PER_LINE:
+                index = await came.get()
+                answer = PER_LINE[index]
+                for n, piece in enumerate(_cut(answer, [cuts[index % len(cuts)]])):
+                    await asyncio.sleep(pauses[(index + n) % len(pauses)])
+                    writer.write(piece)
+                    await writer.drain()
+                answered += 1
+            await task
+            await reader.read()
+        task.cancel()
+
+    server = await asyncio.start_server(play, "127.0.0.1", 0)
+    async with server:
+        yield f"tcp://127.0.0.1:{server.sockets[0].getsockname()[1]}"
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=list(HealthCheck))
+@given(
+    cuts=st.lists(st.integers(0, 400), min_size=1, max_size=81),
+    pauses=st.lists(st.sampled_from([0.0, 0.0, 0.0, 0.002]), min_size=1, max_size=9),
+)
+def test_the_window_keeps_at_most_batch_lines_unanswered(
+    cuts: list[int], pauses: list[float]
+) -> None:
+    """The collector's whole read in one flow: the lines go out as their answers come in,
+    never more than ``BATCH`` unanswered at the logger, and the answers are whole."""
+    ahead: list[int] = []
+
+    async def run() -> bytes:
+        async with (
+            logger_peer(cuts, pauses, ahead) as url,
+            await Ala1Client.connect(url, timeout=5) as client,
+        ):
+            return await asyncio.wait_for(_exchange(client, WHOLE), 30)
+
+    raw = asyncio.run(run())
+    assert raw == b"".join(PER_LINE)
+    assert len(ahead) == len(WHOLE.lines) and max(ahead) <= WINDOW
+    assert WHOLE.lines[0] == IDENTIFY
+    values = PLAN.values(raw[len(PER_LINE[0]) :])
+    assert values["channel 1 name"] == "a,b OK" and values["channel 2 name"] == "ERROR"
 
 
 def test_a_stall_longer_than_the_timeout_ends_the_read_with_what_came() -> None:
@@ -158,7 +241,7 @@ def test_bytes_after_the_answers_are_not_the_next_reads() -> None:
 
     async def run() -> None:
         script = [(0, ANSWERS), (0.05, b"stray\r\n")]
-        args = (BATCH.expected, BATCH.most, BATCH.complete)
+        args = (BATCH.expected, BATCH.most, BATCH.answered)
         async with peer(script) as url, await Ala1Client.connect(url, timeout=5) as client:
             assert await client.read_counted(BATCH.payload, *args) == ANSWERS
             await asyncio.sleep(0.2)  # the stray line is in
@@ -179,7 +262,7 @@ def test_a_refusal_whose_answers_follow_in_pieces_ends_the_read_at_once() -> Non
         Line("read channel 1 name 2 name", (Part(channel, ("a",)), Part(channel, ("b",)))),
     ]
     answers = b"\r\nOK\r\nread channel 12 name 11 name\r\nERROR\r\nSupply[V]\r\nSupply[V]\r\nOK\r\n"
-    expect = batches(lines, "")[0].payload
+    expect = sending(lines, "").payload
     at = answers.index(b"ERROR") + 7
 
     async def run() -> bytes:
@@ -207,7 +290,8 @@ def test_the_reader_is_woken_once_for_all_the_pieces() -> None:
             stop=b"ERROR\r\n",
             timeout=5,
         )
-        pieces = _cut(ANSWERS, list(range(0, len(ANSWERS), 37)))
+        plain = VirtualLogger(version=Version.V2_10).send(BATCH.payload)  # no "ERROR" in it
+        pieces = _cut(plain, list(range(0, len(plain), 37)))
         for piece in pieces[:-1]:
             buffer += piece
             wait.set_result(True)  # as the stream does for every piece

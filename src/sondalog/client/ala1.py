@@ -319,46 +319,23 @@ class Ala1Client:
         payload: bytes,
         lines: int,
         most: int,
-        complete: Callable[[bytes], bool],
+        answered: Callable[[bytes, int], tuple[int, bool]],
         *,
+        more: Iterable[tuple[int, int, bytes]] = (),
         timeout: float | None = None,
     ) -> bytes:
-        """Write ``payload`` (pipelined command lines) and return the bytes received once
-        they hold ``lines`` line ends, or once an ``ERROR`` line came and ``complete`` says
-        the bytes are whole answers (a refused line answers with fewer lines, §3.3.1). The
-        coroutine is woken once, not for each piece (:meth:`_Stream.wait_counted`).
+        """Write ``payload`` (pipelined command lines), and each of ``more``'s pieces once
+        the answers are far enough; return the bytes received once they hold ``lines`` line
+        ends, or once ``answered`` (asked after a refusal) says they are whole. The coroutine
+        is woken once a piece, not for each piece of the answers; what it raises:
+        :func:`~sondalog.client.answer_wait.read_answers`. Bytes left over from an earlier
+        answer are discarded first."""
+        from sondalog.client.answer_wait import read_answers
 
-        Raises :class:`NoAnswer` when nothing arrives within ``timeout`` (the client's by
-        default), :class:`IncompleteAnswer` when the answers stop short for that long after
-        their last byte or grow past ``most`` bytes (a peer that talks on), and
-        :class:`ConnectionLost` when the line closes. Bytes left over from an earlier answer
-        are discarded first."""
         stream = self._require_stream()
         wait = self.timeout if timeout is None else timeout
         async with self._lock:
-            stream.buffer.clear()
-            assert stream.transport is not None
-            stream.transport.write(payload)
-            seen, stop = 0, b"ERROR\r\n"
-            while True:
-                woke = await stream.wait_counted(lines, most, stop, wait, seen)
-                got = bytes(stream.buffer)
-                if len(got) > most:
-                    stream.buffer.clear()
-                    raise IncompleteAnswer(f"more than the answers can be: ...{got[-60:]!r}", got)
-                if got.count(b"\n") >= lines or (woke and b"ERROR\r\n" in got and complete(got)):
-                    stream.buffer.clear()
-                    return got
-                if not woke or stream.closed:
-                    stream.buffer.clear()
-                    line = payload.split(b"\r", 1)[0].decode("latin-1")
-                    if stream.closed:
-                        raise ConnectionLost(f"connection closed during {line!r} (got {got!r})")
-                    if not got:
-                        raise NoAnswer(f"no answer to {line!r}")
-                    raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)
-                # a refusal, the answers not whole yet: each piece from now on may end them
-                seen, stop = len(got), b""
+            return await read_answers(stream, payload, lines, most, answered, more, wait)
 
 
 class Client:

@@ -21,6 +21,25 @@ over the new bytes only) and resolves only when
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Callable, Iterable
+from typing import Protocol
+
+from sondalog.client.ala1_codec import ConnectionLost, IncompleteAnswer, NoAnswer
+
+#: The line a refused command answers with (§3.3.1).
+ERROR = b"ERROR\r\n"
+
+
+class Stream(Protocol):
+    """What :func:`read_answers` needs of the client's stream (``client.ala1._Stream``)."""
+
+    buffer: bytearray
+    closed: bool
+    transport: asyncio.Transport | None
+
+    async def wait_counted(
+        self, lines: int, most: int, stop: bytes, timeout: float, seen: int = 0
+    ) -> bool: ...
 
 
 class CountedWait(asyncio.Future[bool]):
@@ -97,3 +116,70 @@ class CountedWait(asyncio.Future[bool]):
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
+
+
+#: A piece of lines sent once the answers before it are in: the line ends those answers
+#: hold, how many request lines they answer, the bytes.
+Piece = tuple[int, int, bytes]
+
+
+async def read_answers(
+    stream: Stream,
+    payload: bytes,
+    lines: int,
+    most: int,
+    answered: Callable[[bytes, int], tuple[int, bool]],
+    more: Iterable[Piece],
+    timeout: float,
+) -> bytes:
+    """:meth:`~sondalog.client.ala1.Ala1Client.read_counted` (its lock held): write
+    ``payload``, then each of ``more``'s pieces once the answers hold its count of line
+    ends (a window: the lines sent ahead stay bounded while the answers flow without a round
+    trip's pause); the bytes received once they hold ``lines`` line ends.
+
+    A refused line answers with fewer lines (its echo and ``ERROR``, §3.3.1), so once an
+    ``ERROR`` line came the line ends no longer say which lines are answered: from then on
+    ``answered(bytes, pieces sent)`` does (how many request lines have whole answers,
+    refusals included, and whether the bytes are whole answers to every line sent and
+    nothing more), at each piece of the answers.
+
+    Raises :class:`NoAnswer` when nothing arrives within ``timeout``,
+    :class:`IncompleteAnswer` when the answers stop short for that long after their last
+    byte or grow past ``most`` bytes (a peer that talks on), :class:`ConnectionLost` when
+    the line closes."""
+    buffer = stream.buffer
+    buffer.clear()
+    assert stream.transport is not None
+    stream.transport.write(payload)
+    pending = list(more)
+    pending.reverse()
+    sent, seen, stop, refused = 1, 0, ERROR, False
+    while True:
+        target = pending[-1][0] if pending and not refused else lines
+        woke = await stream.wait_counted(min(target, lines), most, stop, timeout, seen)
+        size = len(buffer)
+        if size > most:
+            got = bytes(buffer)
+            buffer.clear()
+            raise IncompleteAnswer(f"more than the answers can be: ...{got[-60:]!r}", got)
+        count = buffer.count(b"\n")
+        refused = refused or buffer.find(ERROR, max(seen - len(ERROR) + 1, 0)) >= 0
+        done, whole = (0, False) if not refused else answered(bytes(buffer), sent)
+        if count >= lines or whole:
+            got = bytes(buffer)
+            buffer.clear()
+            return got
+        if woke and not stream.closed:
+            while pending and (count >= pending[-1][0] if not refused else done >= pending[-1][1]):
+                stream.transport.write(pending.pop()[2])
+                sent += 1
+            seen, stop = size, b"" if refused else ERROR  # after a refusal every piece wakes
+            continue
+        got = bytes(buffer)
+        buffer.clear()
+        line = payload.split(b"\r", 1)[0].decode("latin-1")
+        if stream.closed:
+            raise ConnectionLost(f"connection closed during {line!r} (got {got!r})")
+        if not got:
+            raise NoAnswer(f"no answer to {line!r}")
+        raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)

@@ -301,6 +301,27 @@ def test_the_reader_is_woken_once_for_all_the_pieces() -> None:
         assert wait.done() and wait.result() is True
         assert wait._timer is None  # its timer let go
 
+        # a window's next lines go out from the stream's callback, no wake for them
+        buffer.clear()
+        written: list[bytes] = []
+        pieces = [(9, 4, b"third\r"), (3, 1, b"second\r")]  # last first
+        loop = asyncio.get_running_loop()
+        wait = CountedWait(
+            loop, buffer, lines=12, most=999, stop=b"ERROR\r\n", timeout=5, pieces=pieces,
+            write=written.append,
+        )  # fmt: skip
+        steps = [
+            (b"a\r\nb", []),
+            (b"\r\nOK\r\n", [b"second\r"]),
+            (b"c\r\n" * 6, [b"second\r", b"third\r"]),
+        ]
+        for piece, sent in steps:
+            buffer += piece
+            wait.set_result(True)
+            assert written == sent and not wait.done()
+        assert pieces == []
+        wait.cancel()
+
         closed = CountedWait(asyncio.get_running_loop(), bytearray(b"OK"), lines=9, most=99,
                              stop=b"ERROR\r\n", timeout=5, seen=2)  # fmt: skip
         closed.set_result(True)  # woken with no new bytes: the line closed

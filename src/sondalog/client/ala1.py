@@ -80,28 +80,13 @@ class _Stream(asyncio.Protocol):
             timer.cancel()
             self._waiter = None
 
-    async def wait_counted(
-        self, lines: int, most: int, stop: bytes, timeout: float, seen: int = 0
-    ) -> bool:
-        """Wait, woken once, until the buffer holds ``lines`` line ends, a ``stop`` line
-        after its first ``seen`` bytes, more than ``most`` bytes, or the line closes; False
-        when ``timeout`` seconds pass after the last byte (:mod:`~sondalog.client.answer_wait`)."""
-        from sondalog.client.answer_wait import CountedWait
-
+    async def wait_on(self, waiter: asyncio.Future[bool]) -> bool:
+        """Wait with ``waiter`` in the waiter slot: told of every piece of bytes and of the
+        close (its ``set_result``), it decides itself when it is done, so the reader is
+        woken once (:class:`~sondalog.client.answer_wait.CountedWait`); False when closed."""
         if self.closed:
-            return False
-        waiter = CountedWait(
-            asyncio.get_running_loop(),
-            self.buffer,
-            lines=lines,
-            most=most,
-            stop=stop,
-            timeout=timeout,
-            seen=seen,
-        )
-        if waiter.enough():  # what is in already makes an end
             waiter.cancel()
-            return True
+            return False
         self._waiter = waiter
         try:
             return await waiter

@@ -1,11 +1,12 @@
-"""A wait woken once, when a batch of pipelined answers is in (issue 24; §3.3, §7).
+"""The client's wait for pipelined answers, woken once when they are in (issue 24; §3.3, §7).
 
 The client's stream wakes its one waiter for every piece of bytes the line delivers (a
-logger answers chained lines one at a time: about 15 pieces for 32 lines on loopback). A
-reader that knows how many lines the answers hold (:mod:`sondalog.client.station_read`:
-every command answers one line, then ``OK``) need not be woken for each: :class:`CountedWait`
-stands in the stream's waiter slot, counts the line ends of each piece as it arrives (in C,
-over the new bytes only) and resolves only when
+logger answers chained lines one at a time: a piece a line on loopback). A reader that knows
+how many lines the answers hold (:mod:`sondalog.client.station_read`: every command answers
+one line, then ``OK``) need not be woken for each: :class:`CountedWait` stands in the
+stream's waiter slot, counts the line ends of each piece as it arrives (in C, over the new
+bytes only), sends the next lines of a window itself when the answers before them are in
+(no wake for that either), and resolves only when
 
 - the buffer holds ``lines`` line ends (the answers are in; bytes after them are the
   caller's to judge),
@@ -30,6 +31,11 @@ from sondalog.client.ala1_codec import ConnectionLost, IncompleteAnswer, NoAnswe
 ERROR = b"ERROR\r\n"
 
 
+#: A piece of lines sent once the answers before it are in: the line ends those answers
+#: hold, how many request lines they answer, the bytes.
+Piece = tuple[int, int, bytes]
+
+
 class Stream(Protocol):
     """What :func:`read_answers` needs of the client's stream (``client.ala1._Stream``)."""
 
@@ -37,14 +43,14 @@ class Stream(Protocol):
     closed: bool
     transport: asyncio.Transport | None
 
-    async def wait_counted(
-        self, lines: int, most: int, stop: bytes, timeout: float, seen: int = 0
-    ) -> bool: ...
+    async def wait_on(self, waiter: asyncio.Future[bool]) -> bool: ...
 
 
 class CountedWait(asyncio.Future[bool]):
-    """The stream's waiter for :meth:`~sondalog.client.ala1._Stream.wait_counted`: the
-    stream calls :meth:`set_result` for every piece of bytes (and for the close)."""
+    """The stream's waiter (:meth:`~sondalog.client.ala1._Stream.wait_on`): the stream
+    calls :meth:`set_result` for every piece of bytes (and for the close). ``pieces``
+    (last first; shared with the caller, who sees what is left) go to ``write`` as soon as
+    the buffer holds their count of line ends."""
 
     def __init__(
         self,
@@ -56,8 +62,12 @@ class CountedWait(asyncio.Future[bool]):
         stop: bytes,
         timeout: float,
         seen: int = 0,
+        pieces: list[Piece] | None = None,
+        write: Callable[[bytes], object] | None = None,
     ) -> None:
         super().__init__(loop=loop)
+        self._pieces = pieces if pieces and write is not None else None
+        self._write = write
         self._clock = loop.time
         self._buffer = buffer
         self._lines = lines
@@ -86,6 +96,10 @@ class CountedWait(asyncio.Future[bool]):
         self._count += buffer.count(b"\n", seen)
         self._seen = size
         self._last = self._clock()
+        pieces = self._pieces
+        while pieces and self._count >= pieces[-1][0]:
+            assert self._write is not None
+            self._write(pieces.pop()[2])
         return (
             self._count >= self._lines
             or size > self._most
@@ -118,11 +132,6 @@ class CountedWait(asyncio.Future[bool]):
             self._timer = None
 
 
-#: A piece of lines sent once the answers before it are in: the line ends those answers
-#: hold, how many request lines they answer, the bytes.
-Piece = tuple[int, int, bytes]
-
-
 async def read_answers(
     stream: Stream,
     payload: bytes,
@@ -147,33 +156,47 @@ async def read_answers(
     :class:`IncompleteAnswer` when the answers stop short for that long after their last
     byte or grow past ``most`` bytes (a peer that talks on), :class:`ConnectionLost` when
     the line closes."""
-    buffer = stream.buffer
+    buffer, transport = stream.buffer, stream.transport
+    assert transport is not None
     buffer.clear()
-    assert stream.transport is not None
-    stream.transport.write(payload)
+    transport.write(payload)
     pending = list(more)
     pending.reverse()
-    sent, seen, stop, refused = 1, 0, ERROR, False
+    total = len(pending) + 1
+    loop = asyncio.get_running_loop()
+    seen, refused = 0, False
     while True:
-        target = pending[-1][0] if pending and not refused else lines
-        woke = await stream.wait_counted(min(target, lines), most, stop, timeout, seen)
+        wait = CountedWait(
+            loop, buffer, lines=lines, most=most, stop=b"" if refused else ERROR,
+            timeout=timeout, seen=seen, pieces=None if refused else pending,
+            write=transport.write,
+        )  # fmt: skip
+        if wait.enough():  # what is in already makes an end
+            wait.cancel()
+            woke = True
+        else:
+            woke = await stream.wait_on(wait)
         size = len(buffer)
         if size > most:
             got = bytes(buffer)
             buffer.clear()
             raise IncompleteAnswer(f"more than the answers can be: ...{got[-60:]!r}", got)
-        count = buffer.count(b"\n")
-        refused = refused or buffer.find(ERROR, max(seen - len(ERROR) + 1, 0)) >= 0
-        done, whole = (0, False) if not refused else answered(bytes(buffer), sent)
-        if count >= lines or whole:
+        if buffer.count(b"\n") >= lines:
             got = bytes(buffer)
             buffer.clear()
             return got
+        refused = refused or buffer.find(ERROR, max(seen - len(ERROR) + 1, 0)) >= 0
+        if refused and woke and not stream.closed:
+            # the line ends no longer say which lines are answered: the answers do
+            done, whole = answered(bytes(buffer), total - len(pending))
+            if whole:
+                got = bytes(buffer)
+                buffer.clear()
+                return got
+            while pending and done >= pending[-1][1]:
+                transport.write(pending.pop()[2])
         if woke and not stream.closed:
-            while pending and (count >= pending[-1][0] if not refused else done >= pending[-1][1]):
-                stream.transport.write(pending.pop()[2])
-                sent += 1
-            seen, stop = size, b"" if refused else ERROR  # after a refusal every piece wakes
+            seen = size
             continue
         got = bytes(buffer)
         buffer.clear()

@@ -277,6 +277,25 @@ def test_a_refusal_whose_answers_follow_in_pieces_ends_the_read_at_once() -> Non
     assert asyncio.run(run()) == answers
 
 
+class Recorder:
+    """What a wait does with its line, noted: written bytes, reading paused or not."""
+
+    def __init__(self) -> None:
+        self.written: list[bytes] = []
+        self.reading = True
+
+    def write(self, data: bytes) -> None:
+        self.written.append(data)
+
+    def pause_reading(self) -> None:
+        assert self.reading
+        self.reading = False
+
+    def resume_reading(self) -> None:
+        assert not self.reading
+        self.reading = True
+
+
 def test_the_reader_is_woken_once_for_all_the_pieces() -> None:
     """The wait resolves only when the counted line ends are in, whatever the pieces."""
 
@@ -303,12 +322,13 @@ def test_the_reader_is_woken_once_for_all_the_pieces() -> None:
 
         # a window's next lines go out from the stream's callback, no wake for them
         buffer.clear()
-        written: list[bytes] = []
+        line = Recorder()
+        written = line.written
         pieces = [(9, 4, b"third\r"), (3, 1, b"second\r")]  # last first
         loop = asyncio.get_running_loop()
         wait = CountedWait(
             loop, buffer, lines=12, most=999, stop=b"ERROR\r\n", timeout=5, pieces=pieces,
-            write=written.append,
+            line=line,
         )  # fmt: skip
         steps = [
             (b"a\r\nb", []),
@@ -326,5 +346,58 @@ def test_the_reader_is_woken_once_for_all_the_pieces() -> None:
                              stop=b"ERROR\r\n", timeout=5, seen=2)  # fmt: skip
         closed.set_result(True)  # woken with no new bytes: the line closed
         assert closed.result() is True
+
+    asyncio.run(run())
+
+
+def test_gathering_pauses_the_line_and_always_reads_it_again() -> None:
+    """With ``gather`` a piece that does not end the wait stops the line's reading for that
+    long; it is read again then, and at every end (answers in, timeout, cancel)."""
+
+    async def run() -> None:
+        loop = asyncio.get_running_loop()
+        for end in ("answers", "timeout", "cancel"):
+            buffer, line = bytearray(), Recorder()
+            wait = CountedWait(loop, buffer, lines=3, most=999, stop=b"ERROR\r\n",
+                               timeout=0.2, line=line, gather=0.05)  # fmt: skip
+            buffer += b"a\r\n"
+            wait.set_result(True)
+            assert not line.reading and not wait.done()
+            await asyncio.sleep(0.08)
+            assert line.reading  # read again after gather
+            buffer += b"b\r\n"
+            wait.set_result(True)
+            assert not line.reading
+            if end == "answers":
+                buffer += b"OK\r\n"
+                wait.set_result(True)
+                assert wait.result() is True
+            elif end == "timeout":
+                assert await wait is False
+            else:
+                wait.cancel()
+            assert line.reading, end
+
+    asyncio.run(run())
+
+
+def test_gathered_answers_over_tcp_come_back_whole_and_the_line_works_after() -> None:
+    """A real logger over TCP: the read with gathering, then the line's ordinary commands."""
+
+    async def run() -> None:
+        async with (
+            logger_peer([0], [0.0], []) as url,
+            await Ala1Client.connect(url, timeout=5) as client,
+        ):
+            raw = await asyncio.wait_for(
+                client.read_counted(
+                    WHOLE.payload, WHOLE.expected, WHOLE.most, WHOLE.answered,
+                    more=WHOLE.pieces, gather=0.01,
+                ),
+                30,
+            )  # fmt: skip
+            assert raw == b"".join(PER_LINE)
+            transport = client._require_stream().transport
+            assert transport is not None and transport.is_reading()
 
     asyncio.run(run())

@@ -308,11 +308,13 @@ class Ala1Client:
         *,
         more: Iterable[tuple[int, int, bytes]] = (),
         timeout: float | None = None,
+        gather: float = 0.0,
     ) -> bytes:
         """Write ``payload`` (pipelined command lines), and each of ``more``'s pieces once
         the answers are far enough; return the bytes received once they hold ``lines`` line
         ends, or once ``answered`` (asked after a refusal) says they are whole. The coroutine
-        is woken once a piece, not for each piece of the answers; what it raises:
+        is woken once, not for each piece of the answers (``gather``: and the line read
+        at most once in that many seconds meanwhile); what it raises:
         :func:`~sondalog.client.answer_wait.read_answers`. Bytes left over from an earlier
         answer are discarded first."""
         from sondalog.client.answer_wait import read_answers
@@ -320,7 +322,7 @@ class Ala1Client:
         stream = self._require_stream()
         wait = self.timeout if timeout is None else timeout
         async with self._lock:
-            return await read_answers(stream, payload, lines, most, answered, more, wait)
+            return await read_answers(stream, payload, lines, most, answered, more, wait, gather)
 
 
 class Client:

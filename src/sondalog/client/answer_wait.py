@@ -46,11 +46,26 @@ class Stream(Protocol):
     async def wait_on(self, waiter: asyncio.Future[bool]) -> bool: ...
 
 
+class Line(Protocol):
+    """What a :class:`CountedWait` does with the line: asyncio's transport interface."""
+
+    def write(self, data: bytes) -> None: ...
+
+    def pause_reading(self) -> None: ...
+
+    def resume_reading(self) -> None: ...
+
+
 class CountedWait(asyncio.Future[bool]):
     """The stream's waiter (:meth:`~sondalog.client.ala1._Stream.wait_on`): the stream
     calls :meth:`set_result` for every piece of bytes (and for the close). ``pieces``
-    (last first; shared with the caller, who sees what is left) go to ``write`` as soon as
-    the buffer holds their count of line ends."""
+    (last first; shared with the caller, who sees what is left) are written to ``line`` as
+    soon as the buffer holds their count of line ends.
+
+    ``gather`` (seconds): after a piece that does not end the wait, the line is not read
+    for that long, so what the peer sends meanwhile is taken in one read (a logger writes
+    an answer a line: some 50 pieces a configuration read on loopback, each a wake of the
+    event loop, a ``recv`` and a callback). It delays the end by at most ``gather``."""
 
     def __init__(
         self,
@@ -63,11 +78,14 @@ class CountedWait(asyncio.Future[bool]):
         timeout: float,
         seen: int = 0,
         pieces: list[Piece] | None = None,
-        write: Callable[[bytes], object] | None = None,
+        line: Line | None = None,
+        gather: float = 0.0,
     ) -> None:
         super().__init__(loop=loop)
-        self._pieces = pieces if pieces and write is not None else None
-        self._write = write
+        self._pieces = pieces if pieces and line is not None else None
+        self._line = line
+        self._gather = gather if line is not None else 0.0
+        self._paused: asyncio.TimerHandle | None = None  # reading resumes then
         self._clock = loop.time
         self._buffer = buffer
         self._lines = lines
@@ -84,6 +102,10 @@ class CountedWait(asyncio.Future[bool]):
         if self.done():
             return
         if result and len(self._buffer) > self._seen and not self.enough():
+            if self._gather and self._paused is None:
+                assert self._line is not None
+                self._line.pause_reading()
+                self._paused = self.get_loop().call_later(self._gather, self._resume)
             return
         self._end(result)
 
@@ -98,8 +120,8 @@ class CountedWait(asyncio.Future[bool]):
         self._last = self._clock()
         pieces = self._pieces
         while pieces and self._count >= pieces[-1][0]:
-            assert self._write is not None
-            self._write(pieces.pop()[2])
+            assert self._line is not None
+            self._line.write(pieces.pop()[2])
         return (
             self._count >= self._lines
             or size > self._most
@@ -126,7 +148,16 @@ class CountedWait(asyncio.Future[bool]):
         self._drop_timer()
         super().set_result(result)
 
+    def _resume(self) -> None:
+        if self._paused is not None:
+            self._paused.cancel()
+            self._paused = None
+            assert self._line is not None
+            self._line.resume_reading()
+
     def _drop_timer(self) -> None:
+        """The end: no timer left, and the line read again (always)."""
+        self._resume()
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
@@ -140,6 +171,7 @@ async def read_answers(
     answered: Callable[[bytes, int], tuple[int, bool]],
     more: Iterable[Piece],
     timeout: float,
+    gather: float = 0.0,
 ) -> bytes:
     """:meth:`~sondalog.client.ala1.Ala1Client.read_counted` (its lock held): write
     ``payload``, then each of ``more``'s pieces once the answers hold its count of line
@@ -150,7 +182,7 @@ async def read_answers(
     ``ERROR`` line came the line ends no longer say which lines are answered: from then on
     ``answered(bytes, pieces sent)`` does (how many request lines have whole answers,
     refusals included, and whether the bytes are whole answers to every line sent and
-    nothing more), at each piece of the answers.
+    nothing more), at each piece of the answers. ``gather``: :class:`CountedWait`'s.
 
     Raises :class:`NoAnswer` when nothing arrives within ``timeout``,
     :class:`IncompleteAnswer` when the answers stop short for that long after their last
@@ -168,8 +200,8 @@ async def read_answers(
     while True:
         wait = CountedWait(
             loop, buffer, lines=lines, most=most, stop=b"" if refused else ERROR,
-            timeout=timeout, seen=seen, pieces=None if refused else pending,
-            write=transport.write,
+            timeout=timeout, seen=seen, pieces=None if refused else pending, line=transport,
+            gather=gather,
         )  # fmt: skip
         if wait.enough():  # what is in already makes an end
             wait.cancel()

@@ -62,6 +62,10 @@ MAX_ANSWER = 100
 BATCH = 32
 #: Lines sent each time the answers to as many are in (the window moves on).
 STEP = 16
+#: Seconds the client lets the answers gather before it reads them again (a logger writes
+#: a line's answer at a time): ~50 reads and wakes of a 2.10 read become a few; the end is
+#: seen at most this much later (:class:`~sondalog.client.answer_wait.CountedWait`).
+GATHER = 0.001
 _OK = "OK"
 _ERROR = "ERROR"
 
@@ -342,7 +346,7 @@ async def _exchange(client: Ala1Client, send: Sending) -> bytes:
     """The answers to ``send``'s lines; the client is woken once a piece sent
     (:meth:`~sondalog.client.ala1.Ala1Client.read_counted`), not for each piece received."""
     return await client.read_counted(
-        send.payload, send.expected, send.most, send.answered, more=send.pieces
+        send.payload, send.expected, send.most, send.answered, more=send.pieces, gather=GATHER
     )
 
 

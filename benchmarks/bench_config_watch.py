@@ -12,7 +12,9 @@ Prints per protocol version and tree, best and median: the wall time of a contac
 collector's CPU per contact and the served logger's CPU per contact (``/proc``), off and on;
 what the check adds (CPU, and as a multiple of the contact's own CPU); round trips (waits for
 answers to lines sent; a window's further lines go as the answers flow in) and bytes sent and
-received per check (on a 9600 baud line at least the larger of them x 10 bits / 9600).
+received per check (on a 9600 baud line at least the larger of them x 10 bits / 9600); the
+collector's sleeps (voluntary context switches) a contact, steadier than CPU time on a busy
+machine.
 
 Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]``.
 """
@@ -120,6 +122,16 @@ def _count_traffic(counts: dict[str, int]) -> None:
     ConfigWatch.check = counted_check  # type: ignore[method-assign]
 
 
+def _sleeps() -> int:
+    """The process's voluntary context switches so far: each a wait for the line's bytes
+    (or a timer), the wakes a check costs, steadier than CPU time on a loaded machine."""
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("voluntary_ctxt_switches:"):
+                return int(line.split()[1])
+    return 0
+
+
 def child(url: str, store: str, every: int, count: int) -> None:
     from sondalog.collect.config import SourceConfig
     from sondalog.collect.model import Reading
@@ -144,10 +156,10 @@ def child(url: str, store: str, every: int, count: int) -> None:
         try:
             for _ in range(count):
                 counts.update(dict.fromkeys(counts, 0))
-                start, cpu = time.perf_counter(), time.process_time()
+                start, cpu, sleeps = time.perf_counter(), time.process_time(), _sleeps()
                 await source.poll(ignore)
                 wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-                out.append({"wall": wall, "cpu": cpu, **counts})
+                out.append({"wall": wall, "cpu": cpu, "sleeps": _sleeps() - sleeps, **counts})
         finally:
             sqlite.close_sync()
         return out
@@ -202,6 +214,9 @@ def report(protocol: str, label: str, runs: dict[int, list[Any]]) -> None:
         f"({added / cpu_off:.2f}x the contact), logger CPU {logger_added * 1000:.2f} ms "
         f"({logger_added / statistics.median(log_off):.2f}x)"
     )
+    sleeps = [statistics.median(s.get("sleeps", 0) for s in run) for run in (off, on)]
+    print(f"  sleeps (voluntary context switches) a contact, median: {sleeps[0]:.0f} without the "
+          f"check, {sleeps[1]:.0f} with it")  # fmt: skip
     trips, sent, got = (statistics.median(s[f"check_{k}"] for s in on) for k in TRAFFIC)
     line = max(sent, got) * 10 / 9600
     print(

@@ -13,8 +13,9 @@ collector's CPU per contact and the served logger's CPU per contact (``/proc``),
 what the check adds (CPU, and as a multiple of the contact's own CPU); round trips (waits for
 answers to lines sent; a window's further lines go as the answers flow in) and bytes sent and
 received per check (on a 9600 baud line at least the larger of them x 10 bits / 9600); the
-collector's sleeps (voluntary context switches) a contact, steadier than CPU time on a busy
-machine.
+check's own collector CPU (measured around it, not a difference of two noisy figures) and
+the collector's sleeps (voluntary context switches) a contact, steadier than CPU time on a
+busy machine.
 
 Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]``.
 """
@@ -73,7 +74,7 @@ def serve(tmp: Path, protocol: str) -> tuple[subprocess.Popen[bytes], str]:
 # -- the child: contacts with one tree's code ------------------------------------------------
 
 
-def _count_traffic(counts: dict[str, int]) -> None:
+def _count_traffic(counts: dict[str, float]) -> None:
     """Round trips and bytes of the client, whatever its version sends them with."""
     from sondalog.client import ala1
 
@@ -101,11 +102,14 @@ def _count_traffic(counts: dict[str, int]) -> None:
 
     async def counted_check(self: Any, client: Any) -> Any:
         before = dict(counts)
+        cpu, sleeps = time.process_time(), _sleeps()
         try:
             return await check(self, client)
         finally:
             for key in TRAFFIC:
                 counts[f"check_{key}"] += counts[key] - before[key]
+            counts["check_cpu"] += time.process_time() - cpu  # the check alone, measured
+            counts["check_sleeps"] += _sleeps() - sleeps
 
     counted = getattr(ala1.Ala1Client, "read_counted", None)  # not in older trees
 
@@ -140,7 +144,9 @@ def child(url: str, store: str, every: int, count: int) -> None:
     from sondalog.io.loop import run  # the collector's loop: uvloop when installed
 
     logging.getLogger("sondalog").setLevel(logging.ERROR)  # no hints about the idle logger
-    counts = dict.fromkeys([*TRAFFIC, *(f"check_{k}" for k in TRAFFIC)], 0)
+    counts: dict[str, float] = dict.fromkeys(
+        [*TRAFFIC, *(f"check_{k}" for k in (*TRAFFIC, "cpu", "sleeps"))], 0
+    )
     _count_traffic(counts)
 
     async def ignore(source: str, batch: list[Reading], cursor: str | None, **s: object) -> None:
@@ -214,9 +220,17 @@ def report(protocol: str, label: str, runs: dict[int, list[Any]]) -> None:
         f"({added / cpu_off:.2f}x the contact), logger CPU {logger_added * 1000:.2f} ms "
         f"({logger_added / statistics.median(log_off):.2f}x)"
     )
+    alone = [s["check_cpu"] for s in on]
+    print(
+        f"  the check alone (measured around it): collector CPU {ms(alone)} ms "
+        f"({statistics.median(alone) / cpu_off:.2f}x the contact without it)"
+    )
     sleeps = [statistics.median(s.get("sleeps", 0) for s in run) for run in (off, on)]
-    print(f"  sleeps (voluntary context switches) a contact, median: {sleeps[0]:.0f} without the "
-          f"check, {sleeps[1]:.0f} with it")  # fmt: skip
+    inside = statistics.median(s["check_sleeps"] for s in on)
+    print(
+        f"  sleeps (voluntary context switches) a contact, median: {sleeps[0]:.0f} without "
+        f"the check, {sleeps[1]:.0f} with it ({inside:.0f} in the check)"
+    )
     trips, sent, got = (statistics.median(s[f"check_{k}"] for s in on) for k in TRAFFIC)
     line = max(sent, got) * 10 / 9600
     print(

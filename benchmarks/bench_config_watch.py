@@ -17,7 +17,11 @@ check's own collector CPU (measured around it, not a difference of two noisy fig
 the collector's sleeps (voluntary context switches) a contact, steadier than CPU time on a
 busy machine.
 
-Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]``.
+``--reads N``: the check's read alone (``read_config`` N times on one connection a round),
+without contacts: the collector's CPU, wall and sleeps a read, the logger's CPU a read.
+
+Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]
+[--reads 100]``.
 """
 
 from __future__ import annotations
@@ -175,6 +179,61 @@ def child(url: str, store: str, every: int, count: int) -> None:
     print(json.dumps(run(contacts())), flush=True)
 
 
+def reads_child(url: str, protocol: str, count: int) -> None:
+    """``--reads``: the check's read alone (``read_config``), ``count`` times on one
+    connection, as the collector's watch makes it; per read: CPU, wall, sleeps."""
+    from sondalog.client import Ala1Client
+    from sondalog.client.station_read import read_config
+    from sondalog.io.loop import run
+
+    async def reads() -> list[dict[str, float]]:
+        client = await Ala1Client.connect(url)
+        await read_config(client, protocol)
+        out = []
+        for _ in range(count):
+            start, cpu, sleeps = time.perf_counter(), time.process_time(), _sleeps()
+            await read_config(client, protocol)
+            wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+            out.append({"wall": wall, "cpu": cpu, "sleeps": _sleeps() - sleeps})
+        await client.close()
+        return out
+
+    print(json.dumps(run(reads())), flush=True)
+
+
+def reads_only(trees: list[tuple[str, Path]], rounds: int, count: int) -> None:
+    """``--reads N``: rounds of N reads a tree, interleaved, against one served logger of
+    each version; the collector's CPU, wall and sleeps a read, the logger's CPU a read."""
+    with tempfile.TemporaryDirectory() as tmp:
+        for protocol in ("2.10", "1.16"):
+            proc, url = serve(Path(tmp), protocol)
+            got: dict[str, list[Any]] = {label: [] for label, _ in trees}
+            logger: dict[str, list[float]] = {label: [] for label, _ in trees}
+            try:
+                for _ in range(rounds):
+                    for label, src in trees:
+                        before = process_cpu(proc.pid)
+                        done = subprocess.run(
+                            [sys.executable, __file__, "--reads-child", url, protocol,
+                             str(count)],
+                            env={**os.environ, "PYTHONPATH": str(src)}, capture_output=True,
+                            check=True,
+                        )  # fmt: skip
+                        logger[label].append((process_cpu(proc.pid) - before) / (count + 1))
+                        got[label] += json.loads(done.stdout)
+            finally:
+                proc.send_signal(signal.SIGTERM)
+                proc.wait(timeout=10)
+            for label, _ in trees:
+                samples = got[label]
+                print(
+                    f"protocol {protocol}, {label}, {len(samples)} reads: collector CPU "
+                    f"{ms([s['cpu'] for s in samples])} ms, wall {ms([s['wall'] for s in samples])}"
+                    f" ms, sleeps {statistics.median(s['sleeps'] for s in samples):.0f} "
+                    f"(median), logger CPU {ms(logger[label])} ms a read"
+                )
+
+
 def run_child(
     src: Path, url: str, store: Path, every: int, logger: int
 ) -> tuple[list[dict[str, float]], float]:
@@ -243,14 +302,26 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="rounds of 10 contacts each")
     parser.add_argument("--compare", type=Path, help="another tree's src/ (before)")
+    parser.add_argument(
+        "--reads", type=int, metavar="N", help="rounds of N reads alone, no contacts"
+    )
     parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
+    parser.add_argument("--reads-child", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         url, store, every, count = args.child
         child(url, store, int(every), int(count))
         return
+    if args.reads_child:
+        url, protocol, count = args.reads_child
+        reads_child(url, protocol, int(count))
+        return
     trees = [("this tree", HERE)] + ([("compare", args.compare)] if args.compare else [])
     print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+    if args.reads:
+        reads_only(trees, args.rounds, args.reads)
+        print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         for protocol in ("2.10", "1.16"):
             proc, url = serve(Path(tmp), protocol)

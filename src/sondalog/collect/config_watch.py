@@ -128,6 +128,7 @@ class ConfigWatch:
                 return self._seen[1]  # the same answers as last time: nothing to do
             values = read.values()
         except ClientError as exc:
+            self._version = None  # the next check identifies the logger first (whatever it is)
             text = f"configuration not read: {exc}"
             log.warning("source %s: %s", self.config.name, text)
             self.store.event(self.config.name, "config", text)

@@ -84,11 +84,10 @@ async def peer(script: Script, expect: bytes = BATCH.payload) -> AsyncIterator[s
         yield f"tcp://127.0.0.1:{server.sockets[0].getsockname()[1]}"
 
 
-async def _read(url: str, timeout: float = 5.0) -> bytes:
+async def _read(url: str, timeout: float = 5.0, gather: float = 0.0) -> bytes:
     async with await Ala1Client.connect(url, timeout=timeout) as client:
-        return await asyncio.wait_for(
-            client.read_counted(BATCH.payload, BATCH.expected, BATCH.most, BATCH.answered), 30
-        )
+        args = (BATCH.payload, BATCH.expected, BATCH.most, BATCH.answered)
+        return await asyncio.wait_for(client.read_counted(*args, gather=gather), 30)
 
 
 def _cut(data: bytes, cuts: list[int]) -> list[bytes]:
@@ -214,9 +213,13 @@ def test_silence_is_no_answer_and_a_hang_up_is_a_lost_connection() -> None:
         async with peer([]) as url:
             with pytest.raises(NoAnswer):
                 await _read(url, timeout=0.2)
-        async with peer([(0, ANSWERS[:100]), (0.01, None)]) as url:
-            with pytest.raises(ConnectionLost):
-                await _read(url, timeout=5)
+        for gather in (0.0, 0.05):  # a hang-up while the reading is paused: seen after it
+            async with peer([(0, ANSWERS[:100]), (0.01, None)]) as url:
+                with pytest.raises(ConnectionLost):
+                    await _read(url, timeout=5, gather=gather)
+        async with peer([(0, ANSWERS[:100])]) as url:  # silent while paused: the timeout
+            with pytest.raises(IncompleteAnswer, match="stopped short"):
+                await _read(url, timeout=0.2, gather=0.05)
 
     asyncio.run(run())
 

@@ -10,11 +10,18 @@ after in the same minutes: ``git archive BASE src | tar -x -C /tmp/base``).
 
 Prints per protocol version and tree, best and median: the wall time of a contact, the
 collector's CPU per contact and the served logger's CPU per contact (``/proc``), off and on;
-what the check adds (CPU, and as a multiple of the contact's own CPU); round trips (lines sent
-before waiting for answers) and bytes sent and received per check (on a 9600 baud line at
-least the larger of them x 10 bits / 9600).
+what the check adds (CPU, and as a multiple of the contact's own CPU); round trips (waits for
+answers to lines sent; a window's further lines go as the answers flow in) and bytes sent and
+received per check (on a 9600 baud line at least the larger of them x 10 bits / 9600); the
+check's own collector CPU (measured around it, not a difference of two noisy figures) and
+the collector's sleeps (voluntary context switches) a contact, steadier than CPU time on a
+busy machine.
 
-Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]``.
+``--reads N``: the check's read alone (``read_config`` N times on one connection a round),
+without contacts: the collector's CPU, wall and sleeps a read, the logger's CPU a read.
+
+Run: ``.venv/bin/python benchmarks/bench_config_watch.py [--rounds 5] [--compare /tmp/base/src]
+[--reads 100]``.
 """
 
 from __future__ import annotations
@@ -71,7 +78,7 @@ def serve(tmp: Path, protocol: str) -> tuple[subprocess.Popen[bytes], str]:
 # -- the child: contacts with one tree's code ------------------------------------------------
 
 
-def _count_traffic(counts: dict[str, int]) -> None:
+def _count_traffic(counts: dict[str, float]) -> None:
     """Round trips and bytes of the client, whatever its version sends them with."""
     from sondalog.client import ala1
 
@@ -99,16 +106,38 @@ def _count_traffic(counts: dict[str, int]) -> None:
 
     async def counted_check(self: Any, client: Any) -> Any:
         before = dict(counts)
+        cpu, sleeps = time.process_time(), _sleeps()
         try:
             return await check(self, client)
         finally:
             for key in TRAFFIC:
                 counts[f"check_{key}"] += counts[key] - before[key]
+            counts["check_cpu"] += time.process_time() - cpu  # the check alone, measured
+            counts["check_sleeps"] += _sleeps() - sleeps
 
+    counted = getattr(ala1.Ala1Client, "read_counted", None)  # not in older trees
+
+    async def counted_read(self: Any, payload: bytes, *args: Any, **kw: Any) -> Any:
+        counts["trips"] += 1  # one wait for the answers: the pieces go as they flow in
+        counts["sent"] += len(payload) + sum(len(piece[-1]) for piece in kw.get("more", ()))
+        return await counted(self, payload, *args, **kw)
+
+    if counted is not None:
+        ala1.Ala1Client.read_counted = counted_read  # type: ignore[method-assign]
     ala1.Ala1Client.pipeline = counted_pipeline  # type: ignore[method-assign]
     ala1.Ala1Client.send_raw = counted_send  # type: ignore[method-assign]
     ala1._Stream.data_received = counted_received  # type: ignore[method-assign]
     ConfigWatch.check = counted_check  # type: ignore[method-assign]
+
+
+def _sleeps() -> int:
+    """The process's voluntary context switches so far: each a wait for the line's bytes
+    (or a timer), the wakes a check costs, steadier than CPU time on a loaded machine."""
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("voluntary_ctxt_switches:"):
+                return int(line.split()[1])
+    return 0
 
 
 def child(url: str, store: str, every: int, count: int) -> None:
@@ -119,7 +148,9 @@ def child(url: str, store: str, every: int, count: int) -> None:
     from sondalog.io.loop import run  # the collector's loop: uvloop when installed
 
     logging.getLogger("sondalog").setLevel(logging.ERROR)  # no hints about the idle logger
-    counts = dict.fromkeys([*TRAFFIC, *(f"check_{k}" for k in TRAFFIC)], 0)
+    counts: dict[str, float] = dict.fromkeys(
+        [*TRAFFIC, *(f"check_{k}" for k in (*TRAFFIC, "cpu", "sleeps"))], 0
+    )
     _count_traffic(counts)
 
     async def ignore(source: str, batch: list[Reading], cursor: str | None, **s: object) -> None:
@@ -135,10 +166,10 @@ def child(url: str, store: str, every: int, count: int) -> None:
         try:
             for _ in range(count):
                 counts.update(dict.fromkeys(counts, 0))
-                start, cpu = time.perf_counter(), time.process_time()
+                start, cpu, sleeps = time.perf_counter(), time.process_time(), _sleeps()
                 await source.poll(ignore)
                 wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-                out.append({"wall": wall, "cpu": cpu, **counts})
+                out.append({"wall": wall, "cpu": cpu, "sleeps": _sleeps() - sleeps, **counts})
         finally:
             sqlite.close_sync()
         return out
@@ -146,6 +177,61 @@ def child(url: str, store: str, every: int, count: int) -> None:
     print("ready", flush=True)
     sys.stdin.readline()
     print(json.dumps(run(contacts())), flush=True)
+
+
+def reads_child(url: str, protocol: str, count: int) -> None:
+    """``--reads``: the check's read alone (``read_config``), ``count`` times on one
+    connection, as the collector's watch makes it; per read: CPU, wall, sleeps."""
+    from sondalog.client import Ala1Client
+    from sondalog.client.station_read import read_config
+    from sondalog.io.loop import run
+
+    async def reads() -> list[dict[str, float]]:
+        client = await Ala1Client.connect(url)
+        await read_config(client, protocol)
+        out = []
+        for _ in range(count):
+            start, cpu, sleeps = time.perf_counter(), time.process_time(), _sleeps()
+            await read_config(client, protocol)
+            wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+            out.append({"wall": wall, "cpu": cpu, "sleeps": _sleeps() - sleeps})
+        await client.close()
+        return out
+
+    print(json.dumps(run(reads())), flush=True)
+
+
+def reads_only(trees: list[tuple[str, Path]], rounds: int, count: int) -> None:
+    """``--reads N``: rounds of N reads a tree, interleaved, against one served logger of
+    each version; the collector's CPU, wall and sleeps a read, the logger's CPU a read."""
+    with tempfile.TemporaryDirectory() as tmp:
+        for protocol in ("2.10", "1.16"):
+            proc, url = serve(Path(tmp), protocol)
+            got: dict[str, list[Any]] = {label: [] for label, _ in trees}
+            logger: dict[str, list[float]] = {label: [] for label, _ in trees}
+            try:
+                for _ in range(rounds):
+                    for label, src in trees:
+                        before = process_cpu(proc.pid)
+                        done = subprocess.run(
+                            [sys.executable, __file__, "--reads-child", url, protocol,
+                             str(count)],
+                            env={**os.environ, "PYTHONPATH": str(src)}, capture_output=True,
+                            check=True,
+                        )  # fmt: skip
+                        logger[label].append((process_cpu(proc.pid) - before) / (count + 1))
+                        got[label] += json.loads(done.stdout)
+            finally:
+                proc.send_signal(signal.SIGTERM)
+                proc.wait(timeout=10)
+            for label, _ in trees:
+                samples = got[label]
+                print(
+                    f"protocol {protocol}, {label}, {len(samples)} reads: collector CPU "
+                    f"{ms([s['cpu'] for s in samples])} ms, wall {ms([s['wall'] for s in samples])}"
+                    f" ms, sleeps {statistics.median(s['sleeps'] for s in samples):.0f} "
+                    f"(median), logger CPU {ms(logger[label])} ms a read"
+                )
 
 
 def run_child(
@@ -193,6 +279,17 @@ def report(protocol: str, label: str, runs: dict[int, list[Any]]) -> None:
         f"({added / cpu_off:.2f}x the contact), logger CPU {logger_added * 1000:.2f} ms "
         f"({logger_added / statistics.median(log_off):.2f}x)"
     )
+    alone = [s["check_cpu"] for s in on]
+    print(
+        f"  the check alone (measured around it): collector CPU {ms(alone)} ms "
+        f"({statistics.median(alone) / cpu_off:.2f}x the contact without it)"
+    )
+    sleeps = [statistics.median(s.get("sleeps", 0) for s in run) for run in (off, on)]
+    inside = statistics.median(s["check_sleeps"] for s in on)
+    print(
+        f"  sleeps (voluntary context switches) a contact, median: {sleeps[0]:.0f} without "
+        f"the check, {sleeps[1]:.0f} with it ({inside:.0f} in the check)"
+    )
     trips, sent, got = (statistics.median(s[f"check_{k}"] for s in on) for k in TRAFFIC)
     line = max(sent, got) * 10 / 9600
     print(
@@ -205,14 +302,26 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="rounds of 10 contacts each")
     parser.add_argument("--compare", type=Path, help="another tree's src/ (before)")
+    parser.add_argument(
+        "--reads", type=int, metavar="N", help="rounds of N reads alone, no contacts"
+    )
     parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
+    parser.add_argument("--reads-child", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         url, store, every, count = args.child
         child(url, store, int(every), int(count))
         return
+    if args.reads_child:
+        url, protocol, count = args.reads_child
+        reads_child(url, protocol, int(count))
+        return
     trees = [("this tree", HERE)] + ([("compare", args.compare)] if args.compare else [])
     print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+    if args.reads:
+        reads_only(trees, args.rounds, args.reads)
+        print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         for protocol in ("2.10", "1.16"):
             proc, url = serve(Path(tmp), protocol)

@@ -124,3 +124,34 @@ def test_the_drift_is_said_at_every_check(tmp_path: Path) -> None:
         said = asyncio.run(run(logger.url))
     assert said[0] is not None and said[0].endswith(", drifts from st.toml (1 setting)")
     assert said[1:] == ["configuration unchanged, drifts from st.toml (1 setting)"] * 2
+
+
+def test_a_failed_read_makes_the_next_check_identify_the_logger_first(tmp_path: Path) -> None:
+    """A read that fails (here the line closes in the middle) leaves an event, and the next
+    check does not assume the version it had: it reads the identity first, so whatever
+    answers at the URL next is read with its own lines."""
+
+    async def run(url: str) -> list[str | None]:
+        async def hang_up(_: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            writer.write(b"2.10\r\n")
+            await writer.drain()
+            writer.close()
+
+        server = await asyncio.start_server(hang_up, "127.0.0.1", 0)
+        broken = f"tcp://127.0.0.1:{server.sockets[0].getsockname()[1]}"
+        store = SqliteStore(tmp_path / "store.sqlite").open_sync()
+        watch = ConfigWatch(SourceConfig(name="s", url=url), store)
+        said = [await _check(watch, url)]
+        assert watch._version == "2.10"
+        async with server:
+            said.append(await _check(watch, broken))
+        assert watch._version is None
+        said.append(await _check(watch, url))
+        assert watch._version == "2.10"
+        store.close_sync()
+        return said
+
+    with serving(tmp_path) as logger:
+        said = asyncio.run(run(logger.url))
+    assert said[1] is not None and said[1].startswith("configuration not read: ")
+    assert said[2] == "configuration unchanged"

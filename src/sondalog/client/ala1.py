@@ -80,6 +80,20 @@ class _Stream(asyncio.Protocol):
             timer.cancel()
             self._waiter = None
 
+    async def wait_on(self, waiter: asyncio.Future[bool]) -> bool:
+        """Wait with ``waiter`` in the waiter slot: told of every piece of bytes and of the
+        close (its ``set_result``), it decides itself when it is done, so the reader is
+        woken once (:class:`~sondalog.client.answer_wait.CountedWait`); False when closed."""
+        if self.closed:
+            waiter.cancel()
+            return False
+        self._waiter = waiter
+        try:
+            return await waiter
+        finally:
+            waiter.cancel()  # its timer, when it did not end by itself
+            self._waiter = None
+
 
 @functools.lru_cache(maxsize=1024)
 def _plain(text: str) -> Request:
@@ -284,6 +298,31 @@ class Ala1Client:
         if not data and stream.closed:
             raise ConnectionLost("connection closed")
         return data
+
+    async def read_counted(
+        self,
+        payload: bytes,
+        lines: int,
+        most: int,
+        answered: Callable[[bytes, int], tuple[int, bool]],
+        *,
+        more: Iterable[tuple[int, int, bytes]] = (),
+        timeout: float | None = None,
+        gather: float = 0.0,
+    ) -> bytes:
+        """Write ``payload`` (pipelined command lines), and each of ``more``'s pieces once
+        the answers are far enough; return the bytes received once they hold ``lines`` line
+        ends, or once ``answered`` (asked after a refusal) says they are whole. The coroutine
+        is woken once, not for each piece of the answers (``gather``: and the line read
+        at most once in that many seconds meanwhile); what it raises:
+        :func:`~sondalog.client.answer_wait.read_answers`. Bytes left over from an earlier
+        answer are discarded first."""
+        from sondalog.client.answer_wait import read_answers
+
+        stream = self._require_stream()
+        wait = self.timeout if timeout is None else timeout
+        async with self._lock:
+            return await read_answers(stream, payload, lines, most, answered, more, wait, gather)
 
 
 class Client:

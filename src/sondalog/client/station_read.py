@@ -16,13 +16,17 @@ the protocol allows, each answer split without asking again:
   2.10, 64-bit, 2). Strings (a channel's name, its tables) are never listed: a comma in one
   would make the split ambiguous; they are chained one per channel;
 - every command of a line answers exactly one data line, so a line's answer is known to be
-  its commands' count of lines and ``OK``: lines are pipelined :data:`BATCH` at a time (as many
-  as the one-command-a-line reader sent ahead) and the answers are taken as raw bytes, split
-  only when they are needed (:meth:`ReadPlan.values`). A refused line (the command line and
-  ``ERROR``, §3.3.1) is recognised as such, so a logger that refuses one does not leave the
-  reader waiting.
+  its commands' count of lines and ``OK``: the answers are counted as raw bytes arrive (the
+  client is woken once they are in, :mod:`sondalog.client.answer_wait`) and split only when
+  they are needed (:meth:`ReadPlan.values`). A refused line (the command line and ``ERROR``,
+  §3.3.1) is recognised as such, so a logger that refuses one does not leave the reader
+  waiting;
+- the lines flow in a window (issue 24): :data:`BATCH` at once (as many as the
+  one-command-a-line reader sent ahead), then :data:`STEP` more each time the answers to as
+  many are in. A logger never holds more than :data:`BATCH` unanswered lines, and the
+  answers never wait for a round trip: one round trip a read, where batches took three.
 
-2.10: 841 settings in 80 lines (9.0 KB of commands, 3 round trips with the identity) where
+2.10: 841 settings in 80 lines (9.0 KB of commands, one round trip with the identity) where
 one command a setting took 191 lines (23 KB, 7 round trips); 1.16: 283 settings in 22 lines
 (2.3 KB, one round trip; 62 lines, 7.4 KB before). The lines of a version are worked out once.
 """
@@ -35,7 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from sondalog.client.ala1 import Ala1Client
-from sondalog.client.ala1_codec import MAX_LINE, ClientError, IncompleteAnswer, NoAnswer
+from sondalog.client.ala1_codec import MAX_LINE, ClientError
 from sondalog.client.station_grammar import (
     LIMITS,
     ChannelAddress,
@@ -53,8 +57,17 @@ from sondalog.client.station_schema import SETTINGS, Setting
 
 #: §3.3: no answer line may be longer than this.
 MAX_ANSWER = 100
-#: Lines sent before their answers are awaited.
+#: Lines sent ahead of their answers at most (as many as the one-command-a-line reader
+#: sent ahead): a logger's input is not ours to fill.
 BATCH = 32
+#: Lines sent each time the answers to as many are in (the window moves on).
+STEP = 16
+#: Seconds the client lets the answers gather before it reads them again (a logger writes
+#: a line's answer at a time): ~50 reads and wakes of a 2.10 read become a few; the end is
+#: seen at most this much later (:class:`~sondalog.client.answer_wait.CountedWait`). Only
+#: for reads of more than :data:`BATCH` lines: a shorter one (1.16's 22 lines) is mostly in
+#: by the reader's first wake, and a pause would add a wake (measured).
+GATHER = 0.001
 _OK = "OK"
 _ERROR = "ERROR"
 
@@ -215,6 +228,17 @@ class ReadPlan:
         limits = LIMITS[self.version]
         return tuple(s.name(n) for s in SETTINGS for n in range(1, s.count(limits) + 1))
 
+    @functools.cached_property
+    def sending(self) -> Sending:
+        """:attr:`lines` as they are sent, worked out once."""
+        return sending(self.lines, self.prefix)
+
+    @functools.cached_property
+    def identified(self) -> Sending:
+        """:data:`IDENTIFY` and :attr:`lines` as they are sent: the identity first
+        (:func:`read_config` with the version the logger had)."""
+        return sending((IDENTIFY, *self.lines), self.prefix)
+
     def values(self, raw: bytes) -> dict[str, str]:
         """The settings in ``raw``, the answers to :attr:`lines` (file order); ClientError
         when they are not such answers."""
@@ -259,63 +283,74 @@ def _payload(prefix: str, lines: Sequence[Line]) -> bytes:
     return "".join(f"{prefix}{line.text}\r" for line in lines).encode("latin-1")
 
 
-def _complete(raw: bytes, batch: Sequence[Line], prefix: str) -> bool:
-    """Whether ``raw`` holds an answer to each line of ``batch``, refused ones included."""
+def _answered(raw: bytes, lines: Sequence[Line], prefix: str) -> tuple[int, bool]:
+    """How many of ``lines`` (in order) have whole answers in ``raw``, refused ones (the
+    line and ``ERROR``, §3.3.1) included; and whether ``raw`` is exactly their answers."""
     texts = [t.removesuffix("\r") for t in raw.decode("latin-1").split("\n")[:-1]]
     at = 0
-    for line in batch:
+    for done, line in enumerate(lines):
         count = len(line.parts)
         if at + count < len(texts) and texts[at + count] == _OK:
             at += count + 1
         elif texts[at : at + 2] == [(prefix + line.text)[:MAX_LINE], _ERROR]:
             at += 2
         else:
-            return False
-    return at == len(texts)
+            return done, False
+    return len(lines), at == len(texts)
+
+
+@dataclass(frozen=True, slots=True)
+class Sending:
+    """``lines`` as they are sent: the first :data:`BATCH` at once, then :data:`STEP` more
+    each time the answers to as many are in (``pieces``: the line ends those answers hold,
+    the lines they answer, the bytes); the line ends all the answers hold; the most bytes
+    they can be (answer lines of at most :data:`MAX_ANSWER`, §3.3; a refused line echoed):
+    a peer that talks on past it is not answering."""
+
+    lines: tuple[Line, ...]
+    prefix: str
+    payload: bytes
+    pieces: tuple[tuple[int, int, bytes], ...]
+    expected: int
+    most: int
+
+    def answered(self, raw: bytes, sent: int) -> tuple[int, bool]:
+        """:func:`_answered` of the lines in the first ``sent`` pieces (the payload one)."""
+        count = min(BATCH + (sent - 1) * STEP, len(self.lines))
+        return _answered(raw, self.lines[:count], self.prefix)
+
+
+def sending(lines: Sequence[Line], prefix: str) -> Sending:
+    """:class:`Sending` of ``lines`` (a :class:`ReadPlan` keeps its own)."""
+    lines = tuple(lines)
+    ends = [0]
+    for line in lines:
+        ends.append(ends[-1] + len(line.parts) + 1)
+    pieces = []
+    for start in range(BATCH, len(lines), STEP):
+        answered = start + STEP - BATCH  # then BATCH lines are unanswered with these
+        pieces.append((ends[answered], answered, _payload(prefix, lines[start : start + STEP])))
+    most = sum(len(prefix) + len(line.text) + 9 for line in lines) + ends[-1] * (MAX_ANSWER + 2)
+    return Sending(lines, prefix, _payload(prefix, lines[:BATCH]), tuple(pieces), ends[-1], most)
 
 
 async def exchange(client: Ala1Client, lines: Sequence[Line], prefix: str = "") -> bytes:
-    """Send ``lines``, :data:`BATCH` at a time, and return their raw answers, CR LF and all.
+    """Send ``lines`` and return their raw answers, CR LF and all: each line's data lines
+    and ``OK``, or the line and ``ERROR`` when it was refused (seen as soon as the answers
+    after it are in). At most :data:`BATCH` lines are sent ahead of their answers.
 
     Raises :class:`NoAnswer` or :class:`IncompleteAnswer` when the answers stop short (the
-    timeout is the client's, from the last byte received)."""
-    received: list[bytes] = []
-    for start in range(0, len(lines), BATCH):
-        batch = lines[start : start + BATCH]
-        await client.send_raw(_payload(prefix, batch))
-        received.append(await _answers(client, batch, prefix))
-    return b"".join(received)
+    timeout is the client's, from the last byte received) or grow past what they can be."""
+    return await _exchange(client, sending(lines, prefix))
 
 
-async def _answers(client: Ala1Client, batch: Sequence[Line], prefix: str) -> bytes:
-    """The answers to ``batch``: its lines' data lines and ``OK`` each, or fewer lines when
-    one was refused (seen as soon as the refusal and what follows it are in)."""
-    expected = sum(len(line.parts) + 1 for line in batch)
-    # the most the answers can be (answer lines of at most MAX_ANSWER, §3.3; a refused line
-    # echoed): a peer that talks on past it is not answering (its bytes are bounded)
-    most = sum(len(prefix) + len(line.text) + 9 for line in batch) + expected * (MAX_ANSWER + 2)
-    chunks: list[bytes] = []
-    count = size = 0
-    tail = b""
-    while count < expected:
-        data = await client.receive_raw(client.timeout)
-        if not data:
-            got = b"".join(chunks)
-            if not got:
-                raise NoAnswer(f"no answer to {batch[0].text!r}")
-            raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)
-        size += len(data)
-        if size > most:
-            got = b"".join(chunks)
-            raise IncompleteAnswer(f"more than the answers can be: ...{data[-60:]!r}", got)
-        chunks.append(data)
-        count += data.count(b"\n")
-        if count < expected and b"ERROR\r\n" in tail + data:
-            raw = b"".join(chunks)
-            if _complete(raw, batch, prefix):
-                return raw
-        tail = data[-8:]
-    return b"".join(chunks)
+async def _exchange(client: Ala1Client, send: Sending) -> bytes:
+    """The answers to ``send``'s lines; the client is woken once a piece sent
+    (:meth:`~sondalog.client.ala1.Ala1Client.read_counted`), not for each piece received."""
+    gather = GATHER if send.pieces else 0.0  # a short read is in by the first wake anyway
+    return await client.read_counted(
+        send.payload, send.expected, send.most, send.answered, more=send.pieces, gather=gather
+    )
 
 
 @dataclass(frozen=True)
@@ -330,7 +365,9 @@ class ConfigRead:
     @functools.cached_property
     def digest(self) -> bytes:
         """SHA-256 of the identity and the raw answers: equal digests, equal settings."""
-        return hashlib.sha256(f"{self.version}\n{self.serial}\n".encode() + self.raw).digest()
+        digest = hashlib.sha256(f"{self.version}\n{self.serial}\n".encode())
+        digest.update(self.raw)
+        return digest.digest()
 
     def values(self) -> dict[str, str]:
         return self.plan.values(self.raw)
@@ -348,22 +385,17 @@ def _identity(raw: bytes) -> tuple[str, str, int]:
 async def read_config(client: Ala1Client, version: str | None, prefix: str = "") -> ConfigRead:
     """The identity and every setting of the logger on ``client``'s line.
 
-    With the ``version`` a logger had before, the identity is read in the first batch of
-    lines: those same in every version come first, so a logger of the other version answers
-    them too, and its settings are then read with its own lines. Without it, the identity
+    With the ``version`` a logger had before, the identity is read with the settings, in
+    one flow of lines (one round trip): those same in every version come first, so a logger
+    of the other version answers them too (and reads or refuses the others: nothing is
+    written); its settings are then read again with its own lines. Without it, the identity
     is read first (one more round trip)."""
-    head = await exchange(client, [IDENTIFY], prefix) if version is None else b""
-    if head:
-        version = _identity(head)[0]
-    assert version is not None
-    plan = read_plan(version, prefix)
-    lines = plan.lines
-    if not head:
-        head = await exchange(client, [IDENTIFY, *lines[: BATCH - 1]], prefix)
-        lines = lines[BATCH - 1 :]
-    found, serial, at = _identity(head)
-    if found != version:  # another logger at the line: its own lines, all of them
-        plan = read_plan(found, prefix)
-        return ConfigRead(found, serial, plan, await exchange(client, plan.lines, prefix))
-    rest = await exchange(client, lines, prefix) if lines else b""
-    return ConfigRead(found, serial, plan, head[at:] + rest)
+    if version is not None:
+        raw = await _exchange(client, read_plan(version, prefix).identified)
+        found, serial, at = _identity(raw)
+        if found == version:
+            return ConfigRead(found, serial, read_plan(found, prefix), raw[at:])
+    else:
+        found, serial, _ = _identity(await exchange(client, [IDENTIFY], prefix))
+    plan = read_plan(found, prefix)  # another logger at the line: its own lines
+    return ConfigRead(found, serial, plan, await _exchange(client, plan.sending))

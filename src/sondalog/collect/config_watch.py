@@ -4,7 +4,7 @@
 At a contact (every one by default; ``config_every = N``: every N-th) the source's logger is
 read whole: every setting of §6.1 that a station file holds, as ``logger config pull`` reads
 it, in few full lines (:func:`~sondalog.client.station_read.read_config`, issue 24: 2.10's 841
-settings in 80 lines and 3 round trips, the identity in the first; 1.16's 283 in one). When
+settings in 80 lines and one round trip, the identity first; 1.16's 283 in 22). When
 the raw answers are the ones recorded at this source's last check (their digest), nothing
 changed and nothing is parsed, hashed or written: the contact's summary says "configuration
 unchanged" (with the drift said then). Otherwise the answers are parsed, and their
@@ -128,6 +128,7 @@ class ConfigWatch:
                 return self._seen[1]  # the same answers as last time: nothing to do
             values = read.values()
         except ClientError as exc:
+            self._version = None  # the next check identifies the logger first (whatever it is)
             text = f"configuration not read: {exc}"
             log.warning("source %s: %s", self.config.name, text)
             self.store.event(self.config.name, "config", text)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import operator
 from collections.abc import Callable, Hashable
 from typing import Protocol
 
@@ -93,19 +94,28 @@ def _groups(
     masks = [0] * len(instants)
     where = {t: i for i, t in enumerate(instants)}
     right = bisect.bisect_right
+    gap = min(map(operator.sub, instants[1:], instants), default=0)  # (the least between two)
+    sampled: dict[tuple[int, int], int] = {}  # outputs on at each cohort's samples, as bits
     for run in switched:
-        times = cohorts.get((run.next_t or 0, run.cfg.period))
+        key = (run.next_t or 0, run.cfg.period)
+        times = cohorts.get(key)
         if not times:
             continue
         for output, advance in run.cfg.switches:
             bit = 1 << output
-            for t in times:
-                masks[where[t]] |= bit
-            if advance > 0:  # instants in (t - advance, t): the delay before sample t
+            sampled[key] = sampled.get(key, 0) | bit
+            if advance > gap:  # instants in (t - advance, t): the delay before sample t
                 ends = [w for t in times if (w := where[t]) and instants[w - 1] > t - advance]
                 for w in ends:
                     for i in range(right(instants, instants[w] - advance), w):
                         masks[i] |= bit
+    for key, bits in sampled.items():
+        times = cohorts[key]
+        if len(times) == len(instants):  # (a cohort sampled at every instant)
+            masks = [mask | bits for mask in masks]
+        else:
+            for t in times:
+                masks[where[t]] |= bits
     by_mask: dict[int, list[int]] = {}
     for t, mask in zip(instants, masks, strict=True):
         group = by_mask.get(mask)
@@ -172,7 +182,7 @@ def run_series(sampler: Sampler, t0: int, target: float, offset: float, sink: Ro
     if len(cohorts) == 1:
         instants = next(iter(cohorts.values()))
     else:
-        instants = sorted({t for times in cohorts.values() for t in times})
+        instants = sorted(set().union(*cohorts.values()))
     switched = [run for run in runs if run.cfg.switches]
     last = len(instants) - 1
     while last >= 0 and switched and not _clean(switched, instants[last]):

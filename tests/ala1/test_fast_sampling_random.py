@@ -91,7 +91,9 @@ channel = st.fixed_dictionaries(
     {
         "input": st.sampled_from([*sorted(INPUTS), "pin", "powered", "ds_only"]),
         "period": st.sampled_from([10, 15, 20, 30, 60]),
-        "start": st.one_of(st.integers(0, 59), st.integers(600, 3600)),  # also later
+        "start": st.one_of(  # also later; on the minute (in step with other channels)
+            st.integers(0, 59), st.integers(600, 3600), st.just(0), st.just(600)
+        ),
         "switch": st.sampled_from([0, 0, 1, 2, 3]),
         "advance": st.sampled_from([0, 1, 3, 7, 40]),  # 40: longer than some periods
         "second_switch": st.sampled_from([0, 2, 3]),

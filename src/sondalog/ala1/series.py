@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import operator
 from collections.abc import Callable, Hashable
 from typing import Protocol
 
@@ -91,21 +92,39 @@ def _groups(
     an output is on at the instants its channels sample and within their switch-on delays
     before each of their samples (none runs on past the last instant: :func:`_clean`)."""
     masks = [0] * len(instants)
-    where = {t: i for i, t in enumerate(instants)}
+    first, step = instants[0], instants[1] - instants[0] if len(instants) > 1 else 0
+    if step > 0 and instants[-1] - first == (len(instants) - 1) * step:  # (a progression)
+        gap, where = step, {}  # (looked up only where an index is not worked out)
+    else:
+        gap = min(map(operator.sub, instants[1:], instants), default=0)  # (the least of two)
+        where, step = {t: i for i, t in enumerate(instants)}, 0
     right = bisect.bisect_right
+    sampled: dict[tuple[int, int], int] = {}  # outputs on at each cohort's samples, as bits
     for run in switched:
-        times = cohorts.get((run.next_t or 0, run.cfg.period))
+        key = (run.next_t or 0, run.cfg.period)
+        times = cohorts.get(key)
         if not times:
             continue
         for output, advance in run.cfg.switches:
             bit = 1 << output
-            for t in times:
-                masks[where[t]] |= bit
-            if advance > 0:  # instants in (t - advance, t): the delay before sample t
+            sampled[key] = sampled.get(key, 0) | bit
+            if advance > gap:  # instants in (t - advance, t): the delay before sample t
+                where = where or {t: i for i, t in enumerate(instants)}
                 ends = [w for t in times if (w := where[t]) and instants[w - 1] > t - advance]
                 for w in ends:
                     for i in range(right(instants, instants[w] - advance), w):
                         masks[i] |= bit
+    for key, bits in sampled.items():
+        times = cohorts[key]
+        if len(times) == len(instants):  # (a cohort sampled at every instant)
+            masks = [mask | bits for mask in masks]
+        elif step and key[1] % step == 0 and (times[0] - first) % step == 0:
+            for i in range((times[0] - first) // step, len(instants), key[1] // step):
+                masks[i] |= bits  # (its instants every period / step of the progression)
+        else:
+            where = where or {t: i for i, t in enumerate(instants)}
+            for t in times:
+                masks[where[t]] |= bits
     by_mask: dict[int, list[int]] = {}
     for t, mask in zip(instants, masks, strict=True):
         group = by_mask.get(mask)
@@ -172,7 +191,7 @@ def run_series(sampler: Sampler, t0: int, target: float, offset: float, sink: Ro
     if len(cohorts) == 1:
         instants = next(iter(cohorts.values()))
     else:
-        instants = sorted({t for times in cohorts.values() for t in times})
+        instants = _union(cohorts)
     switched = [run for run in runs if run.cfg.switches]
     last = len(instants) - 1
     while last >= 0 and switched and not _clean(switched, instants[last]):
@@ -184,6 +203,16 @@ def run_series(sampler: Sampler, t0: int, target: float, offset: float, sink: Ro
         del times[max(0, (stop - start) // period + 1) :]  # (a cohort may start after stop)
     _sample_series(sampler, runs, cohorts, instants[: last + 1], offset, sink)
     return True
+
+
+def _union(cohorts: dict[tuple[int, int], list[int]]) -> list[int]:
+    """The instants of the ``cohorts`` (each to the same end) in order: a copy of the
+    cohort's whose instants hold every other's (its period divides theirs, in step with
+    their starts), else sorted."""
+    for (start, period), times in cohorts.items():
+        if all(s >= start and (s - start) % period == 0 == p % period for s, p in cohorts):
+            return times.copy()
+    return sorted(set().union(*cohorts.values()))
 
 
 def _sample_series(

@@ -17,12 +17,13 @@ trigger is remembered for the deadline the engine reports.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from dataclasses import dataclass
 
 from sondalog.ala1.interpreter import Answer, Interpreter
-from sondalog.ala1.measure import format_value, format_values
+from sondalog.ala1.measure import format_value
 from sondalog.ala1.messages.config import MessageConfig, destinations, is_local, load, off
 from sondalog.ala1.messages.crossing import Crossing
 from sondalog.ala1.messages.schedule import next_due
@@ -159,7 +160,7 @@ class Messages:
             got = samples.get(message.config.channel)
             if crossing is not None and got is not None:
                 cfg, times, values = got
-                k = crossing.first_of(format_values(cfg, values))
+                k = crossing.first_in(values, functools.partial(format_value, cfg), cfg.format)
                 if k is not None and (first is None or times[k] < first):
                     first = times[k]
             if first is not None:

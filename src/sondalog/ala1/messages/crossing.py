@@ -10,8 +10,12 @@ Samples are compared as the channel shows them (in its format).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
 from decimal import Decimal
+from typing import Any, TypeVar
+
+V = TypeVar("V", bound=Hashable)
 
 
 @dataclass
@@ -22,6 +26,8 @@ class Crossing:
     value: Decimal
     hysteresis: Decimal
     above: bool | None = None
+    #: :meth:`first_in`'s codes of values met, with what they depend on
+    _codes: tuple[Hashable, dict[Any, int]] | None = field(default=None, repr=False, compare=False)
 
     def sample(self, text: str) -> bool:
         """A new sample (formatted; empty = no valid value); True when it triggers."""
@@ -44,26 +50,55 @@ class Crossing:
         """:meth:`sample` of each of ``texts`` in order (issue 24: a series of samples): the
         index of the first that triggers (None: none does); the side ends as after the last.
         Each text is parsed once; the crossings are found by ``list.index``."""
+        code = self._coder()
+        codes = {text: code(text) for text in set(texts)}
+        return self._first([codes[text] for text in texts], texts.__getitem__)
+
+    def first_in(self, values: list[V], text_of: Callable[[V], str], shown: Hashable) -> int | None:
+        """:meth:`first_of` of the texts ``text_of`` renders ``values`` in, without rendering
+        them: each value's code is kept from series to series (a watched channel's samples
+        repeat: an ADC has 4096 levels) while ``shown`` (what the texts depend on besides the
+        value: the channel's format), the value and the hysteresis stay."""
+        key = (shown, self.value, self.hysteresis)
+        if self._codes is None or self._codes[0] != key:
+            self._codes = (key, {})
+        codes: dict[V, int] = self._codes[1]
+        try:
+            got = list(map(codes.__getitem__, values))
+        except KeyError:
+            if len(codes) >= _CODES_MAX:
+                codes.clear()
+            code = self._coder()
+            codes.update((v, code(text_of(v))) for v in set(values).difference(codes))
+            got = list(map(codes.__getitem__, values))
+        return self._first(got, lambda k: text_of(values[k]))
+
+    def _coder(self) -> Callable[[str], int]:
+        """A text's code: 0 no valid value, 1 above value + h/2 (crosses up), 2 below
+        value - h/2 (crosses down), 3 both (a negative hysteresis), 4 neither."""
         half = self.hysteresis / 2
         high, low = self.value + half, self.value - half
-        # each text's code: 0 no valid value, 1 above value + h/2 (crosses up), 2 below
-        # value - h/2 (crosses down), 3 both (a negative hysteresis), 4 neither
-        codes: dict[str, int] = {}
-        for text in set(texts):
+
+        def code(text: str) -> int:
             x = _number(text)
-            codes[text] = 0 if x is None else (x > high) + 2 * (x < low) or 4
-        got = [codes[text] for text in texts]
+            return 0 if x is None else (x > high) + 2 * (x < low) or 4
+
+        return code
+
+    def _first(self, got: list[int], text_at: Callable[[int], str]) -> int | None:
+        """:meth:`first_of` of samples whose codes are ``got`` (``text_at``: the text of the
+        sample at an index)."""
         first: int | None = None
         k = 0
         if self.above is None:  # (the first valid sample tells the side)
             k = next((k for k, c in enumerate(got) if c), -1)
             if k < 0:
                 return None
-            x = _number(texts[k])
+            x = _number(text_at(k))
             assert x is not None
             self.above = x > self.value
             k += 1
-        both = 3 in codes.values()
+        both = 3 in got
         while True:
             try:
                 if both:
@@ -77,6 +112,10 @@ class Crossing:
             if first is None and self.function == ("UP" if self.above else "DOWN"):
                 first = k
             k += 1
+
+
+#: Values' codes kept by a crossing (:meth:`Crossing.first_in`) at most.
+_CODES_MAX = 4096
 
 
 def _number(text: str) -> Decimal | None:

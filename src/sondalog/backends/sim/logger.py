@@ -251,6 +251,17 @@ class SimHardware:
         if source is None or (source.power is not None and not self.outputs.get(source.power)):
             return [None] * len(times)
         levels = ADC_LEVELS
+        signals = signal_column(source.signal, times)
+        if (
+            signals
+            and reference > 0.0
+            and min(signals) / reference > 0.0
+            and max(signals) / reference < 1.0
+        ):  # every fraction within the range (x / reference grows with x): rounded alone,
+            # and ``* 1.0 + 0.0`` left off (it changes only a -0.0, and none is made here)
+            if mult == 1.0 and add == 0.0:
+                return [round(x / reference * levels) / levels for x in signals]
+            return [round(x / reference * levels) / levels * mult + add for x in signals]
         # (a NaN raises in round(), as in :meth:`adc`)
         return [
             (
@@ -262,7 +273,7 @@ class SimHardware:
             )
             * mult
             + add
-            for x in signal_column(source.signal, times)
+            for x in signals
         ]
 
     def ds18b20_column(
@@ -275,6 +286,19 @@ class SimHardware:
             return [None] * len(times)
         scale = DS18B20_SCALE
         celsius = signal_column(sensor.signal, times)
+        if (
+            celsius
+            and min(celsius) > -55.0
+            and max(celsius) < 125.0
+            and math.isfinite(sum(celsius))
+        ):
+            # every temperature within the range, none a NaN: rounded alone, and ``* 1.0 +
+            # 0.0`` left off (it changes only a -0.0, and none is made here)
+            if celsius[0] == max(celsius) == min(celsius):  # (a steady temperature)
+                return [round(celsius[0] * 16) / 16 / scale * mult + add] * len(celsius)
+            if mult == 1.0 and add == 0.0:
+                return [round(c * 16) / 16 / scale for c in celsius]
+            return [round(c * 16) / 16 / scale * mult + add for c in celsius]
         distinct = set(celsius)  # (a sensor's temperature repeats: each converted once)
         # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
         if len(distinct) * 2 > len(celsius):
@@ -305,6 +329,21 @@ class SimHardware:
         if signal is None or not self.powered(self.supply_power):
             return [None] * len(times)
         levels, reference = ADC_LEVELS, INTERNAL_REFERENCE  # normalise() written out
+        signals = signal_column(signal, times)
+        divider = SUPPLY_DIVIDER
+        if (
+            signals
+            and mult == 1.0
+            and add == 0.0
+            and math.isfinite(sum(signals))
+            and (
+                min(signals) / divider / reference > 0.0
+                and max(signals) / divider / reference < 1.0
+            )
+        ):
+            # (every fraction within the range, none a NaN: rounded alone, ``* 1.0 +
+            # 0.0`` left off: it changes only a -0.0, and none is made here)
+            return [round(x / divider / reference * levels) / levels * then for x in signals]
         return [
             (
                 (
@@ -318,7 +357,7 @@ class SimHardware:
                 + add
             )
             * then
-            for x in signal_column(signal, times)
+            for x in signals
         ]
 
     def gsm_column(self, what: str, times: list[float]) -> list[float | None]:

@@ -209,7 +209,8 @@ async def start_fleet(
         engines = []
         with ThreadPoolExecutor(1, "sondalog-identities") as writer:
             written = writer.submit(write_identities, states, new)
-            with fleet.database.batch():  # a new fleet's first commits: one transaction
+            # a new fleet's first commits: one transaction; every logger's memory read at once
+            with fleet.database.batch(), fleet.database.preloaded():
                 for plan, identity in zip(loggers, identities, strict=True):
                     now = clock.now()
                     hardware = plan.hardware.build(now, root, clock.speed)  # its own

@@ -77,7 +77,7 @@ def test_preloaded_stores_answer_as_the_tables_do(
         for area, data in memory["files"].items():
             database.store(name).write_file(area, data)
     plain = [_answers(database.store(name)) for name in names]
-    with database.batch(), database.preloaded():
+    with database.batch(), database.preloaded(names):
         assert [_answers(database.store(name)) for name in names] == plain
         for number, changes, offset, added, area in commits:
             name = names[number]

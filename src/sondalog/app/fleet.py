@@ -20,7 +20,6 @@ import gc
 import logging
 import resource
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -206,19 +205,16 @@ async def start_fleet(
     root = sensor_root()
     try:
         identities, new = read_identities(loggers, states, path)
+        write_identities(states, new)  # durable before anything the loggers commit
+        serials = [plan.serial_number for plan in loggers]
         engines = []
-        with ThreadPoolExecutor(1, "sondalog-identities") as writer:
-            written = writer.submit(write_identities, states, new)
-            # a new fleet's first commits: one transaction; every logger's memory read at once
-            with fleet.database.batch(), fleet.database.preloaded():
-                for plan, identity in zip(loggers, identities, strict=True):
-                    now = clock.now()
-                    hardware = plan.hardware.build(now, root, clock.speed)  # its own
-                    store = fleet.database.store(plan.serial_number)
-                    engines.append(
-                        Engine(identity, store, now, hardware, line_time_scale=clock.speed)
-                    )
-                written.result()  # the identities are durable before what the loggers commit
+        # a new fleet's first commits: one transaction; every logger's memory read at once
+        with fleet.database.batch(), fleet.database.preloaded(serials):
+            for plan, identity in zip(loggers, identities, strict=True):
+                now = clock.now()
+                hardware = plan.hardware.build(now, root, clock.speed)  # its own, from the plan
+                store = fleet.database.store(plan.serial_number)
+                engines.append(Engine(identity, store, now, hardware, line_time_scale=clock.speed))
         for plan, engine in zip(loggers, engines, strict=True):
             host = DeviceHost(NamedDevice(engine, plan.serial_number), clock, timers)
             server = await serve_tcp(host, *plan.listen)

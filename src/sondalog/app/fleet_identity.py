@@ -101,15 +101,17 @@ def _read(directory: Path, plan: FleetLogger) -> Identity | IdentityConflict | N
 
 def write_identities(states: Path, new: Sequence[tuple[Identity, bool]]) -> None:
     """Write the new loggers' identities (:func:`read_identities`) durably, with two syncs
-    of the file system; in a thread of its own while the engines are built (the kernel's
-    work on 10,000 files and directories overlaps the interpreter's)."""
+    of the file system. (In turn: in a thread beside the loop building the engines, each
+    of its system calls waited for the interpreter's switch interval.)"""
     if not new:
         return
+    masked = _umask() & PRIVATE_DIR != 0  # (a mode given to mkdir and open is masked)
     for identity, exists in new:
         directory = states / identity.serial_number
         if not exists:
             os.mkdir(directory, PRIVATE_DIR)
-            os.chmod(directory, PRIVATE_DIR)  # (the mode of mkdir was masked by the umask)
+            if masked:
+                os.chmod(directory, PRIVATE_DIR)
         else:  # (left by a start that stopped before its identity: ours, as private_dir)
             with contextlib.suppress(PermissionError):
                 os.chmod(directory, PRIVATE_DIR)
@@ -121,7 +123,8 @@ def write_identities(states: Path, new: Sequence[tuple[Identity, bool]]) -> None
             directory / _TMP, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, PRIVATE_FILE
         )
         try:
-            os.fchmod(fd, PRIVATE_FILE)
+            if masked:
+                os.fchmod(fd, PRIVATE_FILE)
             os.write(fd, (text + "\n").encode("utf-8"))
         finally:
             os.close(fd)
@@ -130,6 +133,19 @@ def write_identities(states: Path, new: Sequence[tuple[Identity, bool]]) -> None
         directory = states / identity.serial_number
         os.replace(directory / _TMP, directory / IDENTITY_FILE)
     sync_file_system(states)  # and the names
+
+
+def _umask() -> int:
+    """The process's umask, read without changing it (threads may be creating files);
+    where it cannot be read, as if it masked everything."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    return 0o777
 
 
 def sync_file_system(path: Path) -> None:

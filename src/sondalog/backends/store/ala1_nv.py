@@ -30,7 +30,7 @@ import contextlib
 import logging
 import sqlite3
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
@@ -194,11 +194,12 @@ class NvDatabase:
         self.transactions += 1
 
     @contextlib.contextmanager
-    def preloaded(self) -> Iterator[None]:
+    def preloaded(self, loggers: Sequence[str] = ()) -> Iterator[None]:
         """Inside, the stores answer from every logger's memory read at once (a fleet
-        starting: :mod:`sondalog.backends.store.preload`)."""
+        starting: :mod:`sondalog.backends.store.preload`; ``loggers``: those starting)."""
         self.write([])
-        self.preload = Preloaded(self.conn)
+        self.settle()
+        self.preload = Preloaded(self.conn, loggers)
         try:
             yield
         finally:
@@ -344,6 +345,8 @@ class LoggerNvStore:
     def load_record(self) -> tuple[list[str], int, bool, bool]:
         """Rows oldest first, the sequence number of the first, and the wrapped/refused flags."""
         head = self._meta("record_head")
+        if (pre := self.database.preload) is not None and pre.no_pages(self.logger):
+            return [], 0 if head is None else int(head), *self._flags()  # (as load_rows)
         rows, first = record_pages.load_rows(
             self.conn, self.logger, None if head is None else int(head)
         )

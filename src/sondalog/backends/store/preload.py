@@ -12,8 +12,10 @@ after a change of its record the store reads the record from the database again.
 
 from __future__ import annotations
 
+import json
 import sqlite3
 from collections import defaultdict
+from collections.abc import Sequence
 
 from sondalog.ala1.record import RecordChanges
 from sondalog.backends.store import record_pages
@@ -22,9 +24,11 @@ from sondalog.backends.store import record_pages
 class Preloaded:
     """Every logger's parameters, meta values, table files and newest record page."""
 
-    __slots__ = ("files", "meta", "newest", "params", "records_changed")
+    __slots__ = ("files", "meta", "newest", "params", "records_changed", "unpaged")
 
-    def __init__(self, conn: sqlite3.Connection) -> None:
+    def __init__(self, conn: sqlite3.Connection, loggers: Sequence[str] = ()) -> None:
+        """``loggers``: those of them without any record page are known here too (a new
+        fleet: no logger's record is read from the tables)."""
         self.params: defaultdict[str, dict[str, str]] = defaultdict(dict)
         for logger, key, value in conn.execute("SELECT logger, key, value FROM param"):
             self.params[logger][key] = value
@@ -35,6 +39,14 @@ class Preloaded:
         for logger, area, data in conn.execute("SELECT logger, area, data FROM file"):
             self.files[logger][area] = bytes(data)
         self.newest = record_pages.newest_pages(conn)
+        self.unpaged = {
+            str(logger)
+            for (logger,) in conn.execute(
+                "SELECT j.value FROM json_each(?) AS j WHERE NOT EXISTS "
+                "(SELECT 1 FROM record_page AS p WHERE p.logger = j.value)",
+                (json.dumps(list(loggers)),),
+            )
+        }
         #: Loggers whose record changed since: their record is read from the database.
         self.records_changed: set[str] = set()
 
@@ -45,7 +57,11 @@ class Preloaded:
         return None if found is None else found.get(key)
 
     def knows_meta(self, logger: str, key: str) -> bool:
-        return not (key.startswith("record") and logger in self.records_changed)
+        return logger not in self.records_changed or not key.startswith("record")
+
+    def no_pages(self, logger: str) -> bool:
+        """Whether ``logger`` is known to have no record page (its record is empty)."""
+        return logger in self.unpaged and logger not in self.records_changed
 
     def newest_page(self, logger: str) -> tuple[record_pages.NewestPage | None] | None:
         """The logger's newest page as read (``(None,)``: none); None: read it again."""

@@ -3,7 +3,8 @@ minute, CPU share, memory, start-up.
 
 Not a test (DESIGN.md "Benchmarks"): prints figures. Run with
 ``.venv/bin/python benchmarks/bench_fleet.py [--loggers 10000] [--poll 1000] [--runs 3]``
-(``--quick``: 500 loggers, 100 polled, two runs).
+(``--quick``: 500 loggers, 100 polled, two runs; ``--start-only [--compare BASE/src]``:
+start-up alone, fresh and configured, alternating with a base tree).
 
 1. A site file declares ``--loggers`` loggers as one numbered range (``[[loggers]]`` with
    ``count``, every port chosen free); ``sondalog serve`` runs them in one process (its
@@ -76,12 +77,17 @@ def memory_mb(pid: int) -> tuple[float, float]:
     return values["VmRSS"], values["VmHWM"]
 
 
-def start(count: int, work: Path, loop: str) -> tuple[subprocess.Popen[bytes], list[int], float]:
+def start(
+    count: int, work: Path, loop: str, tree: str | None = None
+) -> tuple[subprocess.Popen[bytes], list[int], float]:
+    """Serve ``count`` loggers on ``work/state`` (``tree``: the ``src`` directory to run)."""
     site = work / "fleet.toml"
     site.write_text(
         f'[[loggers]]\ncount = {count}\nserial_number = "F{{n:05}}"\nlisten = "{HOST}:0"\n'
     )
     env = {**os.environ, "SONDALOG_LOOP": loop}
+    if tree is not None:
+        env["PYTHONPATH"] = tree
     began = time.perf_counter()
     proc = subprocess.Popen(
         [sys.executable, "-m", "sondalog", "serve", str(site), "--state", str(work / "state")],
@@ -295,6 +301,49 @@ def measure(proc: subprocess.Popen[bytes], ports: list[int], args: argparse.Name
     )
 
 
+def start_only(args: argparse.Namespace) -> None:
+    """``--start-only``: start-up alone, on a fresh state and on a configured one that has
+    sampled once, ``--runs`` times each; with ``--compare SRC`` the starts alternate
+    between this tree and SRC (a base tree), minute by minute under the same load."""
+    here = str(Path(__file__).resolve().parent.parent / "src")
+    trees = [here] + ([args.compare] if args.compare else [])
+    figures: dict[tuple[str, str], list[tuple[float, float]]] = {}
+
+    def one(kind: str, tree: str, work: Path) -> None:
+        work.mkdir(exist_ok=True)
+        proc, _, started = start(args.loggers, work, args.loop, tree)
+        stop(proc)
+        load = os.getloadavg()[0]
+        figures.setdefault((kind, tree), []).append((started, STARTS[-1]))
+        print(f"{kind} {tree}: {started:.1f} s ({STARTS[-1]:.1f} s of CPU), load {load:.2f}")
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for number in range(args.runs):
+            for tree in trees:
+                one("fresh", tree, Path(tmp) / f"fresh{number}{len(STARTS)}")
+        work = Path(tmp) / "configured"
+        work.mkdir()
+        proc, ports, _ = start(args.loggers, work, args.loop, trees[-1])
+        try:
+            asyncio.run(configure(ports, args.channels))
+            time.sleep(63 - time.time() % 60)  # every logger samples once
+        finally:
+            stop(proc)
+        for _ in range(args.runs):
+            for tree in trees:
+                one("existing", tree, work)
+    print(f"\n{args.loggers} loggers, start-up to the last listening line: best / median of "
+          f"{args.runs} (s), CPU the server used to start (s)")  # fmt: skip
+    print("| state | tree | start best | start median | CPU best | CPU median |")
+    print("|---|---|---|---|---|---|")
+    for (kind, tree), runs in figures.items():
+        walls, cpus = [w for w, _ in runs], [c for _, c in runs]
+        print(
+            f"| {kind} | {tree} | {min(walls):.1f} | {statistics.median(walls):.1f} | "
+            f"{min(cpus):.1f} | {statistics.median(cpus):.1f} |"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--loggers", type=int, default=10_000)
@@ -305,7 +354,12 @@ def main() -> None:
     parser.add_argument("--loop", choices=("auto", "asyncio", "uvloop"), default="auto")
     parser.add_argument("--quick", action="store_true", help="500 loggers, 100 polled, 2 runs")
     parser.add_argument("--fill", type=int, default=0, help="record rows per logger at start")
+    parser.add_argument("--start-only", action="store_true", help="start-up figures alone")
+    parser.add_argument("--compare", help="with --start-only: a base tree's src to alternate")
     args = parser.parse_args()
+    if args.start_only:
+        start_only(args)
+        return
     if args.quick:
         args.loggers, args.poll, args.runs = 500, 100, 2
     load = os.getloadavg()[0]

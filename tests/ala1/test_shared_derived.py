@@ -96,3 +96,25 @@ def test_shared_values_are_what_the_module_computes_alone(seed: int) -> None:
             for ch in range(1, maximum + 1):
                 assert state.channel_config(ch) == channel_config(Transaction(state, 0.0), ch)
     assert modules[0].engine.state.derived() is modules[1].engine.state.derived()
+
+
+def test_stored_values_are_checked_once_for_alike_modules_and_repaired_in_each() -> None:
+    """Values found usable are so for every module of the same values (issue 24: checked
+    once at a fleet's start); an unusable one is repaired in every module holding it."""
+    from sondalog.backends.store.ala1_nv import NvDatabase
+
+    database = NvDatabase(":memory:")
+    good = {"channel max number": "3", "channel 1 cal mult value": "2.5"}
+    bad = {**good, "channel 2 record change": "x"}
+    for serial, values in (("G1", good), ("G2", good), ("B1", bad), ("B2", bad)):
+        database.write([(serial, (values, 0.0, None, None))])
+    states = [
+        Engine(Identity(Version.V2_10, serial), database.store(serial), 0.0).state
+        for serial in ("G1", "G2", "B1", "B2")
+    ]
+    assert states[0].derived() is states[1].derived()
+    assert states[0].derived().memo.get("usable") is True
+    for state in states[2:]:  # each repaired, its own commit: the store lost the value too
+        assert state.values == good
+        assert database.store(state.identity.serial_number).load()[0] == good
+    database.close()

@@ -1,5 +1,5 @@
-"""Starting a fleet (issue 24): identities read or written in threads, each logger's error
-still named by its entry."""
+"""Starting a fleet (issue 24): identities read in threads and written with two syncs of
+the file system, each logger's error still named by its entry."""
 
 from __future__ import annotations
 
@@ -116,3 +116,18 @@ def test_a_running_fleet_is_out_of_the_collectors_sight_until_it_closes(tmp_path
 
     frozen, after = asyncio.run(run())
     assert frozen > 1000 and after == 0 and gc.get_threshold() == before
+
+
+def test_a_start_cut_short_before_its_identities_were_in_place_starts_them_anew(
+    tmp_path: Path,
+) -> None:
+    """New identities are written beside their place, synced, then renamed (issue 24): a
+    crash between leaves a directory with ``identity.tmp`` only, and that logger is new."""
+    (tmp_path / "loggers" / "S001").mkdir(parents=True, mode=0o755)
+    (tmp_path / "loggers" / "S001" / "identity.tmp").write_text('{"protocol": "1')
+    asyncio.run(_start_and_close(_fleet(3, "1.16"), tmp_path))
+    for n in range(3):
+        directory = tmp_path / "loggers" / f"S{n:03}"
+        assert sorted(p.name for p in directory.iterdir()) == ["identity.json"]
+        assert json.loads((directory / "identity.json").read_text())["protocol"] == "1.16"
+        assert directory.stat().st_mode & 0o777 == 0o700

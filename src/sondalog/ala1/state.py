@@ -10,14 +10,14 @@ store transaction before the answer is released.
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
 from datetime import datetime
+from typing import cast
 
 from sondalog.ala1.hardware import Hardware, NoHardware
 from sondalog.ala1.measure import ChannelConfig, Measurer, channel_config, format_value
-from sondalog.ala1.model import CommandError, Identity, Version
+from sondalog.ala1.model import CommandError, Identity
 from sondalog.ala1.moduleclock import (
     CLOCK_MAX,
     CLOCK_MIN,
@@ -33,6 +33,7 @@ from sondalog.ala1.parser import Plan
 from sondalog.ala1.record import RecordMark, load_record
 from sondalog.ala1.sampling import Outputs, Sampler
 from sondalog.ala1.shared import Derived, derived_for
+from sondalog.ala1.state_shared import NotedIdentity, fixed_defaults, shared_tables
 from sondalog.ala1.tokens import format_stamp
 from sondalog.protocol.tables import TableSet
 
@@ -40,19 +41,6 @@ log = logging.getLogger("sondalog.ala1.state")
 
 #: Keys whose change reconfigures sampling, outputs or the record.
 _LIVE_PREFIXES = ("channel", "device", "output", "global timing", "file", "record type")
-
-
-@functools.cache
-def fixed_defaults(version: Version) -> dict[str, str]:
-    """Factory values that depend on nothing else: shared by every module (issue 24)."""
-    keys = storage_keys(version).items()
-    return {key: i.leaf.default for key, i in keys if isinstance(i.leaf.default, str)}
-
-
-@functools.lru_cache(maxsize=64)
-def _tables(listing: bytes, data: bytes) -> TableSet:
-    """The tables of these file areas, shared by the modules holding the same (issue 24)."""
-    return TableSet(listing, data)
 
 
 class NeedWait(Exception):
@@ -96,7 +84,7 @@ class ModuleState:
         self.counters = [0, 0, 0, 0]
         self.measurer = Measurer(self.hardware)
         files = store.load_files()
-        self.measurer.tables = _tables(files.get("list", b""), files.get("data", b""))
+        self.measurer.tables = shared_tables(files.get("list", b""), files.get("data", b""))
         self.record = load_record(store)  # (a store's older rows loaded when read: issue 24)
         self.outputs = Outputs(self.hardware)
         self.sampler = Sampler(self.measurer, self.outputs)
@@ -125,8 +113,12 @@ class ModuleState:
 
     def _repair(self, host_now: float) -> None:
         """Values in the memory that cannot be used go back to their factory values, each
-        reported; the module never starts mute (issue 9, DESIGN.md point 6)."""
-        view = Transaction(self, host_now)
+        reported; the module never starts mute (issue 9, DESIGN.md point 6). Found usable,
+        they are so for every module of these values unless a check read the serial number:
+        checked once for all (issue 24: a fleet starting)."""
+        if (derived := self.derived()).memo.get("usable"):
+            return
+        view = _SharedView(self, host_now)
         bad: dict[str, str | None] = {}
         for key, value in self.values.items():
             info = self.keys[key]
@@ -142,6 +134,8 @@ class ModuleState:
             for key in bad:
                 del self.values[key]
             self.forget_values()
+        elif not view.personal:
+            derived.memo["usable"] = True
 
     # -- time --------------------------------------------------------------------------------
     def module_seconds(self, host_now: float) -> float:
@@ -441,18 +435,22 @@ class Transaction:
 
 class _SharedView(Transaction):
     """The committed values, noting whether what is computed from them read the identity
-    (then it is the module's own, not shared: :mod:`sondalog.ala1.shared`)."""
+    beyond its version and limits (then it is the module's own, not shared:
+    :mod:`sondalog.ala1.shared`)."""
 
-    __slots__ = ("personal",)
+    __slots__ = ("noted",)
 
-    def __init__(self, state: ModuleState) -> None:
-        self.personal = False
-        super().__init__(state, 0.0)
+    def __init__(self, state: ModuleState, host_now: float = 0.0) -> None:
+        self.noted = NotedIdentity(state.identity)
+        super().__init__(state, host_now)
+
+    @property
+    def personal(self) -> bool:
+        return self.noted.personal
 
     @property
     def identity(self) -> Identity:
-        self.personal = True
-        return self.state.identity
+        return cast(Identity, self.noted)
 
     @identity.setter
     def identity(self, identity: Identity) -> None:

@@ -20,16 +20,15 @@ import gc
 import logging
 import resource
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sondalog.ala1 import Engine, Identity, Version
+from sondalog.ala1 import Engine
+from sondalog.app.fleet_identity import read_identities, write_identities
 from sondalog.app.fleet_site import FleetLogger
-from sondalog.app.logger import IdentityConflict, load_identity, sensor_root
+from sondalog.app.logger import sensor_root
 from sondalog.backends.store.ala1_nv import NvDatabase
-from sondalog.config import ConfigError
 from sondalog.config.address import format_address
 from sondalog.io.clock import Clock
 from sondalog.io.host import DeviceHost
@@ -39,8 +38,6 @@ from sondalog.io.timers import PAUSE, Timers
 from sondalog.protocol.device import Effect, Event
 
 DATABASE_FILE = "fleet.sqlite"
-#: Threads that read or write the loggers' identity files at start.
-IDENTITY_THREADS = 16
 #: Seconds between two checkpoints of the fleet's database, in a thread (issue 24).
 CHECKPOINT_EVERY = 5.0
 #: Seconds between two freezes of what the fleet holds (:meth:`RunningFleet.freeze`).
@@ -181,36 +178,6 @@ def _raise_open_files(needed: int) -> None:
         resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
 
 
-def _identities(loggers: Sequence[FleetLogger], states: Path, path: Path | None) -> list[Identity]:
-    """Every logger's identity, read or (a new logger) written durably; in threads, so that
-    a new fleet's thousands of fsyncs overlap (issue 24: ten times faster than in turn), a
-    few hundred loggers a task (a future a logger cost more than reading its file)."""
-
-    def some(plans: Sequence[FleetLogger]) -> list[Identity | IdentityConflict]:
-        found: list[Identity | IdentityConflict] = []
-        for plan in plans:
-            version = Version(plan.protocol) if plan.protocol else None
-            serial = plan.serial_number
-            try:
-                found.append(load_identity(states / serial, version, serial))
-            except IdentityConflict as exc:
-                found.append(exc)
-                break  # (the first conflict in order is reported)
-        return found
-
-    size = max(1, -(-len(loggers) // (IDENTITY_THREADS * 4)))
-    chunks = [loggers[i : i + size] for i in range(0, len(loggers), size)]
-    with ThreadPoolExecutor(max_workers=IDENTITY_THREADS) as pool:
-        identities: list[Identity] = []
-        for chunk, found in zip(chunks, pool.map(some, chunks), strict=True):
-            for plan, identity in zip(chunk, found, strict=False):
-                if isinstance(identity, IdentityConflict):
-                    pool.shutdown(cancel_futures=True)
-                    raise ConfigError(path, f"{plan.where}.protocol", str(identity)) from identity
-                identities.append(identity)
-        return identities
-
-
 async def start_fleet(
     loggers: Sequence[FleetLogger],
     state: Path,
@@ -237,9 +204,12 @@ async def start_fleet(
     timers = Timers(clock, pause_seconds=PAUSE)
     root = sensor_root()
     try:
-        identities = _identities(loggers, states, path)
+        identities, new = read_identities(loggers, states, path)
+        write_identities(states, new)  # durable before anything the loggers commit
+        serials = [plan.serial_number for plan in loggers]
         engines = []
-        with fleet.database.batch():  # a new fleet's first commits: one transaction
+        # a new fleet's first commits: one transaction; every logger's memory read at once
+        with fleet.database.batch(), fleet.database.preloaded(serials):
             for plan, identity in zip(loggers, identities, strict=True):
                 now = clock.now()
                 hardware = plan.hardware.build(now, root, clock.speed)  # its own, from the plan

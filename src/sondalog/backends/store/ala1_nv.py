@@ -30,37 +30,19 @@ import contextlib
 import logging
 import sqlite3
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 from sondalog.ala1.record import RecordChanges, Sealed
 from sondalog.backends.store import record_pages
+from sondalog.backends.store.nv_schema import SINGLE as SINGLE
+from sondalog.backends.store.nv_schema import prepare_schema
+from sondalog.backends.store.preload import Preloaded
 from sondalog.io.private import connect_private
 
 log = logging.getLogger(__name__)
 
-#: The key of a logger alone in its file (``ala1.sqlite``).
-SINGLE = ""
-
-
-_TABLES = (
-    "CREATE TABLE IF NOT EXISTS param (logger TEXT NOT NULL, key TEXT NOT NULL, "
-    "value TEXT NOT NULL, PRIMARY KEY (logger, key))",
-    "CREATE TABLE IF NOT EXISTS meta (logger TEXT NOT NULL, key TEXT NOT NULL, "
-    "value TEXT NOT NULL, PRIMARY KEY (logger, key))",
-    record_pages.TABLE,
-    "CREATE TABLE IF NOT EXISTS file (logger TEXT NOT NULL, area TEXT NOT NULL, "
-    "data BLOB NOT NULL, PRIMARY KEY (logger, area))",
-)
-
-#: The columns of each table in the single-logger schema before issue 25.
-_OLD_COLUMNS = {
-    "param": "key, value",
-    "meta": "key, value",
-    "record": "seq, row",
-    "file": "area, data",
-}
 
 _UPSERT_META = (
     "INSERT INTO meta (logger, key, value) VALUES (?, ?, ?) "
@@ -82,43 +64,6 @@ def open_database(path: Path | str) -> sqlite3.Connection:
         conn.execute("PRAGMA journal_mode=WAL")
     conn.execute("PRAGMA synchronous=FULL")
     return conn
-
-
-def _prepare_schema(conn: sqlite3.Connection) -> None:
-    """Create the keyed tables, migrating a single-logger file of the old schema and a
-    record of a row a database row into pages, in one transaction (a kill -9 leaves the
-    old file or the migrated one)."""
-    conn.execute("BEGIN IMMEDIATE")
-    try:
-        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
-        old = [
-            table
-            for table in _OLD_COLUMNS
-            if table in tables
-            and "logger" not in {c[1] for c in conn.execute(f"PRAGMA table_info({table})")}
-        ]
-        for table in old:
-            conn.execute(f"ALTER TABLE {table} RENAME TO old_{table}")
-        for statement in _TABLES:
-            conn.execute(statement)
-        for table in old:
-            if table == "record":
-                record_pages.migrate_rows(conn, "old_record", SINGLE)
-            else:
-                columns = _OLD_COLUMNS[table]
-                conn.execute(
-                    f"INSERT INTO {table} (logger, {columns}) SELECT ?, {columns} FROM old_{table}",
-                    (SINGLE,),
-                )
-            conn.execute(f"DROP TABLE old_{table}")
-        if "record" in tables and "record" not in old:  # keyed rows, before issue 23
-            record_pages.migrate_rows(conn, "record")
-            conn.execute("DROP TABLE record")
-        conn.execute(record_pages.VIEW)
-    except BaseException:
-        conn.execute("ROLLBACK")
-        raise
-    conn.execute("COMMIT")
 
 
 class NvDatabase:
@@ -143,7 +88,7 @@ class NvDatabase:
         self.path = path
         self.conn = open_database(path)
         try:
-            _prepare_schema(self.conn)
+            prepare_schema(self.conn)
         except BaseException:
             self.conn.close()
             raise
@@ -161,6 +106,7 @@ class NvDatabase:
         self._pending: set[str] = set()  # loggers with commits in _waiting
         self._writing: set[str] = set()  # loggers in the group the writer thread writes
         self._reader: sqlite3.Connection | None = None  # (:meth:`reader`)
+        self.preload: Preloaded | None = None  # (:meth:`preloaded`)
         self.transactions = 0  # transactions written (for benchmarks and tests)
 
     def store(self, logger: str = SINGLE) -> LoggerNvStore:
@@ -246,6 +192,18 @@ class NvDatabase:
             raise
         self.conn.execute("COMMIT")
         self.transactions += 1
+
+    @contextlib.contextmanager
+    def preloaded(self, loggers: Sequence[str] = ()) -> Iterator[None]:
+        """Inside, the stores answer from every logger's memory read at once (a fleet
+        starting: :mod:`sondalog.backends.store.preload`; ``loggers``: those starting)."""
+        self.write([])
+        self.settle()
+        self.preload = Preloaded(self.conn, loggers)
+        try:
+            yield
+        finally:
+            self.preload = None
 
     def write(self, commits: list[tuple[str, _Commit]]) -> None:
         """Write what waits and ``commits`` in one durable transaction."""
@@ -359,12 +317,18 @@ class LoggerNvStore:
         return self.database.conn
 
     def _meta(self, key: str) -> str | None:
+        if (pre := self.database.preload) is not None and pre.knows_meta(self.logger, key):
+            return pre.meta_value(self.logger, key)
         row = self.conn.execute(
             "SELECT value FROM meta WHERE logger = ? AND key = ?", (self.logger, key)
         ).fetchone()
         return None if row is None else str(row[0])
 
     def load(self) -> tuple[dict[str, str], float | None]:
+        if (pre := self.database.preload) is not None:
+            values = dict(pre.params.get(self.logger, {}))
+            offset = self._meta("clock_offset")
+            return values, (float(offset) if offset is not None else None)
         values = dict(
             self.conn.execute(
                 "SELECT key, value FROM param WHERE logger = ?", (self.logger,)
@@ -381,6 +345,8 @@ class LoggerNvStore:
     def load_record(self) -> tuple[list[str], int, bool, bool]:
         """Rows oldest first, the sequence number of the first, and the wrapped/refused flags."""
         head = self._meta("record_head")
+        if (pre := self.database.preload) is not None and pre.no_pages(self.logger):
+            return [], 0 if head is None else int(head), *self._flags()  # (as load_rows)
         rows, first = record_pages.load_rows(
             self.conn, self.logger, None if head is None else int(head)
         )
@@ -396,7 +362,9 @@ class LoggerNvStore:
         head, size = self._meta("record_head"), self._meta("record_size")
         lazy = None
         if head is not None and size is not None:
-            lazy = record_pages.stored_record(self.conn, self.logger, int(head), size, self)
+            pre = self.database.preload
+            read = None if pre is None else pre.newest_page(self.logger)
+            lazy = record_pages.stored_record(self.conn, self.logger, int(head), size, self, read)
         if lazy is not None:
             return lazy, int(head or 0), *self._flags()
         rows, first, wrapped, refused = self.load_record()
@@ -411,6 +379,8 @@ class LoggerNvStore:
         return record_pages.load_pages(self.database.reader(self.logger), self.logger, first, last)
 
     def load_files(self) -> dict[str, bytes]:
+        if (pre := self.database.preload) is not None:
+            return dict(pre.files.get(self.logger, {}))
         return {
             a: bytes(d)
             for a, d in self.conn.execute(
@@ -421,6 +391,8 @@ class LoggerNvStore:
     def write_file(self, area: str, data: bytes) -> None:
         """Replace a file area (``list``, ``data``) durably (§6.16), after what waits."""
         self.database.write([])  # what waits first
+        if (pre := self.database.preload) is not None:
+            pre.files[self.logger][area] = data
         self.conn.execute(  # autocommit: its own durable transaction
             "INSERT INTO file (logger, area, data) VALUES (?, ?, ?) "
             "ON CONFLICT(logger, area) DO UPDATE SET data = excluded.data",
@@ -435,11 +407,15 @@ class LoggerNvStore:
         seen: float | None = None,
     ) -> None:
         """A command line's changes: durable when this returns (with all that waited)."""
+        if (pre := self.database.preload) is not None:
+            pre.apply(self.logger, changes, clock_offset, record, seen)
         self.database.write([(self.logger, (dict(changes), clock_offset, record, seen))])
 
     def commit_scheduled(self, record: RecordChanges, seen: float) -> None:
         """Rows the module sampled on its own: durable at the end of the turn (group commit
         across a fleet), at once when the database has no group commit."""
+        if (pre := self.database.preload) is not None:
+            pre.apply(self.logger, {}, None, record, seen)
         self.database.defer(self.logger, ({}, None, record, seen))
 
     def close(self) -> None:

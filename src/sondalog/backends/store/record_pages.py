@@ -176,14 +176,24 @@ def load_pages(
     return [(int(page), int(first), json.loads(rows)) for page, first, rows in found]
 
 
+#: A logger's newest page as :func:`newest_pages` read it: (page, first, rows as JSON).
+NewestPage = tuple[int, int, str]
+
+
 def stored_record(
-    conn: sqlite3.Connection, logger: str, head: int, size: str, source: PageSource
+    conn: sqlite3.Connection,
+    logger: str,
+    head: int,
+    size: str,
+    source: PageSource,
+    read: tuple[NewestPage | None] | None = None,
 ) -> Sealed | None:
     """``logger``'s record as its newest page, its older pages in ``source``, if its size
     (``record_size``: ``HEAD,END,CHARS``, written with every commit) agrees with the pages
-    on disk; None: the whole record must be read (:func:`load_rows`)."""
+    on disk; None: the whole record must be read (:func:`load_rows`). ``read``: its newest
+    page as :func:`newest_pages` read it (``(None,)``: it has none); None: read it here."""
     size_head, end, chars = map(int, size.split(","))
-    found = newest(conn, logger, head)
+    found = newest(conn, logger, head, read)
     # (rows dropped before they reached the store: the disk ends before the head)
     if size_head != head or found is None or (found[0] != end and not found[0] < end == head):
         return None
@@ -200,15 +210,24 @@ def stored_record(
     return Sealed((None,) * ((last - low) // PAGE), tuple(tail), head - low, source, chars)
 
 
-def newest(conn: sqlite3.Connection, logger: str, head: int) -> tuple[int, int, list[str]] | None:
+def newest(
+    conn: sqlite3.Connection,
+    logger: str,
+    head: int,
+    read: tuple[NewestPage | None] | None = None,
+) -> tuple[int, int, list[str]] | None:
     """Where ``logger``'s record ends without reading it (issue 24: a fleet starting): the
     sequence number after its newest row, and the rows of the newest page from its first
     (their first's number, the rows); None if a page is missing between the head's and the
-    newest (the whole record is then read, :func:`load_rows`)."""
-    found = conn.execute(
-        "SELECT page, first, rows FROM record_page WHERE logger = ? ORDER BY page DESC LIMIT 1",
-        (logger,),
-    ).fetchone()
+    newest (the whole record is then read, :func:`load_rows`). ``read``: as
+    :func:`stored_record`."""
+    if read is None:
+        found = conn.execute(
+            "SELECT page, first, rows FROM record_page WHERE logger = ? ORDER BY page DESC LIMIT 1",
+            (logger,),
+        ).fetchone()
+    else:
+        (found,) = read
     if found is None:
         return head, head, []
     page, first, rows = int(found[0]), int(found[1]), json.loads(found[2])
@@ -220,6 +239,19 @@ def newest(conn: sqlite3.Connection, logger: str, head: int) -> tuple[int, int, 
         if count != page - low + 1 or first != page * PAGE_ROWS:
             return None
     return first + len(rows), first, rows
+
+
+def newest_pages(conn: sqlite3.Connection) -> dict[str, NewestPage]:
+    """Every logger's newest page in one query (a fleet starting, issue 24): each found
+    through the primary key from the logger's ``record_head``, as :func:`newest` finds it."""
+    return {
+        str(logger): (int(page), int(first), str(rows))
+        for logger, page, first, rows in conn.execute(
+            "SELECT p.logger, p.page, p.first, p.rows FROM meta AS m JOIN record_page AS p "
+            "ON p.logger = m.logger AND p.page = (SELECT max(page) FROM record_page AS q "
+            "WHERE q.logger = m.logger) WHERE m.key = 'record_head'"
+        )
+    }
 
 
 def write_record(

@@ -131,9 +131,11 @@ def channels(db: Db, logger: str) -> list[Channel]:
             out[int(ch)] = Channel(int(ch), name, unit, None if typ is None else int(typ))
             if form:
                 formats[int(ch)] = format_decimals(str(form))
+    d = db.dialect
     recent = db.rows(
-        f"SELECT channel, {db.dialect.time('time')}, value, name, unit FROM readings "
-        "WHERE logger = ? ORDER BY time DESC, counter DESC LIMIT ?",
+        f"SELECT channel, {d.time('time')}, value, name, unit FROM "
+        f"{d.readings('logger = ?', 'channel, time, counter, value, name, unit')} "
+        "ORDER BY time DESC, counter DESC LIMIT ?",
         (logger, RECENT_ROWS),
     )
     places: dict[int, int] = {}
@@ -177,7 +179,7 @@ def decimals(value: float) -> int:
 
 def last_time(db: Db, logger: str) -> str | None:
     row = db.first(
-        f"SELECT {db.dialect.time('time')} FROM readings WHERE logger = ? "
+        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
         "ORDER BY time DESC LIMIT 1",
         (logger,),
     )
@@ -186,7 +188,8 @@ def last_time(db: Db, logger: str) -> str | None:
 
 def first_time(db: Db, logger: str) -> str | None:
     row = db.first(
-        f"SELECT {db.dialect.time('time')} FROM readings WHERE logger = ? ORDER BY time LIMIT 1",
+        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
+        "ORDER BY time LIMIT 1",
         (logger,),
     )
     return None if row is None else str(row[0])
@@ -198,11 +201,12 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
     Returns the counts and whether the cap was reached (then the range holds more rows:
     no need to count a year of them to know it must be downsampled).
     """
+    rows = db.dialect.readings("logger = ? AND time >= ? AND time <= ?", "channel")
     got = {
         int(ch): int(n)
         for ch, n in db.rows(
-            "SELECT channel, count(*) FROM (SELECT channel FROM readings WHERE logger = ? "
-            "AND time >= ? AND time <= ? AND channel > 0 LIMIT ?) r GROUP BY channel",
+            f"SELECT channel, count(*) FROM (SELECT channel FROM {rows} WHERE channel > 0 "
+            "LIMIT ?) r GROUP BY channel",
             (logger, lo, hi, cap),
         )
     }
@@ -211,9 +215,11 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
 
 def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` in ``[lo, hi]`` in time order."""
+    d = db.dialect
+    rows = d.readings("logger = ? AND time >= ? AND time <= ?", "time, counter, channel, value")
     yield from db.rows(
-        f"SELECT {db.dialect.time('time')}, counter, channel, value FROM readings "
-        "WHERE logger = ? AND time >= ? AND time <= ? AND channel > 0 ORDER BY time, counter",
+        f"SELECT {d.time('time')}, counter, channel, value FROM {rows} "
+        "WHERE channel > 0 ORDER BY time, counter",
         (logger, lo, hi),
     )
 
@@ -244,9 +250,11 @@ def bucketed(
 
 def newer(db: Db, logger: str, since: str, limit: int) -> list[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` at or after ``since``, oldest first."""
+    d = db.dialect
+    rows = d.readings("logger = ? AND time >= ?", "time, counter, channel, value")
     return db.rows(
-        f"SELECT {db.dialect.time('time')}, counter, channel, value FROM readings "
-        "WHERE logger = ? AND time >= ? AND channel > 0 ORDER BY time, counter LIMIT ?",
+        f"SELECT {d.time('time')}, counter, channel, value FROM {rows} "
+        "WHERE channel > 0 ORDER BY time, counter LIMIT ?",
         (logger, since, limit),
     )
 

@@ -10,11 +10,11 @@ logger is done), all in one short transaction: the collector's writer waits at m
 one day of one logger (about 17,000 rows at 12 channels a minute, tens of milliseconds).
 On a server a step takes as many whole days as hold :data:`STEP_READINGS` readings (one
 day at least) and makes their blocks of every size in one statement from ``record_rows``
-(:data:`~sondalog.collect.blocks_sql.PG_ROWS`). The newest days come first (the ones a plot shows first); the dashboard reads the rows
-below ``below`` meanwhile, so it never shows an incomplete block. :func:`fill_file` and
-:func:`fill_server` run the steps until nothing is left (the collector's dashboard wiring,
-:mod:`sondalog.app.collector`); several collectors on one server share the work
-(``FOR UPDATE SKIP LOCKED``).
+(:data:`~sondalog.collect.blocks_sql.PG_ROWS`). The newest days come first (the ones a plot
+shows first); the dashboard reads the rows below ``below`` meanwhile, so it never shows an
+incomplete block. :func:`fill_file` and :func:`fill_server` run the steps until nothing is
+left (the collector's dashboard wiring, :mod:`sondalog.app.collector`); several collectors
+on one server share the work (``FOR UPDATE SKIP LOCKED``).
 """
 
 from __future__ import annotations

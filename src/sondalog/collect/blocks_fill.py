@@ -88,6 +88,9 @@ def fill_step_sqlite(conn: sqlite3.Connection) -> bool:
 #: A step on a server fills whole days of one logger's rows, as many as hold at most this
 #: many readings (at least one day): about 3 days of 12 channels a minute, 40 of one.
 STEP_READINGS = 60_000
+#: The memory a step's grouping may take on the server (its default, 4 MB, made the server
+#: sort a step's 60,000 readings on disk instead of hashing their blocks).
+WORK_MEM = "32MB"
 #: Where the newest days of ``logger`` below ``below`` with at most ``%(n)s`` readings begin:
 #: the time of the row past them (none: every row below fits). By the key, newest first.
 _PG_PAST = (
@@ -105,8 +108,10 @@ def fill_step_postgres(conn: Any) -> bool:
     with conn.transaction(), conn.cursor() as cur:
         if cur.execute("SELECT to_regclass('record_rows')").fetchone()[0] is None:
             return False  # no sink of schema version 2 has written yet
-        # short statements over one key range each: compiling them (JIT) took seconds
+        # short statements over one key range each: compiling them (JIT) took seconds; and
+        # the step's blocks grouped in memory (a hash), not sorted on disk
         cur.execute("SET LOCAL jit = off")
+        cur.execute(f"SET LOCAL work_mem = '{WORK_MEM}'")
         ensure_postgres_sync(cur)
         row = cur.execute(
             f"SELECT logger, below FROM {TODO} ORDER BY below DESC LIMIT 1 FOR UPDATE SKIP LOCKED"

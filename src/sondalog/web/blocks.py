@@ -272,23 +272,22 @@ def _extreme(which: str) -> str:
     """PostgreSQL: a group's smallest (``min``) or largest ``v`` and its time ``t`` as an
     array ``[v, t]`` (``[v, -t]`` for the largest) of the reading that has it: arrays
     compare element by element, so on a tie the earliest time; NULL values left out."""
-    t = "r.t" if which == "min" else "-r.t"
-    return f"{which}(ARRAY[u.v, {t}]) FILTER (WHERE u.v IS NOT NULL)"
+    t = "t" if which == "min" else "-t"
+    return f"{which}(ARRAY[v, {t}]) FILTER (WHERE v IS NOT NULL)"
 
 
 #: PostgreSQL: ``k, channel, vmin, tmin, vmax, tmax`` per bucket ``k`` and channel of one
-#: logger's record rows in ``[lo, hi)`` (``{rows}``: ``k``, ``t`` and the arrays ``channel``
-#: and ``value`` of each; ``{each}``: its readings, ``u(channel, v)``). The rule of
-#: :func:`_pick` by aggregates the server computes in one pass (a hash of the groups): the
-#: pair of the extreme's value and time; every value NULL: NULL and the latest time. The
-#: bucket and the time are computed once a record row (``OFFSET 0`` keeps them there), not
-#: once a reading.
+#: logger's record rows in ``[lo, hi)`` (``{table}``, ``{k}`` a row's bucket, ``{t}`` its
+#: time; ``{each}``: its readings, ``channel, v``). The rule of :func:`_pick` by aggregates
+#: the server computes in one pass (a hash of the groups): the pair of the extreme's value
+#: and time; every value NULL: NULL and the latest time. The bucket and the time are
+#: computed once a record row (``OFFSET 0`` keeps them there), not once a reading.
 _BUCKETS_PG = (
-    f"SELECT r.k, u.channel, ({_extreme('min')})[1], coalesce(({_extreme('min')})[2]::bigint, "
-    f"max(r.t)), ({_extreme('max')})[1], coalesce(-({_extreme('max')})[2]::bigint, max(r.t)) "
-    "FROM (SELECT {k} AS k, {t} AS t, channel, value FROM {table} WHERE logger = ? "
-    "AND time >= ? AND time < ? OFFSET 0) r CROSS JOIN LATERAL {each} AS u(channel, v) "
-    "WHERE u.channel > 0 GROUP BY r.k, u.channel ORDER BY 2, 1"
+    f"SELECT k, channel, ({_extreme('min')})[1], coalesce(({_extreme('min')})[2]::bigint, "
+    f"max(t)), ({_extreme('max')})[1], coalesce(-({_extreme('max')})[2]::bigint, max(t)) "
+    "FROM (SELECT k, t, {each} FROM (SELECT {k} AS k, {t} AS t, channel, value FROM {table} "
+    "WHERE logger = ? AND time >= ? AND time < ? OFFSET 0) r) u "
+    "WHERE channel > 0 GROUP BY k, channel ORDER BY 2, 1"
 )
 
 
@@ -318,7 +317,7 @@ def _by_rows_pg(db: Db, logger: str, p: Plan) -> list[Row]:
         k=k,
         t=d.epoch("time"),
         table=d.keys,
-        each="unnest(r.channel, r.value)" if v2 else "(VALUES (r.channel, r.value))",
+        each="unnest(channel) AS channel, unnest(value) AS v" if v2 else "channel, value AS v",
     )
     texts = p.texts()
     return list(db.conn.execute(d.sql(sql), [*args, logger, texts[0], texts[-1]]).fetchall())

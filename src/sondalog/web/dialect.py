@@ -19,7 +19,7 @@ differ:
 - the readings of a logger's time range (:meth:`ReadDialect.readings`): on PostgreSQL of
   version 2 ``record_rows`` with only the arrays a query reads unnested (the view subscripts
   each array for every reading: measured 3.5 times the time of ``unnest`` on a count of a
-  year's first 13,000 readings).
+  year's first 13,000 readings, and 8 times with ``unnest`` in the select list).
 
 (A bucket's extreme with the time of a reading that has it is spelt in :mod:`.blocks`:
 SQLite's bare column beside a lone ``min``/``max``, PostgreSQL's ``DISTINCT ON``.)
@@ -63,12 +63,14 @@ class ReadDialect:
         """``column`` (``utc``) read back as ``YYYY-MM-DDTHH:MM:SSZ`` (NULL stays NULL)."""
         return _TEXT_UTC.format(column) if self.postgres else column
 
-    def readings(self, where: str, columns: str) -> str:
+    def readings(self, where: str, columns: str, tail: str = "") -> str:
         """A ``FROM`` item named ``readings`` of the readings whose record rows meet
         ``where`` (on ``logger``, ``time``, ``counter`` only), with ``columns`` (comma
-        separated, of ``readings``'); a row's readings in channel order. Conditions on the
-        readings themselves (``channel > 0``) go outside, on the item's columns."""
-        return _readings(self, where, columns)
+        separated, of ``readings``'); a row's readings in channel order. ``tail`` (``ORDER
+        BY`` the key's columns, ``LIMIT``) is applied inside, to the readings; conditions on
+        the readings themselves (``channel > 0``) go outside, on the item's columns, and so
+        does the order wanted of the result."""
+        return _readings(self, where, columns, tail)
 
     def epoch(self, column: str) -> str:
         """Whole seconds since 1970 of ``column`` (a ``time``) read as UTC."""
@@ -89,18 +91,14 @@ _ARRAYS = ("channel", "type", "value", "text", "name", "unit")
 
 
 @functools.cache
-def _readings(dialect: ReadDialect, where: str, columns: str) -> str:
+def _readings(dialect: ReadDialect, where: str, columns: str, tail: str) -> str:
     names = [c.strip() for c in columns.split(",")]
     if dialect.keys == "readings":  # a table of one row a reading
-        return f"(SELECT {', '.join(names)} FROM readings WHERE {where}) readings"
-    table = dialect.keys  # no alias: ``where``'s columns are only the table's
-    arrays = [c for c in names if c in _ARRAYS] or ["channel"]
-    cols = ", ".join(f"u.{c}" if c in _ARRAYS else f"{table}.{c}" for c in names)
-    unnested = ", ".join(f"{table}.{c}" for c in arrays)
-    return (
-        f"(SELECT {cols} FROM {table} CROSS JOIN LATERAL unnest({unnested}) "
-        f"AS u({', '.join(arrays)}) WHERE {where}) readings"
-    )
+        return f"(SELECT {', '.join(names)} FROM readings WHERE {where} {tail}) readings"
+    # set-returning functions in the select list: in step, one row each a reading, without
+    # the table of results a function in FROM is put in (measured 2.5 times as fast)
+    cols = ", ".join(f"unnest({c}) AS {c}" if c in _ARRAYS else c for c in names)
+    return f"(SELECT {cols} FROM {dialect.keys} WHERE {where} {tail}) readings"
 
 
 SQLITE = ReadDialect("sqlite", "?")

@@ -132,10 +132,11 @@ def channels(db: Db, logger: str) -> list[Channel]:
             if form:
                 formats[int(ch)] = format_decimals(str(form))
     d = db.dialect
+    newest = "ORDER BY time DESC, counter DESC"
+    cols = "channel, time, counter, value, name, unit"
+    rows = d.readings("logger = ?", cols, f"{newest} LIMIT ?")
     recent = db.rows(
-        f"SELECT channel, {d.time('time')}, value, name, unit FROM "
-        f"{d.readings('logger = ?', 'channel, time, counter, value, name, unit')} "
-        "ORDER BY time DESC, counter DESC LIMIT ?",
+        f"SELECT channel, {d.time('time')}, value, name, unit FROM {rows} {newest}",
         (logger, RECENT_ROWS),
     )
     places: dict[int, int] = {}
@@ -216,10 +217,10 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
 def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` in ``[lo, hi]`` in time order."""
     d = db.dialect
-    rows = d.readings("logger = ? AND time >= ? AND time <= ?", "time, counter, channel, value")
+    key, cols = "ORDER BY time, counter", "time, counter, channel, value"
+    rows = d.readings("logger = ? AND time >= ? AND time <= ?", cols, key)
     yield from db.rows(
-        f"SELECT {d.time('time')}, counter, channel, value FROM {rows} "
-        "WHERE channel > 0 ORDER BY time, counter",
+        f"SELECT {d.time('time')}, counter, channel, value FROM {rows} WHERE channel > 0 {key}",
         (logger, lo, hi),
     )
 
@@ -251,10 +252,11 @@ def bucketed(
 def newer(db: Db, logger: str, since: str, limit: int) -> list[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` at or after ``since``, oldest first."""
     d = db.dialect
-    rows = d.readings("logger = ? AND time >= ?", "time, counter, channel, value")
+    key = "ORDER BY time, counter"
+    rows = d.readings("logger = ? AND time >= ?", "time, counter, channel, value", key)
     return db.rows(
         f"SELECT {d.time('time')}, counter, channel, value FROM {rows} "
-        "WHERE channel > 0 ORDER BY time, counter LIMIT ?",
+        f"WHERE channel > 0 {key} LIMIT ?",
         (logger, since, limit),
     )
 

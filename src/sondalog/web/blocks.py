@@ -104,8 +104,9 @@ def _span(db: Db, sizes: Sequence[int], lo: int, hi: int) -> tuple[list[str], li
     at = db.dialect.epoch("time")
     for size, p, q in pieces(lo, hi, sizes):
         if size == 0:
-            rows = db.dialect.readings("logger = ? AND time >= ? AND time < ?", _RAW)
-            sql = f"SELECT channel, value AS v, {at} AS t FROM {rows} WHERE channel > 0"
+            sql = db.dialect.query(
+                f"channel, value AS v, {at} AS t", _RAW, "logger = ? AND time >= ? AND time < ?"
+            )
             args += [from_epoch(p), from_epoch(q)]
             for which in arms:
                 arms[which].append(sql)

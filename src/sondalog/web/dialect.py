@@ -72,6 +72,29 @@ class ReadDialect:
         does the order wanted of the result."""
         return _readings(self, where, columns, tail)
 
+    def query(
+        self,
+        select: str,
+        columns: str,
+        where: str,
+        *,
+        order: str = "",
+        limit: bool = False,
+        positive: bool = True,
+    ) -> str:
+        """``SELECT select`` over the readings whose record rows meet ``where`` (on
+        ``logger``, ``time``, ``counter``), with ``channel > 0`` unless not ``positive``,
+        in ``order`` (of the key), at most ``?`` of them with ``limit``; ``columns`` are
+        the readings' columns ``select`` uses. On a table of one row a reading (SQLite, a
+        version-1 server) the plain query: SQLite compiles a subquery each time it is
+        given one (a week's plot from the rows gives 1,000 texts)."""
+        cut = " LIMIT ?" if limit else ""
+        if self.keys == "readings":
+            cond = " AND channel > 0" if positive else ""
+            return f"SELECT {select} FROM readings WHERE {where}{cond} {order}{cut}"
+        cond = " WHERE channel > 0" if positive else ""
+        return f"SELECT {select} FROM {self.readings(where, columns, order)}{cond} {order}{cut}"
+
     def epoch(self, column: str) -> str:
         """Whole seconds since 1970 of ``column`` (a ``time``) read as UTC."""
         if self.postgres:

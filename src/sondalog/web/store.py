@@ -132,11 +132,15 @@ def channels(db: Db, logger: str) -> list[Channel]:
             if form:
                 formats[int(ch)] = format_decimals(str(form))
     d = db.dialect
-    newest = "ORDER BY time DESC, counter DESC"
-    cols = "channel, time, counter, value, name, unit"
-    rows = d.readings("logger = ?", cols, f"{newest} LIMIT ?")
     recent = db.rows(
-        f"SELECT channel, {d.time('time')}, value, name, unit FROM {rows} {newest}",
+        d.query(
+            f"channel, {d.time('time')}, value, name, unit",
+            "channel, time, counter, value, name, unit",
+            "logger = ?",
+            order="ORDER BY time DESC, counter DESC",
+            limit=True,
+            positive=False,
+        ),
         (logger, RECENT_ROWS),
     )
     places: dict[int, int] = {}
@@ -202,13 +206,12 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
     Returns the counts and whether the cap was reached (then the range holds more rows:
     no need to count a year of them to know it must be downsampled).
     """
-    rows = db.dialect.readings("logger = ? AND time >= ? AND time <= ?", "channel")
+    where = "logger = ? AND time >= ? AND time <= ?"
+    some = db.dialect.query("channel", "channel", where, limit=True)
     got = {
         int(ch): int(n)
         for ch, n in db.rows(
-            f"SELECT channel, count(*) FROM (SELECT channel FROM {rows} WHERE channel > 0 "
-            "LIMIT ?) r GROUP BY channel",
-            (logger, lo, hi, cap),
+            f"SELECT channel, count(*) FROM ({some}) r GROUP BY channel", (logger, lo, hi, cap)
         )
     }
     return got, sum(got.values()) >= cap
@@ -217,10 +220,13 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
 def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` in ``[lo, hi]`` in time order."""
     d = db.dialect
-    key, cols = "ORDER BY time, counter", "time, counter, channel, value"
-    rows = d.readings("logger = ? AND time >= ? AND time <= ?", cols, key)
     yield from db.rows(
-        f"SELECT {d.time('time')}, counter, channel, value FROM {rows} WHERE channel > 0 {key}",
+        d.query(
+            f"{d.time('time')}, counter, channel, value",
+            "time, counter, channel, value",
+            "logger = ? AND time >= ? AND time <= ?",
+            order="ORDER BY time, counter",
+        ),
         (logger, lo, hi),
     )
 
@@ -252,11 +258,14 @@ def bucketed(
 def newer(db: Db, logger: str, since: str, limit: int) -> list[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` at or after ``since``, oldest first."""
     d = db.dialect
-    key = "ORDER BY time, counter"
-    rows = d.readings("logger = ? AND time >= ?", "time, counter, channel, value", key)
     return db.rows(
-        f"SELECT {d.time('time')}, counter, channel, value FROM {rows} "
-        f"WHERE channel > 0 {key} LIMIT ?",
+        d.query(
+            f"{d.time('time')}, counter, channel, value",
+            "time, counter, channel, value",
+            "logger = ? AND time >= ?",
+            order="ORDER BY time, counter",
+            limit=True,
+        ),
         (logger, since, limit),
     )
 

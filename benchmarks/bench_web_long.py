@@ -12,7 +12,8 @@ channel), the plot request of the whole year, a month and a week
 - each store with its per-block extremes (``readings_extremes``, kept by the sinks per batch,
   :mod:`sondalog.collect.blocks_sql`) and, for the year, without them (the rows' path), with
   the time the background filler (:mod:`sondalog.collect.blocks_fill`) took over the rows
-  stored without them, and its longest step (how long a writer waits for it at most).
+  stored without them, and its longest step (how long a writer waits for it at most; on
+  PostgreSQL a step takes whole days up to ``STEP_READINGS`` readings).
 
 Run: ``.venv/bin/python benchmarks/bench_web_long.py [--sqlite FILE] [--dsn DSN] [--runs N]``.
 An existing ``--sqlite`` file with readings is reused; without ``--dsn`` a throwaway
@@ -190,7 +191,7 @@ def fill(label: str, step: Callable[[], bool]) -> None:
         steps += 1
     if steps:
         print(
-            f"{label}: {steps} days of blocks filled from the rows in "
+            f"{label}: {steps} steps (whole days of a logger each) of blocks filled from rows in "
             f"{time.perf_counter() - t0:.1f} s, longest step {worst * 1e3:.0f} ms",
             flush=True,
         )

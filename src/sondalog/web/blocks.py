@@ -34,6 +34,7 @@ from .times import from_epoch, to_epoch
 __all__ = ["SIZES", "Plan", "pieces", "plan", "rows"]
 
 Row = tuple[int, int, float | None, int, float | None, int]
+_RAW = "channel, time, value"
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,8 +104,9 @@ def _span(db: Db, sizes: Sequence[int], lo: int, hi: int) -> tuple[list[str], li
     at = db.dialect.epoch("time")
     for size, p, q in pieces(lo, hi, sizes):
         if size == 0:
-            sql = f"SELECT channel, value AS v, {at} AS t FROM readings WHERE logger = ? "
-            sql += "AND time >= ? AND time < ? AND channel > 0"
+            sql = db.dialect.query(
+                f"channel, value AS v, {at} AS t", _RAW, "logger = ? AND time >= ? AND time < ?"
+            )
             args += [from_epoch(p), from_epoch(q)]
             for which in arms:
                 arms[which].append(sql)
@@ -166,9 +168,9 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
     from the blocks where they are complete (``use_blocks`` None) or when told, else from
     the rows (the same answer).
 
-    From the blocks: one statement reads the whole blocks of the range in time order (a
-    year: 1,460 a channel), and each bucket's are merged here as they come (measured half
-    the CPU of grouping them in SQL and reading the groups); one more reads the two ends."""
+    From the blocks: one statement reads the whole blocks of the range (a year: 1,460 a
+    channel), and each bucket's are merged here in time order (measured half the CPU of
+    grouping them in SQL and reading the groups); one more reads the two ends."""
     blocks = usable(db, logger, p.edges[0]) if use_blocks is None else use_blocks
     if not (blocks and p.size):
         return _by_rows(db, logger, p)
@@ -178,9 +180,10 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
         f"SELECT channel, start, vmin, tmin, vmax, tmax FROM {TABLE} WHERE logger = ? "
         "AND size = ? AND start >= ? AND start < ? ORDER BY start, channel"
     )
-    for ch, start, vmin, tmin, vmax, tmax in db.conn.execute(
-        db.dialect.sql(sql), (logger, size, a, p.b)
-    ):
+    got = db.conn.execute(db.dialect.sql(sql), (logger, size, a, p.b))
+    if db.dialect.postgres:
+        got = _chunks(got)
+    for ch, start, vmin, tmin, vmax, tmax in got:
         k = (start - a) // size * m // n
         mine = per.get(ch)
         if mine is None:
@@ -205,7 +208,7 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
     if ends:
         rest = iter(args)  # every '?' is the logger's (``logger = ?``) or the next of args
         params = [logger if mine else next(rest) for mine in _markers(ends)]
-        for row in db.conn.execute(db.dialect.sql(ends), params):
+        for row in db.conn.execute(db.dialect.sql(ends), params).fetchall():
             k, ch = row[0], row[1]
             mine = per.setdefault(ch, [])
             at = 0 if k == 0 else len(mine) - 1  # the first or the last bucket
@@ -214,6 +217,15 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
             else:
                 mine.insert(0 if k == 0 else len(mine), list(row))
     return [tuple(r) for ch in sorted(per) for r in per[ch]]
+
+
+def _chunks(cursor: Any, size: int = 2000) -> Iterator[Any]:
+    """The rows of a psycopg ``cursor``, converted a chunk at a time: iterating the cursor
+    runs Python code a row (most of a year's CPU in a profile), and fetching all 17,520
+    rows at once kept them alive together (the garbage collector's passes over them cost
+    as much again in the server's process)."""
+    while chunk := cursor.fetchmany(size):
+        yield from chunk
 
 
 def _markers(sql: str) -> Iterator[bool]:
@@ -246,25 +258,70 @@ def _better(
 
 
 def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:
-    """The buckets of ``p`` from the rows: one key range per bucket (on PostgreSQL all in
-    one statement, each bucket's run per row of ``unnest``ed parameters)."""
-    pg = db.dialect.postgres
+    """The buckets of ``p`` from the rows: on PostgreSQL one statement over the range's
+    rows (:func:`_by_rows_pg`); on SQLite one key range per bucket."""
+    if db.dialect.postgres:
+        return _by_rows_pg(db, logger, p)
     (smin, smax), _ = _span(db, (), 0, 1)
     texts = p.texts()
-    if pg:
-        one = _pair(pg, smin, smax, "channel", "bk.i")
-        inner = one.split("?")
-        sql = inner[0] + "".join(f"bk.c{j % 3}{rest}" for j, rest in enumerate(inner[1:]))
-        query = (
-            "SELECT e.* FROM unnest(%s::int[], %s::text[], %s::timestamp[], "
-            f"%s::timestamp[]) AS bk(i, c0, c1, c2) CROSS JOIN LATERAL ({sql}) e ORDER BY 2, 1"
-        )
-        n = len(texts) - 1
-        params: list[Any] = [list(range(n)), [logger] * n, texts[:-1], texts[1:]]
-        return list(db.conn.execute(query, params))
     out: list[Row] = []
     for i in range(len(texts) - 1):
-        sql = db.dialect.sql(_pair(pg, smin, smax, "channel", str(i)))
+        sql = db.dialect.sql(_pair(False, smin, smax, "channel", str(i)))
         out += db.conn.execute(sql, [logger, texts[i], texts[i + 1]] * 2)
     out.sort(key=lambda r: (r[1], r[0]))
     return out
+
+
+def _extreme(which: str) -> str:
+    """PostgreSQL: a group's smallest (``min``) or largest ``v`` and its time ``t`` as an
+    array ``[v, t]`` (``[v, -t]`` for the largest) of the reading that has it: arrays
+    compare element by element, so on a tie the earliest time; NULL values left out."""
+    t = "t" if which == "min" else "-t"
+    return f"{which}(ARRAY[v, {t}]) FILTER (WHERE v IS NOT NULL)"
+
+
+#: PostgreSQL: ``k, channel, vmin, tmin, vmax, tmax`` per bucket ``k`` and channel of one
+#: logger's record rows in ``[lo, hi)`` (``{table}``, ``{k}`` a row's bucket, ``{t}`` its
+#: time; ``{each}``: its readings, ``channel, v``). The rule of :func:`_pick` by aggregates
+#: the server computes in one pass (a hash of the groups): the pair of the extreme's value
+#: and time; every value NULL: NULL and the latest time. The bucket and the time are
+#: computed once a record row (``OFFSET 0`` keeps them there), not once a reading.
+_BUCKETS_PG = (
+    f"SELECT k, channel, ({_extreme('min')})[1], coalesce(({_extreme('min')})[2]::bigint, "
+    f"max(t)), ({_extreme('max')})[1], coalesce(-({_extreme('max')})[2]::bigint, max(t)) "
+    "FROM (SELECT k, t, {each} FROM (SELECT {k} AS k, {t} AS t, channel, value FROM {table} "
+    "WHERE logger = ? AND time >= ? AND time < ? OFFSET 0) r) u "
+    "WHERE channel > 0 GROUP BY k, channel ORDER BY 2, 1"
+)
+
+
+def _bucket_of(p: Plan) -> tuple[str, list[object]]:
+    """PostgreSQL: the bucket of ``p`` of a row (its whole second ``s``, as the ``time``
+    comparisons of the rows' path count it) and the expression's parameters: equal buckets
+    of ``p.width`` from ``edges[0]``, or blocks ``[a, b)`` ``n / m`` to a bucket and the
+    ends to the first and last (as :func:`rows` puts the blocks)."""
+    s = "floor(extract(epoch FROM time))::bigint"
+    if not p.size:
+        return f"({s} - ?::bigint) / ?::bigint", [p.edges[0], p.width]
+    return (
+        f"CASE WHEN {s} < ?::bigint THEN 0 WHEN {s} >= ?::bigint THEN ?::bigint "
+        f"ELSE ({s} - ?::bigint) / ?::bigint * ?::bigint / ?::bigint END",
+        [p.a, p.b, p.m - 1, p.a, p.size, p.m, p.n],
+    )
+
+
+def _by_rows_pg(db: Db, logger: str, p: Plan) -> list[Row]:
+    """The buckets of ``p`` from the rows in one statement: each reading of the range is
+    read once (a week of 12 channels: 121,000) with its record row's bucket (one range
+    query a bucket, each sorting its readings, took about twice as long)."""
+    d = db.dialect
+    k, args = _bucket_of(p)
+    v2 = d.keys != "readings"
+    sql = _BUCKETS_PG.format(
+        k=k,
+        t=d.epoch("time"),
+        table=d.keys,
+        each="unnest(channel) AS channel, unnest(value) AS v" if v2 else "channel, value AS v",
+    )
+    texts = p.texts()
+    return list(db.conn.execute(d.sql(sql), [*args, logger, texts[0], texts[-1]]).fetchall())

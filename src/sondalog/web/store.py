@@ -131,9 +131,16 @@ def channels(db: Db, logger: str) -> list[Channel]:
             out[int(ch)] = Channel(int(ch), name, unit, None if typ is None else int(typ))
             if form:
                 formats[int(ch)] = format_decimals(str(form))
+    d = db.dialect
     recent = db.rows(
-        f"SELECT channel, {db.dialect.time('time')}, value, name, unit FROM readings "
-        "WHERE logger = ? ORDER BY time DESC, counter DESC LIMIT ?",
+        d.query(
+            f"channel, {d.time('time')}, value, name, unit",
+            "channel, time, counter, value, name, unit",
+            "logger = ?",
+            order="ORDER BY time DESC, counter DESC",
+            limit=True,
+            positive=False,
+        ),
         (logger, RECENT_ROWS),
     )
     places: dict[int, int] = {}
@@ -177,7 +184,7 @@ def decimals(value: float) -> int:
 
 def last_time(db: Db, logger: str) -> str | None:
     row = db.first(
-        f"SELECT {db.dialect.time('time')} FROM readings WHERE logger = ? "
+        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
         "ORDER BY time DESC LIMIT 1",
         (logger,),
     )
@@ -186,7 +193,8 @@ def last_time(db: Db, logger: str) -> str | None:
 
 def first_time(db: Db, logger: str) -> str | None:
     row = db.first(
-        f"SELECT {db.dialect.time('time')} FROM readings WHERE logger = ? ORDER BY time LIMIT 1",
+        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
+        "ORDER BY time LIMIT 1",
         (logger,),
     )
     return None if row is None else str(row[0])
@@ -198,12 +206,12 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
     Returns the counts and whether the cap was reached (then the range holds more rows:
     no need to count a year of them to know it must be downsampled).
     """
+    where = "logger = ? AND time >= ? AND time <= ?"
+    some = db.dialect.query("channel", "channel", where, limit=True)
     got = {
         int(ch): int(n)
         for ch, n in db.rows(
-            "SELECT channel, count(*) FROM (SELECT channel FROM readings WHERE logger = ? "
-            "AND time >= ? AND time <= ? AND channel > 0 LIMIT ?) r GROUP BY channel",
-            (logger, lo, hi, cap),
+            f"SELECT channel, count(*) FROM ({some}) r GROUP BY channel", (logger, lo, hi, cap)
         )
     }
     return got, sum(got.values()) >= cap
@@ -211,9 +219,14 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
 
 def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` in ``[lo, hi]`` in time order."""
+    d = db.dialect
     yield from db.rows(
-        f"SELECT {db.dialect.time('time')}, counter, channel, value FROM readings "
-        "WHERE logger = ? AND time >= ? AND time <= ? AND channel > 0 ORDER BY time, counter",
+        d.query(
+            f"{d.time('time')}, counter, channel, value",
+            "time, counter, channel, value",
+            "logger = ? AND time >= ? AND time <= ?",
+            order="ORDER BY time, counter",
+        ),
         (logger, lo, hi),
     )
 
@@ -244,9 +257,15 @@ def bucketed(
 
 def newer(db: Db, logger: str, since: str, limit: int) -> list[tuple[str, int, int, float | None]]:
     """``(time, counter, channel, value)`` at or after ``since``, oldest first."""
+    d = db.dialect
     return db.rows(
-        f"SELECT {db.dialect.time('time')}, counter, channel, value FROM readings "
-        "WHERE logger = ? AND time >= ? AND channel > 0 ORDER BY time, counter LIMIT ?",
+        d.query(
+            f"{d.time('time')}, counter, channel, value",
+            "time, counter, channel, value",
+            "logger = ? AND time >= ?",
+            order="ORDER BY time, counter",
+            limit=True,
+        ),
         (logger, since, limit),
     )
 

@@ -24,6 +24,7 @@ from sondalog.client.ala1_codec import (
     parse_answer,
     strip_sum,
 )
+from sondalog.client.deadlines import deadlines
 from sondalog.client.endpoints import Endpoint, parse_url
 
 __all__ = ["Ala1Client", "Client"]
@@ -70,14 +71,14 @@ class _Stream(asyncio.Protocol):
         """Wait for more bytes (or the close); False on timeout."""
         if self.closed:
             return False
-        loop = asyncio.get_running_loop()
-        waiter: asyncio.Future[bool] = loop.create_future()
+        timers = deadlines()  # one heap of the loop's deadlines, not a timer a wait
+        waiter: asyncio.Future[bool] = asyncio.get_running_loop().create_future()
         self._waiter = waiter
-        timer = loop.call_later(timeout, self._wake, False)
+        timer = timers.call_later(timeout, self._wake, False)
         try:
             return await waiter
         finally:
-            timer.cancel()
+            timers.cancel(timer)
             self._waiter = None
 
 

@@ -23,6 +23,7 @@ import logging
 import time
 from typing import Any
 
+from sondalog.client.deadlines import deadlines
 from sondalog.collect.alarm_loop import AlarmLoop
 from sondalog.collect.buffer import DiskBuffer, deliver, drain
 from sondalog.collect.config import CollectorConfig
@@ -203,23 +204,23 @@ class Collector:
 
     async def _loop(self, source: Source, delay: float, once: bool) -> None:
         cfg = source.config
-        loop = asyncio.get_running_loop()
-        await asyncio.sleep(delay)
+        timers = deadlines()  # the loop's deadlines in one heap, not a timer each
+        await timers.sleep(delay)
         failures = 0
         while True:
             started = time.monotonic()
             # a contact still running after a second says so (the dashboard's "contacting");
             # a quicker one is never seen at a write-behind flush, and writes nothing
-            marking = loop.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
+            marking = timers.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
             if self.alarms is not None:
                 self.alarms.contact_started(cfg.name)
             try:
                 summary = await source.poll(self.deliver)
             except asyncio.CancelledError:
-                marking.cancel()
+                timers.cancel(marking)
                 raise
             except Exception as exc:  # a failing source must never stop the collector
-                marking.cancel()
+                timers.cancel(marking)
                 failures += 1
                 wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
                 text = f"{describe(exc)}; retry in {wait:g} s"
@@ -231,7 +232,7 @@ class Collector:
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=False, error=describe(exc))
             else:
-                marking.cancel()
+                timers.cancel(marking)
                 failures = 0
                 self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))
@@ -251,7 +252,7 @@ class Collector:
                 return
             if _cancelling():  # a cancel that a finished wait swallowed (asyncio.wait_for, 3.11)
                 raise asyncio.CancelledError
-            await asyncio.sleep(wait)
+            await timers.sleep(wait)
 
     async def _replay(self) -> None:
         while True:

@@ -33,7 +33,7 @@ class Deadlines:
     """The deadlines of one loop (see the module docstring)."""
 
     def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
-        self._loop = loop
+        self._loop = weakref.proxy(loop)  # the loop's entry in _OF must not keep it alive
         self._heap: list[Entry] = []
         self._order = itertools.count()
         self._timer: asyncio.TimerHandle | None = None

@@ -48,7 +48,7 @@ class _Poller:
     """The epoll of one loop and the connections in it (fd -> its event handler)."""
 
     def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
-        self.loop = loop
+        self.loop = weakref.proxy(loop)  # the loop's entry in _OF must not keep it alive
         self.epoll = select.epoll()
         self.handlers: dict[int, Callable[[int], None]] = {}
         loop.add_reader(self.epoll.fileno(), self._ready)

@@ -208,10 +208,10 @@ async def open_connection(
     family, address = await resolved.address(loop)
     poller = _poller(loop)
     sock = socket.socket(family, socket.SOCK_STREAM)
+    fd = sock.fileno()
     try:
         sock.setblocking(False)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        fd = sock.fileno()
         try:
             sock.connect(address)
             code = 0
@@ -220,26 +220,26 @@ async def open_connection(
         if code:
             raise OSError(code, os.strerror(code))
     except BaseException as exc:
+        poller.remove(fd)
         sock.close()
         if isinstance(exc, OSError) and exc.errno != errno.EINTR:
             resolved.forget()
         raise
     protocol = factory()
     transport = EpollTransport(poller, sock, protocol)
-    poller.add(fd, _IN, transport._event)
+    if fd in poller.handlers:  # registered for the connect: now for reading
+        poller.change(fd, _IN, transport._event)
+    else:
+        poller.add(fd, _IN, transport._event)
     protocol.connection_made(transport)  # type: ignore[arg-type]
     return transport, protocol
 
 
 async def _connected(poller: _Poller, sock: socket.socket) -> int:
-    """Wait until ``sock``'s connect ends; its error code (0: connected)."""
-    fd = sock.fileno()
+    """Wait until ``sock``'s connect ends (left registered); its error code (0: connected)."""
     connected: asyncio.Future[int] = poller.loop.create_future()
-    poller.add(fd, _OUT, lambda events: _done(connected, events))
-    try:
-        await connected
-    finally:
-        poller.remove(fd)
+    poller.add(sock.fileno(), _OUT, lambda events: _done(connected, events))
+    await connected
     return sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
 
 

@@ -24,7 +24,6 @@ from typing import Protocol, TypeVar
 from urllib.parse import parse_qs, unquote, urlsplit
 
 from sondalog.client.phone import parse_gsm_url
-from sondalog.io import tcp_epoll
 from sondalog.io.serial_ports import serial_8n1
 
 _P = TypeVar("_P", bound=asyncio.Protocol)
@@ -57,31 +56,6 @@ class TcpEndpoint:
     def __str__(self) -> str:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"tcp://{host}:{self.port}"
-
-
-class PolledTcpEndpoint:
-    """A :class:`TcpEndpoint` whose connections are plain sockets on the loop's epoll
-    (:mod:`sondalog.io.tcp_epoll`), its address looked up once: the collector's, which opens
-    one short connection a contact (issue 24)."""
-
-    def __init__(self, endpoint: TcpEndpoint) -> None:
-        self.endpoint = endpoint
-        self._resolved = tcp_epoll.Resolved(endpoint.host, endpoint.port)
-
-    async def connect(self, factory: Callable[[], _P]) -> tuple[asyncio.BaseTransport, _P]:
-        transport, protocol = await tcp_epoll.open_connection(self._resolved, factory)
-        return transport, protocol  # type: ignore[return-value]
-
-    def __str__(self) -> str:
-        return str(self.endpoint)
-
-
-def for_contacts(endpoint: Endpoint) -> Endpoint:
-    """The endpoint a collector contacts ``endpoint`` through: TCP on the loop's epoll where
-    the platform has one (:class:`PolledTcpEndpoint`), any other as it is."""
-    if isinstance(endpoint, TcpEndpoint) and tcp_epoll.available():
-        return PolledTcpEndpoint(endpoint)
-    return endpoint
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from typing import Any
 
 from sondalog.client import Ala1Client, BusMaster
 from sondalog.client.download import ClockReading, Download
-from sondalog.client.endpoints import Endpoint, for_contacts, parse_url
+from sondalog.client.endpoints import Endpoint, parse_url
 from sondalog.client.records import UTC
 from sondalog.client.visit import Known, Visit, keep, visit
 from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
@@ -63,7 +63,7 @@ class LoggerSource:
     async def poll(self, deliver: Deliver) -> str:
         cfg, store = self.config, self.store
         if self._endpoint is None:
-            self._endpoint = for_contacts(parse_url(cfg.url))  # TCP: on the loop's epoll
+            self._endpoint = parse_url(cfg.url)
         client = await Ala1Client.connect(self._endpoint, timeout=cfg.timeout)
         state: dict[str, Any] = {}
         try:

@@ -24,7 +24,6 @@ from sondalog.client.ala1_codec import (
     parse_answer,
     strip_sum,
 )
-from sondalog.client.deadlines import deadlines
 from sondalog.client.endpoints import Endpoint, parse_url
 
 __all__ = ["Ala1Client", "Client"]
@@ -71,14 +70,14 @@ class _Stream(asyncio.Protocol):
         """Wait for more bytes (or the close); False on timeout."""
         if self.closed:
             return False
-        timers = deadlines()  # one heap of the loop's deadlines, not a timer a wait
-        waiter: asyncio.Future[bool] = asyncio.get_running_loop().create_future()
+        loop = asyncio.get_running_loop()
+        waiter: asyncio.Future[bool] = loop.create_future()
         self._waiter = waiter
-        timer = timers.call_later(timeout, self._wake, False)
+        timer = loop.call_later(timeout, self._wake, False)
         try:
             return await waiter
         finally:
-            timers.cancel(timer)
+            timer.cancel()
             self._waiter = None
 
 

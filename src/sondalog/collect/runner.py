@@ -23,7 +23,6 @@ import logging
 import time
 from typing import Any
 
-from sondalog.client.deadlines import deadlines
 from sondalog.collect.alarm_loop import AlarmLoop
 from sondalog.collect.buffer import DiskBuffer, deliver, drain
 from sondalog.collect.config import CollectorConfig
@@ -211,23 +210,23 @@ class Collector:
 
     async def _loop(self, source: Source, delay: float, once: bool) -> None:
         cfg = source.config
-        timers = deadlines()  # the loop's deadlines in one heap, not a timer each
-        await timers.sleep(delay)
+        loop = asyncio.get_running_loop()
+        await asyncio.sleep(delay)
         failures = 0
         while True:
             started = time.monotonic()
             # a contact still running after a second says so (the dashboard's "contacting");
             # a quicker one is never seen at a write-behind flush, and writes nothing
-            marking = timers.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
+            marking = loop.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
             if self.alarms is not None:
                 self.alarms.contact_started(cfg.name)
             try:
                 summary = await source.poll(self.deliver)
             except asyncio.CancelledError:
-                timers.cancel(marking)
+                marking.cancel()
                 raise
             except Exception as exc:  # a failing source must never stop the collector
-                timers.cancel(marking)
+                marking.cancel()
                 failures += 1
                 wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
                 text = f"{describe(exc)}; retry in {wait:g} s"
@@ -239,7 +238,7 @@ class Collector:
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=False, error=describe(exc))
             else:
-                timers.cancel(marking)
+                marking.cancel()
                 failures = 0
                 self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))
@@ -259,7 +258,7 @@ class Collector:
                 return
             if _cancelling():  # a cancel that a finished wait swallowed (asyncio.wait_for, 3.11)
                 raise asyncio.CancelledError
-            await timers.sleep(wait)
+            await asyncio.sleep(wait)
 
     async def _replay(self) -> None:
         while True:

@@ -66,3 +66,52 @@ def test_a_long_contact_is_contacting_a_quick_one_never(tmp_path: Path) -> None:
     assert states == ["contacting", "ok"]
     assert ("slow", "contacting") in marked
     assert ("quick", "contacting") not in marked
+
+
+class _Flaky:
+    """A source whose contacts take a random few milliseconds and fail now and then."""
+
+    kind = "logger"
+
+    def __init__(self, config: SourceConfig, seed: int) -> None:
+        import random
+
+        self.config = config
+        self.random = random.Random(seed)
+        self.contacts = 0
+
+    async def poll(self, deliver: Deliver) -> str:
+        self.contacts += 1
+        await asyncio.sleep(self.random.uniform(0, 0.02))
+        if self.random.random() < 0.3:
+            raise OSError("no answer")
+        await deliver(self.config.name, [], None)
+        return "done"
+
+
+def test_every_source_is_contacted_again(tmp_path: Path) -> None:
+    """Forty sources every 0.2 s, a third of their contacts failing (retried after 0.1 s):
+    all contacted again and again; none stuck."""
+    sources = tuple(
+        SourceConfig(
+            f"s{n}", "tcp://127.0.0.1:9", interval=0.2, retry=0.1, retry_max=0.1, config_every=0
+        )
+        for n in range(40)
+    )
+    config = CollectorConfig(
+        tmp_path / "c.toml", tmp_path / "s.sqlite", True, tmp_path / "b.sqlite", sources, {}
+    )
+    collector = Collector(config)
+    collector.open()
+    flaky = [_Flaky(cfg, n) for n, cfg in enumerate(sources)]
+    collector.sources = list(flaky)
+
+    async def main() -> None:
+        stop = asyncio.Event()
+        run = asyncio.create_task(collector.run(stop))
+        await asyncio.sleep(5.0 + 1.2)  # the first contacts spread over 5 s, then 1.2 s more
+        stop.set()
+        await run
+
+    asyncio.run(main())
+    assert min(source.contacts for source in flaky) >= 5

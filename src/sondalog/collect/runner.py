@@ -59,6 +59,9 @@ WRITE_BEHIND = 1.0
 #: A contact still running after this many seconds is marked ``contacting`` in the store.
 CONTACTING_AFTER = 1.0
 
+#: The cyclic collector's threshold of its youngest generation in a running collector.
+GC_YOUNG = 10_000
+
 #: How long a clean stop spends delivering the disk buffer to sinks that are up (s).
 FINAL_REPLAY = 5.0
 
@@ -123,6 +126,10 @@ class Collector:
             # the process: out of the cyclic collector's way, whose full passes over ten
             # thousand sources' objects came with the contacts' garbage (issue 24)
             gc.freeze()
+            # a contact's objects die within milliseconds: the youngest generation is looked
+            # at after GC_YOUNG new objects instead of 700, by when most are gone (never
+            # traversed, never promoted to be traversed again)
+            gc.set_threshold(max(GC_YOUNG, gc.get_threshold()[0]), *gc.get_threshold()[1:])
         replay = asyncio.create_task(self._replay(), name="sink replay")
         background = [replay]
         if self.alarms is not None:

@@ -24,6 +24,7 @@ collector's own store and the sink alike.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import sqlite3
 import time
@@ -34,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from sondalog.collect import blocks_sql
+from sondalog.collect.blocks_skip import SentBlocks, transaction
 from sondalog.collect.model import Reading, SinkUnavailable, utc_text
 from sondalog.collect.schema import (
     SCHEMA_VERSION,
@@ -117,6 +119,9 @@ class SqliteStore:
         self._events: list[tuple[str, str, str, str]] = []
         self._flush: asyncio.TimerHandle | None = None
         self._known: dict[str, dict[str, Any]] = {}  # sources' rows as committed or pending
+        #: The finest blocks' extremes merged so far: rows that change none are not merged
+        #: again (blocks_skip; None: every row is merged).
+        self.sent: SentBlocks | None = SentBlocks()
 
     # -- the Sink protocol ------------------------------------------------------------------
     async def open(self) -> None:
@@ -124,7 +129,7 @@ class SqliteStore:
 
     async def write(self, batch: Sequence[Reading]) -> None:
         try:
-            with self.db:
+            with self._transaction(self.db):
                 self._insert(batch)
         except sqlite3.OperationalError as exc:
             raise SinkUnavailable(f"sqlite {self.path}: {exc}") from exc
@@ -162,7 +167,7 @@ class SqliteStore:
         if not self.pending:
             return
         db = self._conn()
-        with db:
+        with self._transaction(db):
             if self._readings:
                 self._insert(self._readings)
             for name, state in self._states.items():
@@ -290,10 +295,16 @@ class SqliteStore:
                 self._db.close()
             self._db = None
 
+    def _transaction(self, db: sqlite3.Connection) -> contextlib.AbstractContextManager[None]:
+        return transaction(db, self.sent)
+
     def _insert(self, batch: Sequence[Reading]) -> None:
         if self.keep_readings:
             conn = self._conn()
             done = conn.executemany(_INSERT, map(row_of, batch)).rowcount
+            if self.sent is not None and done == len(batch):  # the rows that change a block
+                batch = self.sent.news(batch)  # (duplicates: blocks read from stored rows)
+                done = len(batch)
             blocks_sql.after_batch_sqlite(conn, batch, done)  # the dashboard's extremes
 
     def commit_chunk(
@@ -307,7 +318,7 @@ class SqliteStore:
             if self.keep_readings:
                 self._readings += batch
             return
-        with self._conn():
+        with self._transaction(self._conn()):
             self._insert(batch)
             self._update(source, state)
 

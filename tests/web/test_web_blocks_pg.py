@@ -26,10 +26,10 @@ import psycopg
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_web_blocks import plain
 
 from sondalog.collect import blocks_fill, blocks_rule, sink_postgres
 from sondalog.collect.model import Reading
-from sondalog.collect.schema import SQLITE_DDL
 from sondalog.web import blocks, store
 from sondalog.web.db import Readings
 from sondalog.web.times import from_epoch, to_epoch
@@ -59,18 +59,6 @@ def random_rows(rng: random.Random, n: int, channels: int, span_s: int) -> list[
             value = rng.choice([None, 1.0, 2.0, 2.0, -3.5, rng.uniform(-5, 5)])
             out.append((logger, ch, t, counter, 1, value))
     return out
-
-
-def reference(rows: list[Row]) -> sqlite3.Connection:
-    """The readings in SQLite (the first of a key kept, as both stores keep it)."""
-    conn = sqlite3.connect(":memory:", isolation_level=None)
-    conn.executescript(SQLITE_DDL)
-    conn.executemany(
-        "INSERT OR IGNORE INTO readings (logger, channel, time, counter, type, value) "
-        "VALUES (?, ?, ?, ?, ?, ?)",
-        rows,
-    )
-    return conn
 
 
 def stored(conn: sqlite3.Connection) -> list[Reading]:
@@ -137,7 +125,7 @@ def test_postgres_blocks_and_rows_answer_as_the_readings_do(
     span = rng.choice([600, 2 * 86400, 9 * 86400, 40 * 86400])
     rows = random_rows(rng, n, channels, span)
     again = [(*r[:5], 99.0) for r in rng.sample(rows, len(rows) // 3)]  # ignored: key taken
-    ref = reference(rows)
+    ref = plain(rows)  # the SQLite reference of test_web_blocks
     want = set(blocks_rule.aggregate(stored(ref)))
     empty(dsn)
     half = rng.randrange(len(rows) + 1)

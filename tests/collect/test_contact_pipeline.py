@@ -37,6 +37,32 @@ def logger(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
         yield served
 
 
+def configure(
+    served: Served, channels: list[tuple[str, str | None, bool]], rows: list[tuple[str, int, Any]]
+) -> None:
+    """The logger with ``channels`` (name, unit, analog) and ``rows`` written (a text row, or
+    ``write channel value`` of a row type and channel list) on an empty record."""
+    count = len(channels)
+    setup = ["write record status clear", f"write channel max number {count}"]
+    setup.append(f"write output 1 value {len(rows) % 2}")  # the supply divider on or off
+    for n, (name, unit, analog) in enumerate(channels, start=1):
+        label = name if unit is None else f"{name}[{unit}]"
+        setup.append(f"write channel {n} name/{label}/")
+        setup.append(
+            f"write channel {n} type 3 write channel {n} address 16 "
+            f"write channel {n} switch output 0"
+            if analog
+            else f"write channel {n} type 1"
+        )
+    for kind, row_type, body in rows:
+        if kind == "text":
+            setup.append(f"write text {row_type}/{body}/")
+        else:
+            listed = " ".join(str(c) for c in sorted(set(body)) if c <= count)
+            setup.append(f"write channel {listed} value {row_type}".replace("  ", " "))
+    served.ask(*setup)
+
+
 async def stepwise(url: str, after: str | None, per: int) -> tuple[Any, ...]:
     """The path before pipelining: identify, each command, then the chunks."""
     async with await Ala1Client.connect(url) as client:
@@ -84,24 +110,7 @@ def test_pipelined_contact_reads_what_the_step_by_step_path_reads(
     guess: str,
 ) -> None:
     count = len(channels)
-    setup = ["write record status clear", f"write channel max number {count}"]
-    setup.append(f"write output 1 value {len(rows) % 2}")  # the supply divider on or off
-    for n, (name, unit, analog) in enumerate(channels, start=1):
-        label = name if unit is None else f"{name}[{unit}]"
-        setup.append(f"write channel {n} name/{label}/")
-        setup.append(
-            f"write channel {n} type 3 write channel {n} address 16 "
-            f"write channel {n} switch output 0"
-            if analog
-            else f"write channel {n} type 1"
-        )
-    for kind, row_type, body in rows:
-        if kind == "text":
-            setup.append(f"write text {row_type}/{body}/")
-        else:
-            listed = " ".join(str(c) for c in sorted(set(body)) if c <= count)
-            setup.append(f"write channel {listed} value {row_type}".replace("  ", " "))
-    logger.ask(*setup)
+    configure(logger, channels, rows)
     record = logger.record()
     after = None
     if cursor is not None and record:

@@ -17,7 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from served_logger import Served, sampling_logger, serving
-from test_contact_pipeline import CHANNEL, ROW, stepwise
+from test_contact_pipeline import CHANNEL, ROW, configure, stepwise
 
 from sondalog.client import Ala1Client
 from sondalog.client.ala1_codec import MAX_LINE, CrcMismatch
@@ -49,30 +49,6 @@ async def visited(
         got = await visit(download, guess, last)
         chunks = [chunk async for chunk in download.chunks()]
     return got, chunks
-
-
-def _configure(
-    served: Served, channels: list[tuple[str, str | None, bool]], rows: list[tuple[str, int, Any]]
-) -> None:
-    count = len(channels)
-    setup = ["write record status clear", f"write channel max number {count}"]
-    setup.append(f"write output 1 value {len(rows) % 2}")
-    for n, (name, unit, analog) in enumerate(channels, start=1):
-        label = name if unit is None else f"{name}[{unit}]"
-        setup.append(f"write channel {n} name/{label}/")
-        setup.append(
-            f"write channel {n} type 3 write channel {n} address 16 "
-            f"write channel {n} switch output 0"
-            if analog
-            else f"write channel {n} type 1"
-        )
-    for kind, row_type, body in rows:
-        if kind == "text":
-            setup.append(f"write text {row_type}/{body}/")
-        else:
-            listed = " ".join(str(c) for c in sorted(set(body)) if c <= count)
-            setup.append(f"write channel {listed} value {row_type}".replace("  ", " "))
-    served.ask(*setup)
 
 
 def _same(served: Served, after: str | None, per: int, guess: int | None) -> Visit:
@@ -113,7 +89,7 @@ def test_a_visit_reads_what_the_step_by_step_path_reads(
     per: int,
     guess: str,
 ) -> None:
-    _configure(logger, channels, rows)
+    configure(logger, channels, rows)
     record = logger.record()
     after = None
     if cursor is not None and record:
@@ -128,7 +104,7 @@ def test_the_identification_of_the_last_contact_is_taken_when_it_answers_the_sam
 ) -> None:
     """Same answers: the last visit's channels (not parsed again); a channel renamed since:
     read and parsed again, the new name in the readings."""
-    _configure(logger, [("A", "V", False), ("B", None, False)], [("value", 2, [1, 2])])
+    configure(logger, [("A", "V", False), ("B", None, False)], [("value", 2, [1, 2])])
     first, _ = asyncio.run(visited(logger.url, None, 20, 2))
     again, _ = asyncio.run(visited(logger.url, None, 20, 2, keep(first)))
     assert again.key == first.key and again.info.channels is first.info.channels

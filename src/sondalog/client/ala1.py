@@ -24,6 +24,7 @@ from sondalog.client.ala1_codec import (
     parse_answer,
     strip_sum,
 )
+from sondalog.client.answer_wait import read_answers
 from sondalog.client.endpoints import Endpoint, parse_url
 
 __all__ = ["Ala1Client", "Client"]
@@ -196,7 +197,7 @@ class Ala1Client:
                     stream.buffer.clear()
                     if stream.closed:
                         line = payload.split(b"\r", 1)[0].decode("latin-1")
-                        raise ConnectionLost(f"connection closed during {line!r} (got {raw!r})")
+                        raise ConnectionLost.during(line, raw)
                     return None, raw
 
     async def _read_answer(
@@ -230,7 +231,7 @@ class Ala1Client:
                 texts = [strip_sum(t) for t in texts]
             return Response(request.line(), tuple(texts), Status.SILENT, raw)
         if stream.closed:
-            raise ConnectionLost(f"connection closed during {request.line()!r} (got {raw!r})")
+            raise ConnectionLost.during(request.line(), raw)
         if not raw:
             raise NoAnswer(f"no answer to {request.line()!r}")
         raise IncompleteAnswer(f"incomplete answer to {request.line()!r}: {raw!r}", raw)
@@ -317,8 +318,6 @@ class Ala1Client:
         at most once in that many seconds meanwhile); what it raises:
         :func:`~sondalog.client.answer_wait.read_answers`. Bytes left over from an earlier
         answer are discarded first."""
-        from sondalog.client.answer_wait import read_answers
-
         stream = self._require_stream()
         wait = self.timeout if timeout is None else timeout
         async with self._lock:

@@ -84,6 +84,11 @@ class CommandFailed(ClientError):
 class ConnectionLost(ClientError):
     """The connection closed before the answer was complete."""
 
+    @classmethod
+    def during(cls, line: str, got: bytes) -> ConnectionLost:
+        """Closed while ``line`` was answered, after ``got``."""
+        return cls(f"connection closed during {line!r} (got {got!r})")
+
 
 class Status(enum.Enum):
     OK = "OK"

@@ -234,7 +234,7 @@ async def read_answers(
         buffer.clear()
         line = payload.split(b"\r", 1)[0].decode("latin-1")
         if stream.closed:
-            raise ConnectionLost(f"connection closed during {line!r} (got {got!r})")
+            raise ConnectionLost.during(line, got)
         if not got:
             raise NoAnswer(f"no answer to {line!r}")
         raise IncompleteAnswer(f"the answers stopped short: ...{got[-60:]!r}", got)

@@ -21,9 +21,7 @@ library has none, ``os.sync`` writes every file system's.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
-import json
 import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -31,9 +29,9 @@ from pathlib import Path
 
 from sondalog.ala1 import Identity, Version
 from sondalog.app.fleet_site import FleetLogger
-from sondalog.app.logger import IDENTITY_FILE, IdentityConflict
+from sondalog.app.logger import IDENTITY_FILE, IdentityConflict, identity_text, parse_identity
 from sondalog.config import ConfigError
-from sondalog.io.private import PRIVATE_DIR, PRIVATE_FILE
+from sondalog.io.private import open_private, private_dir
 
 #: Threads that read the loggers' identity files at start.
 IDENTITY_THREADS = 16
@@ -43,11 +41,11 @@ _VERSIONS = {version.value: version for version in Version}
 
 def read_identities(
     loggers: Sequence[FleetLogger], states: Path, path: Path | None
-) -> tuple[list[Identity], list[tuple[Identity, bool]]]:
+) -> tuple[list[Identity], list[Identity]]:
     """Every logger's identity, read from ``states/SERIAL`` or (a new logger) made from its
-    plan; and the new ones, each with whether its directory exists (for
-    :func:`write_identities`). A logger whose state holds another protocol or serial
-    number raises ConfigError naming its entry (the first such logger in order)."""
+    plan; and the new ones (for :func:`write_identities`). A logger whose state holds
+    another protocol or serial number raises ConfigError naming its entry (the first such
+    logger in order)."""
     with os.scandir(states) as listing:
         present = {entry.name for entry in listing if entry.is_dir(follow_symlinks=False)}
     found: list[Identity | IdentityConflict | None] = [None] * len(loggers)
@@ -65,14 +63,14 @@ def read_identities(
     elif chunks:
         read(chunks[0])
     identities: list[Identity] = []
-    new: list[tuple[Identity, bool]] = []
+    new: list[Identity] = []
     for plan, identity in zip(loggers, found, strict=True):
         if isinstance(identity, IdentityConflict):
             raise ConfigError(path, f"{plan.where}.protocol", str(identity)) from identity
         if identity is None:
             version = _VERSIONS[plan.protocol] if plan.protocol else Version.V2_10
             identity = Identity(version, plan.serial_number)
-            new.append((identity, plan.serial_number in present))
+            new.append(identity)
         identities.append(identity)
     return identities, new
 
@@ -83,69 +81,28 @@ def _read(directory: Path, plan: FleetLogger) -> Identity | IdentityConflict | N
         text = (directory / IDENTITY_FILE).read_text(encoding="utf-8")
     except FileNotFoundError:
         return None
-    stored = json.loads(text)
-    protocol = str(stored["protocol"])
-    identity = Identity(_VERSIONS.get(protocol) or Version(protocol), str(stored["serial_number"]))
-    if plan.protocol is not None and plan.protocol != identity.version.value:
-        return IdentityConflict(
-            f"{directory} holds a protocol {identity.version.value} logger; "
-            f"it cannot be served as protocol {plan.protocol}"
-        )
-    if plan.serial_number != identity.serial_number:
-        return IdentityConflict(
-            f"{directory} holds the logger with serial number {identity.serial_number}; "
-            f"it cannot be served as serial number {plan.serial_number}"
-        )
-    return identity
+    version = _VERSIONS[plan.protocol] if plan.protocol is not None else None
+    try:
+        return parse_identity(directory, text, version, plan.serial_number)
+    except IdentityConflict as conflict:  # (raised in order by the caller)
+        return conflict
 
 
-def write_identities(states: Path, new: Sequence[tuple[Identity, bool]]) -> None:
+def write_identities(states: Path, new: Sequence[Identity]) -> None:
     """Write the new loggers' identities (:func:`read_identities`) durably, with two syncs
     of the file system. (In turn: in a thread beside the loop building the engines, each
     of its system calls waited for the interpreter's switch interval.)"""
     if not new:
         return
-    masked = _umask() & PRIVATE_DIR != 0  # (a mode given to mkdir and open is masked)
-    for identity, exists in new:
-        directory = states / identity.serial_number
-        if not exists:
-            os.mkdir(directory, PRIVATE_DIR)
-            if masked:
-                os.chmod(directory, PRIVATE_DIR)
-        else:  # (left by a start that stopped before its identity: ours, as private_dir)
-            with contextlib.suppress(PermissionError):
-                os.chmod(directory, PRIVATE_DIR)
-        text = json.dumps(
-            {"protocol": identity.version.value, "serial_number": identity.serial_number},
-            indent=2,
-        )
-        fd = os.open(
-            directory / _TMP, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, PRIVATE_FILE
-        )
-        try:
-            if masked:
-                os.fchmod(fd, PRIVATE_FILE)
-            os.write(fd, (text + "\n").encode("utf-8"))
-        finally:
-            os.close(fd)
+    for identity in new:
+        directory = private_dir(states / identity.serial_number)
+        with open_private(directory / _TMP) as handle:
+            handle.write(identity_text(identity))
     sync_file_system(states)  # every new file's content on disk before any is in place
-    for identity, _ in new:
+    for identity in new:
         directory = states / identity.serial_number
         os.replace(directory / _TMP, directory / IDENTITY_FILE)
     sync_file_system(states)  # and the names
-
-
-def _umask() -> int:
-    """The process's umask, read without changing it (threads may be creating files);
-    where it cannot be read, as if it masked everything."""
-    try:
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    return 0o777
 
 
 def sync_file_system(path: Path) -> None:

@@ -54,31 +54,42 @@ def load_identity(
     """
     path = state_dir / IDENTITY_FILE
     if path.exists():
-        stored = json.loads(path.read_text(encoding="utf-8"))
-        identity = Identity(Version(stored["protocol"]), str(stored["serial_number"]))
-        if version is not None and version is not identity.version:
-            raise IdentityConflict(
-                f"{state_dir} holds a protocol {identity.version.value} logger; "
-                f"it cannot be served as protocol {version.value}"
-            )
-        if serial_number is not None and serial_number != identity.serial_number:
-            raise IdentityConflict(
-                f"{state_dir} holds the logger with serial number {identity.serial_number}; "
-                f"it cannot be served as serial number {serial_number}"
-            )
-        return identity
+        return parse_identity(state_dir, path.read_text(encoding="utf-8"), version, serial_number)
     identity = Identity(version or Version.V2_10, serial_number or Identity().serial_number)
     private_dir(state_dir)
-    text = json.dumps(
-        {"protocol": identity.version.value, "serial_number": identity.serial_number}, indent=2
-    )
     tmp = path.with_suffix(".tmp")
     with open_private(tmp) as handle:
-        handle.write(text + "\n")
+        handle.write(identity_text(identity))
         handle.flush()
         os.fsync(handle.fileno())
     tmp.replace(path)
     return identity
+
+
+def parse_identity(
+    state_dir: Path, text: str, version: Version | None, serial_number: str | None
+) -> Identity:
+    """The identity of ``state_dir``'s ``identity.json`` (its ``text``); IdentityConflict
+    when it is not that ``version`` or ``serial_number`` (None: any)."""
+    stored = json.loads(text)
+    identity = Identity(Version(stored["protocol"]), str(stored["serial_number"]))
+    if version is not None and version is not identity.version:
+        raise IdentityConflict(
+            f"{state_dir} holds a protocol {identity.version.value} logger; "
+            f"it cannot be served as protocol {version.value}"
+        )
+    if serial_number is not None and serial_number != identity.serial_number:
+        raise IdentityConflict(
+            f"{state_dir} holds the logger with serial number {identity.serial_number}; "
+            f"it cannot be served as serial number {serial_number}"
+        )
+    return identity
+
+
+def identity_text(identity: Identity) -> str:
+    """The text of an ``identity.json``."""
+    data = {"protocol": identity.version.value, "serial_number": identity.serial_number}
+    return json.dumps(data, indent=2) + "\n"
 
 
 @dataclass

@@ -68,16 +68,20 @@ def epoch(at: datetime) -> int:
     return int(at.replace(tzinfo=UTC).timestamp())
 
 
-def take(c: list[Any], v: float | None, t: int, at: int, better: int) -> None:
+def take(c: list[Any], v: float | None, t: int, at: int, better: int) -> bool:
     """``c[at], c[at + 1]`` (value, time) take ``(v, t)`` by the rule of the blocks (a
     smaller, ``better`` -1, or larger value; on a tie the earlier time; NULL loses, and
-    between NULLs the later time)."""
+    between NULLs the later time); True when they changed."""
     old = c[at]
     if v is None:
         if old is None and t > c[at + 1]:
             c[at + 1] = t
-    elif old is None or (v - old) * better > 0 or (v == old and t < c[at + 1]):
+            return True
+        return False
+    if old is None or (v - old) * better > 0 or (v == old and t < c[at + 1]):
         c[at], c[at + 1] = v, t
+        return True
+    return False
 
 
 def aggregate(batch: Iterable[Reading]) -> list[tuple[Any, ...]]:

@@ -29,7 +29,7 @@ from collections.abc import Iterable, Iterator
 from datetime import datetime
 from typing import Any
 
-from sondalog.collect.blocks_rule import SIZES, epoch
+from sondalog.collect.blocks_rule import SIZES, epoch, take
 from sondalog.collect.model import Reading
 
 #: Slots a channel takes in a logger's list: block start, vmin, tmin, vmax, tmax.
@@ -73,24 +73,9 @@ class SentBlocks:
             if c[at] != start:  # a block not merged yet (or another one than the last)
                 c[at : at + _SLOTS] = (start, v, sec, v, sec)
                 out.append(r)
-            elif _takes(c, v, sec, at + 1, -1) | _takes(c, v, sec, at + 3, 1):
+            elif take(c, v, sec, at + 1, -1) | take(c, v, sec, at + 3, 1):
                 out.append(r)
         return out
-
-
-def _takes(c: list[Any], v: float | None, t: int, at: int, better: int) -> bool:
-    """``c[at], c[at + 1]`` (value, time) take ``(v, t)`` by the rule of the blocks
-    (:func:`sondalog.collect.blocks_rule.take`); True when they changed."""
-    old = c[at]
-    if v is None:
-        if old is None and t > c[at + 1]:
-            c[at + 1] = t
-            return True
-        return False
-    if old is None or (v - old) * better > 0 or (v == old and t < c[at + 1]):
-        c[at], c[at + 1] = v, t
-        return True
-    return False
 
 
 @contextlib.contextmanager

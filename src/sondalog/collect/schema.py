@@ -26,6 +26,9 @@ from __future__ import annotations
 SCHEMA_VERSION = 1
 #: A reading's columns in exports and the dashboard's CSV download (long form), in order.
 COLUMNS = ("logger", "time", "counter", "type", "channel", "value", "text", "name", "unit", "utc")
+#: On PostgreSQL of schema version 2 a record row's readings are parallel arrays of
+#: ``record_rows`` (:mod:`sondalog.collect.schema_pg`): these columns, one element a reading.
+RECORD_ARRAYS = ("channel", "type", "value", "text", "name", "unit")
 
 #: SQLite DDL of schema version 1 (PostgreSQL shows the same columns with its own types in
 #: the view ``readings`` over one row a record row: :mod:`sondalog.collect.schema_pg`).

@@ -25,6 +25,8 @@ runs them in one transaction under an advisory lock. Version 1 to 2 moves the ro
 
 from __future__ import annotations
 
+from sondalog.collect.schema import RECORD_ARRAYS
+
 #: The PostgreSQL schema version this collector writes (SQLite has its own,
 #: :data:`sondalog.collect.schema.SCHEMA_VERSION`).
 VERSION = 2
@@ -36,8 +38,8 @@ BRIN = "brin"
 TABLE = "record_rows"
 #: Its columns in the order of the sink's COPY.
 COLUMNS = ("logger", "time", "counter", "utc", "channel", "type", "value", "text", "name", "unit")
-#: The per-channel columns (parallel arrays, one element a reading).
-ARRAYS = ("channel", "type", "value", "text", "name", "unit")
+#: The per-channel columns (parallel arrays, one element a reading): ``schema.RECORD_ARRAYS``.
+ARRAYS = RECORD_ARRAYS
 
 #: Schema version 1: one row per reading (kept: the migration's starting point, tests).
 DDL_V1 = """

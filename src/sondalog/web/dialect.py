@@ -33,6 +33,8 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 
+from sondalog.collect.schema import RECORD_ARRAYS
+
 _TEXT_TIME = "to_char({0}, 'YYYY-MM-DD\"T\"HH24:MI:SS')"
 _TEXT_UTC = "to_char({0} AT TIME ZONE 'UTC', 'YYYY-MM-DD\"T\"HH24:MI:SS\"Z\"')"
 
@@ -109,10 +111,6 @@ def _adapt(dialect: ReadDialect, text: str) -> str:
     return text.replace("?", dialect.mark)
 
 
-#: The arrays of ``record_rows`` (:data:`sondalog.collect.schema_pg.ARRAYS`).
-_ARRAYS = ("channel", "type", "value", "text", "name", "unit")
-
-
 @functools.cache
 def _readings(dialect: ReadDialect, where: str, columns: str, tail: str) -> str:
     names = [c.strip() for c in columns.split(",")]
@@ -120,7 +118,7 @@ def _readings(dialect: ReadDialect, where: str, columns: str, tail: str) -> str:
         return f"(SELECT {', '.join(names)} FROM readings WHERE {where} {tail}) readings"
     # set-returning functions in the select list: in step, one row each a reading, without
     # the table of results a function in FROM is put in (measured 2.5 times as fast)
-    cols = ", ".join(f"unnest({c}) AS {c}" if c in _ARRAYS else c for c in names)
+    cols = ", ".join(f"unnest({c}) AS {c}" if c in RECORD_ARRAYS else c for c in names)
     return f"(SELECT {cols} FROM {dialect.keys} WHERE {where} {tail}) readings"
 
 

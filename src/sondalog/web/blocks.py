@@ -19,10 +19,12 @@ a read-only copy), the same buckets are read from the rows (slower; tested equal
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from itertools import groupby
+from operator import itemgetter
 
 from sondalog.collect.schema import EXTREMES as TABLE
 from sondalog.collect.schema import EXTREMES_SIZES as SIZES
@@ -31,7 +33,7 @@ from sondalog.collect.schema import EXTREMES_TODO as TODO
 from .db import Db
 from .times import from_epoch, to_epoch
 
-__all__ = ["SIZES", "Plan", "pieces", "plan", "rows"]
+__all__ = ["SIZES", "Plan", "by_channel", "pieces", "plan", "rows"]
 
 Row = tuple[int, int, float | None, int, float | None, int]
 _RAW = "channel, time, value"
@@ -147,16 +149,17 @@ def _pair(pg: bool, source_min: str, source_max: str, keys: str, k: str) -> str:
 
 def _ends(db: Db, p: Plan) -> tuple[str, list[object]]:
     """One statement of the two ends of ``p`` (before its first whole block, after its last:
-    finer blocks and raw rows; ``k, ch, vmin, tmin, vmax, tmax``), and the parameters of
-    its ``?`` other than the logger's (see :func:`_markers`); "" without ends."""
+    finer blocks and raw rows; ``e, ch, vmin, tmin, vmax, tmax``, ``e`` 0 for the part before,
+    1 for the part after), and the parameters of its ``?`` other than the logger's (see
+    :func:`_markers`); "" without ends."""
     pg = db.dialect.postgres
     args: list[object] = []
     parts = []
     finer = [s for s in SIZES if s < p.size]
-    for k, lo, hi in ((0, p.edges[0], p.a), (p.m - 1, p.b, p.edges[-1])):
+    for e, lo, hi in ((0, p.edges[0], p.a), (1, p.b, p.edges[-1])):
         if lo < hi:
             (smin, smax), more = _span(db, finer, lo, hi)
-            parts.append(_pair(pg, smin, smax, "channel", str(k)))
+            parts.append(_pair(pg, smin, smax, "channel", str(e)))
             args += more + more
     return " UNION ALL ".join(f"SELECT * FROM ({x}) u{i}" for i, x in enumerate(parts)), args
 
@@ -166,66 +169,94 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
     bucket: the channel's smallest and largest value in the bucket, each with the earliest
     time (seconds) of a reading that has it (every value NULL: NULL and the latest time);
     from the blocks where they are complete (``use_blocks`` None) or when told, else from
-    the rows (the same answer).
+    the rows (the same answer). :func:`by_channel` as one list."""
+    per = {ch: list(got) for ch, got in by_channel(db, logger, p, use_blocks=use_blocks)}
+    return [(k, ch, *rest) for ch in sorted(per) for k, *rest in per[ch]]  # type: ignore[misc]
+
+
+def by_channel(
+    db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None
+) -> Iterator[tuple[int, Iterator[Bucket]]]:
+    """Per channel (once each, in no particular order) its buckets ``(bucket, vmin, tmin,
+    vmax, tmax)`` in order, as :func:`rows` tells them; a channel's buckets are to be read
+    before the next channel is asked for.
 
     From the blocks: one statement reads the whole blocks of the range (a year: 1,460 a
-    channel), and each bucket's are merged here in time order (measured half the CPU of
-    grouping them in SQL and reading the groups); one more reads the two ends."""
+    channel) with each one's bucket, by channel and time, and a channel's blocks of one
+    bucket are merged here as they come (:func:`_merged`); one more reads the two ends.
+    On PostgreSQL a channel's blocks come as one row of arrays in binary (psycopg makes
+    the lists in C: a row a block, converted by Python code a row, took most of a year's
+    CPU)."""
     blocks = usable(db, logger, p.edges[0]) if use_blocks is None else use_blocks
     if not (blocks and p.size):
-        return _by_rows(db, logger, p)
-    a, size, m, n = p.a, p.size, p.m, p.n
-    per: dict[int, list[list[Any]]] = {}
-    sql = (
-        f"SELECT channel, start, vmin, tmin, vmax, tmax FROM {TABLE} WHERE logger = ? "
-        "AND size = ? AND start >= ? AND start < ? ORDER BY start, channel"
-    )
-    got = db.conn.execute(db.dialect.sql(sql), (logger, size, a, p.b))
-    if db.dialect.postgres:
-        got = _chunks(got)
-    for ch, start, vmin, tmin, vmax, tmax in got:
-        k = (start - a) // size * m // n
-        mine = per.get(ch)
-        if mine is None:
-            per[ch] = [[k, ch, vmin, tmin, vmax, tmax]]
-            continue
-        c = mine[-1]
-        if c[0] != k:
-            mine.append([k, ch, vmin, tmin, vmax, tmax])
-            continue
-        # the rule of _better, inlined (blocks in time order: a tie keeps the earlier)
-        if vmin is not None:
-            if c[2] is None or vmin < c[2]:
-                c[2], c[3] = vmin, tmin
-        elif c[2] is None:
-            c[3] = tmin
-        if vmax is not None:
-            if c[4] is None or vmax > c[4]:
-                c[4], c[5] = vmax, tmax
-        elif c[4] is None:
-            c[5] = tmax
-    ends, args = _ends(db, p)
-    if ends:
+        for ch, group in groupby(_by_rows(db, logger, p), itemgetter(1)):
+            yield ch, ((k, a, b, c, d) for k, _, a, b, c, d in group)
+        return
+    ends: dict[int, list[Bucket | None]] = {}
+    sql, args = _ends(db, p)
+    if sql:
         rest = iter(args)  # every '?' is the logger's (``logger = ?``) or the next of args
-        params = [logger if mine else next(rest) for mine in _markers(ends)]
-        for row in db.conn.execute(db.dialect.sql(ends), params).fetchall():
-            k, ch = row[0], row[1]
-            mine = per.setdefault(ch, [])
-            at = 0 if k == 0 else len(mine) - 1  # the first or the last bucket
-            if mine and mine[at][0] == k:
-                mine[at] = list(_both(tuple(mine[at]), row))
-            else:
-                mine.insert(0 if k == 0 else len(mine), list(row))
-    return [tuple(r) for ch in sorted(per) for r in per[ch]]
+        params = [logger if mine else next(rest) for mine in _markers(sql)]
+        for e, ch, vmin, tmin, vmax, tmax in db.conn.execute(db.dialect.sql(sql), params):
+            ends.setdefault(ch, [None, None])[e] = (e * (p.m - 1), vmin, tmin, vmax, tmax)
+    # a block's bucket (``start >= a``: no negative division to round differently)
+    k = "(start - ?::bigint) / ?::bigint * ?::bigint / ?::bigint"
+    if not db.dialect.postgres:
+        k = k.replace("::bigint", "")
+    where = "logger = ? AND size = ? AND start >= ? AND start < ?"
+    args = [p.a, p.size, p.m, p.n, logger, p.size, p.a, p.b]
+    if db.dialect.postgres:
+        cols = ", ".join(f"array_agg({c} ORDER BY start)" for c in (k, *_EXTREMES))
+        sql = f"SELECT channel, {cols} FROM {TABLE} WHERE {where} GROUP BY channel"
+        with db.conn.cursor(binary=True) as cur:
+            arrays = cur.execute(db.dialect.sql(sql), args).fetchall()
+        for ch, *columns in arrays:
+            head, tail = ends.pop(ch, (None, None))
+            yield ch, _merged(zip(*columns, strict=True), head, tail)
+    else:
+        sql = f"SELECT channel, {k}, {', '.join(_EXTREMES)} FROM {TABLE} WHERE {where}"
+        got = db.conn.execute(sql + " ORDER BY channel, start", args)
+        for ch, group in groupby(got, itemgetter(0)):
+            head, tail = ends.pop(ch, (None, None))
+            yield ch, _merged((r[1:] for r in group), head, tail)
+    for ch, (head, tail) in ends.items():  # channels with readings at the ends only
+        yield ch, _merged(iter(()), head, tail)
 
 
-def _chunks(cursor: Any, size: int = 2000) -> Iterator[Any]:
-    """The rows of a psycopg ``cursor``, converted a chunk at a time: iterating the cursor
-    runs Python code a row (most of a year's CPU in a profile), and fetching all 17,520
-    rows at once kept them alive together (the garbage collector's passes over them cost
-    as much again in the server's process)."""
-    while chunk := cursor.fetchmany(size):
-        yield from chunk
+_EXTREMES = ("vmin", "tmin", "vmax", "tmax")
+#: One bucket's extremes: ``(bucket, vmin, tmin, vmax, tmax)``.
+Bucket = tuple[int, float | None, int, float | None, int]
+
+
+def _merged(
+    got: Iterator[Bucket], head: Bucket | None, tail: Bucket | None
+) -> Iterator[Bucket]:
+    """One channel's buckets of its blocks ``got`` (``(bucket, vmin, tmin, vmax, tmax)`` in
+    time order), with ``head`` (the first bucket's) before them and ``tail`` after:
+    the blocks of one bucket merged by the rule of :func:`rows` (in time order, so on a tie
+    the one before stays, and every value NULL takes the later time)."""
+    it = itertools.chain(got, () if tail is None else (tail,))
+    if head is None:
+        head = next(it, None)
+        if head is None:
+            return
+    ck, cmin, ctmin, cmax, ctmax = head
+    for k, vmin, tmin, vmax, tmax in it:
+        if k != ck:
+            yield ck, cmin, ctmin, cmax, ctmax
+            ck, cmin, ctmin, cmax, ctmax = k, vmin, tmin, vmax, tmax
+            continue
+        if vmin is not None:
+            if cmin is None or vmin < cmin:
+                cmin, ctmin = vmin, tmin
+        elif cmin is None:
+            ctmin = tmin
+        if vmax is not None:
+            if cmax is None or vmax > cmax:
+                cmax, ctmax = vmax, tmax
+        elif cmax is None:
+            ctmax = tmax
+    yield ck, cmin, ctmin, cmax, ctmax
 
 
 def _markers(sql: str) -> Iterator[bool]:
@@ -233,28 +264,6 @@ def _markers(sql: str) -> Iterator[bool]:
     parts = sql.split("?")
     for before in parts[:-1]:
         yield before.rstrip().endswith("logger =")
-
-
-def _both(one: Row, two: Row) -> Row:
-    """One bucket's extremes from two parts of it."""
-    vmin, tmin = _better(0, (one[2], one[3]), (two[2], two[3]))
-    vmax, tmax = _better(1, (one[4], one[5]), (two[4], two[5]))
-    return one[0], one[1], vmin, tmin, vmax, tmax
-
-
-def _better(
-    which: int, old: tuple[float | None, int], new: tuple[float | None, int]
-) -> tuple[float | None, int]:
-    """The smallest (``which`` 0) or largest of two (value, time) of one bucket and channel
-    by the rule of :func:`rows`."""
-    (ov, ot), (nv, nt) = old, new
-    if nv is None:
-        return (ov, max(ot, nt)) if ov is None else old
-    if ov is None:
-        return new
-    if nv == ov:
-        return new if nt < ot else old
-    return new if (nv < ov) == (which == 0) else old
 
 
 def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:

@@ -312,7 +312,9 @@ def _better(
     return new if (nv < ov) == (which == 0) else old
 
 
-def body(db: Db, logger: str, lo: str | None, hi: str | None, points: int, span: int) -> dict[str, Any]:
+def body(
+    db: Db, logger: str, lo: str | None, hi: str | None, points: int, span: int
+) -> dict[str, Any]:
     """The old handler's answer (``app.Api.series``'s ``work``)."""
     from sondalog.web import store
 

@@ -228,9 +228,7 @@ _EXTREMES = ("vmin", "tmin", "vmax", "tmax")
 Bucket = tuple[int, float | None, int, float | None, int]
 
 
-def _merged(
-    got: Iterator[Bucket], head: Bucket | None, tail: Bucket | None
-) -> Iterator[Bucket]:
+def _merged(got: Iterator[Bucket], head: Bucket | None, tail: Bucket | None) -> Iterator[Bucket]:
     """One channel's buckets of its blocks ``got`` (``(bucket, vmin, tmin, vmax, tmax)`` in
     time order), with ``head`` (the first bucket's) before them and ``tail`` after:
     the blocks of one bucket merged by the rule of :func:`rows` (in time order, so on a tie

@@ -27,7 +27,7 @@ from statistics import median
 from typing import Any
 
 from . import blocks, store
-from .times import to_epoch
+from .times import shift, to_epoch
 
 
 @dataclass
@@ -81,6 +81,33 @@ def break_gaps(
     return usual
 
 
+def answer(
+    db: store.Db, logger: str, lo: str | None, hi: str | None, max_points: int, span_s: float
+) -> dict[str, Any]:
+    """The plot's answer (``/api/loggers/{logger}/series``): ``[lo, hi]``, or up to the last
+    reading (``hi`` None: the plot follows the new rows) and ``span_s`` back from ``hi``
+    (``lo`` None: not before the first reading)."""
+    last = store.last_time(db, logger)
+    first = store.first_time(db, logger)
+    to = hi or last or "1970-01-01T00:00:00"
+    frm = lo or max(shift(to, -span_s), min(first or to, to))
+    chans = store.channels(db, logger)
+    got, width = load(db, logger, chans, frm, to, max_points)
+    return {
+        "logger": logger,
+        "from": frm,
+        "to": to,
+        "x_from": to_epoch(frm),
+        "x_to": to_epoch(to),
+        "following": hi is None,
+        "last": last,
+        "first": first,
+        "downsampled": width is not None,
+        "bucket_s": width,
+        "series": [s.as_json() for s in got],
+    }
+
+
 def load(
     db: store.Db,
     logger: str,
@@ -94,7 +121,12 @@ def load(
     # raw when every series has at most max_points rows; past this many rows in all, some
     # channel has more (pigeonhole), so counting stops there
     cap = max_points * max(1, len(by_ch)) + 1
-    per_channel, capped = store.counts(db, logger, lo, hi, cap)
+    per_channel: dict[int, int] = {}
+    # a long range is downsampled without its channels counted: those with rows in the
+    # range come with the buckets
+    capped = store.reaches(db, logger, lo, hi, cap)
+    if not capped:
+        per_channel, capped = store.counts(db, logger, lo, hi, cap)
     for ch in per_channel:
         if ch not in by_ch:
             by_ch[ch] = Series(store.Channel(ch, None, None))

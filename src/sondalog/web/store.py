@@ -15,9 +15,12 @@ from the readings themselves.
 
 from __future__ import annotations
 
+import re
 import sqlite3
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
+from itertools import groupby
+from operator import itemgetter
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +121,9 @@ def sources(db: Db) -> list[dict[str, Any]]:
 def channels(db: Db, logger: str) -> list[Channel]:
     """The logger's channels with their last values, by channel number.
 
-    From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows.
+    From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows
+    (their channels and values; each channel's newest row read again for its time, name
+    and unit).
     """
     out: dict[int, Channel] = {}
     formats: dict[int, int] = {}
@@ -132,26 +137,29 @@ def channels(db: Db, logger: str) -> list[Channel]:
             if form:
                 formats[int(ch)] = format_decimals(str(form))
     d = db.dialect
+    order = "ORDER BY time DESC, counter DESC"
     recent = db.rows(
-        d.query(
-            f"channel, {d.time('time')}, value, name, unit",
-            "channel, time, counter, value, name, unit",
-            "logger = ?",
-            order="ORDER BY time DESC, counter DESC",
-            limit=True,
-            positive=False,
-        ),
+        d.query("channel, value", "channel, time, counter, value", "logger = ?", order=order,
+                limit=True, positive=False),
         (logger, RECENT_ROWS),
-    )
+    )  # fmt: skip
     places: dict[int, int] = {}
-    for ch, time, value, name, unit in recent:
+    for ch, group in groupby(sorted(recent, key=itemgetter(0)), itemgetter(0)):
+        values = [v for _, v in group if v is not None]
+        if ch > 0 and values and ch not in formats:  # the logger's own format wins
+            places[ch] = most_decimals(values)
+    # a channel's newest row (its first of the recent ones) read again with its texts: a
+    # query each channel costs less than the texts of every recent row
+    newest = (
+        f"SELECT {d.time('time')}, value, name, unit FROM "
+        f"{d.readings('logger = ?', 'time, counter, channel, value, name, unit', order)} "
+        f"WHERE channel = ? {order} LIMIT 1"
+    )
+    for ch in dict.fromkeys(map(itemgetter(0), recent)):
         if ch <= 0:
             continue
-        if value is not None and ch not in formats:  # the logger's own format wins
-            places[ch] = max(places.get(ch, 0), decimals(value))
+        time, value, name, unit = db.rows(newest, (logger, ch))[0]
         old = out.get(ch)
-        if old is not None and old.last_time is not None:
-            continue
         out[ch] = Channel(
             ch,
             (old.name if old and old.name else None) or name,
@@ -171,6 +179,23 @@ def format_decimals(form: str) -> int:
     ``0.1`` -> 1, ``5.2`` -> 2, ``0.0`` -> 0."""
     _, _, places = form.strip().partition(".")
     return int(places) if places.isdigit() else 0
+
+
+_FRACTION = re.compile(r"\.(\d+)")
+
+
+def most_decimals(values: Sequence[float]) -> int:
+    """``max(map(decimals, values))`` (``values`` not empty) with the digits read from all
+    the values' text at once: a fraction of more than one digit is never ``0`` (the
+    shortest text of a number ends in a digit other than 0 after its point)."""
+    text = ",".join(map(repr, map(float, values)))
+    if "e" in text:  # 1e-05, 1.5e+16: the rare values decimals() spells out
+        return max(map(decimals, values))
+    fractions = _FRACTION.findall(text)
+    longest = max(map(len, fractions), default=0)
+    if longest > 1:
+        return min(longest, 6)
+    return 1 if set(fractions) - {"0"} else 0
 
 
 def decimals(value: float) -> int:
@@ -215,6 +240,15 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
         )
     }
     return got, sum(got.values()) >= cap
+
+
+def reaches(db: Db, logger: str, lo: str, hi: str, cap: int) -> bool:
+    """Whether ``[lo, hi]`` holds ``cap`` rows or more (counted up to ``cap``, not by
+    channel: a long range's plot needs no more, :func:`counts` costs twice as much)."""
+    where = "logger = ? AND time >= ? AND time <= ?"
+    some = db.dialect.query("1", "channel", where, limit=True)
+    found = db.first(f"SELECT count(*) FROM ({some}) r", (logger, lo, hi, cap))
+    return found is not None and int(found[0]) >= cap
 
 
 def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:

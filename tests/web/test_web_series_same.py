@@ -225,3 +225,39 @@ def test_postgres_answers_as_before(dsn: str, seed: int, n: int) -> None:
 def test_the_most_decimals_of_values_are_those_of_each(values: list[float]) -> None:
     """:func:`store.most_decimals` reads the text of all the values at once."""
     assert store.most_decimals(values) == max(map(store.decimals, values))
+
+
+def test_postgres_blocks_out_of_order_are_put_in_order(
+    pg_dsn: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The server's arrays of a channel's blocks are taken in time order only when their
+    starts show it: given backwards, they are sorted (the answer is the same)."""
+    from sondalog.web import blocks
+
+    rng = random.Random(5)
+    readings = [r for r in random_readings(rng, 300, 60 * 86400) if r.logger == "L"]
+    asyncio.run(_write(pg_dsn, readings))
+    where = Readings(None, pg_dsn)
+    db = where.open()
+    try:
+        plans = [
+            blocks.plan("2026-03-01T05:00:00", "2026-04-20T00:00:00", n) for n in (5, 20, 100)
+        ]
+        want = [blocks.rows(db, "L", p, use_blocks=True) for p in plans]
+        assert all(p.size for p in plans) and all(want)
+        monkeypatch.setattr(blocks, "_KEY_ORDER", "ORDER BY start DESC, channel")
+        assert [blocks.rows(db, "L", p, use_blocks=True) for p in plans] == want
+    finally:
+        where.close(db)
+        where.shutdown()
+
+
+async def _write(dsn: str, rows: list[Reading]) -> None:
+    sink = sink_postgres.create({"dsn": dsn, "timescaledb": "off"})
+    await sink.open()
+    try:
+        await sink.write([])
+        for i in range(0, len(rows), 100):
+            await sink.write(rows[i : i + 100])
+    finally:
+        await sink.close()

@@ -240,9 +240,7 @@ def test_postgres_blocks_out_of_order_are_put_in_order(
     where = Readings(None, pg_dsn)
     db = where.open()
     try:
-        plans = [
-            blocks.plan("2026-03-01T05:00:00", "2026-04-20T00:00:00", n) for n in (5, 20, 100)
-        ]
+        plans = [blocks.plan("2026-03-01T05:00:00", "2026-04-20T00:00:00", n) for n in (5, 20, 100)]
         want = [blocks.rows(db, "L", p, use_blocks=True) for p in plans]
         assert all(p.size for p in plans) and all(want)
         monkeypatch.setattr(blocks, "_KEY_ORDER", "ORDER BY start DESC, channel")

@@ -123,7 +123,7 @@ def channels(db: Db, logger: str) -> list[Channel]:
 
     From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows
     (their channels and values; each channel's newest row read again for its time, name
-    and unit).
+    and unit, :func:`_newest`).
     """
     out: dict[int, Channel] = {}
     formats: dict[int, int] = {}
@@ -148,17 +148,7 @@ def channels(db: Db, logger: str) -> list[Channel]:
         values = [v for _, v in group if v is not None]
         if ch > 0 and values and ch not in formats:  # the logger's own format wins
             places[ch] = most_decimals(values)
-    # a channel's newest row (its first of the recent ones) read again with its texts: a
-    # query each channel costs less than the texts of every recent row
-    newest = (
-        f"SELECT {d.time('time')}, value, name, unit FROM "
-        f"{d.readings('logger = ?', 'time, counter, channel, value, name, unit', order)} "
-        f"WHERE channel = ? {order} LIMIT 1"
-    )
-    for ch in dict.fromkeys(map(itemgetter(0), recent)):
-        if ch <= 0:
-            continue
-        time, value, name, unit = db.rows(newest, (logger, ch))[0]
+    for ch, (time, value, name, unit) in _newest(db, logger, recent).items():
         old = out.get(ch)
         out[ch] = Channel(
             ch,
@@ -172,6 +162,39 @@ def channels(db: Db, logger: str) -> list[Channel]:
         if ch in out:
             out[ch] = replace(out[ch], decimals=n)
     return [out[k] for k in sorted(out)]
+
+
+def _newest(db: Db, logger: str, recent: list[tuple[Any, ...]]) -> dict[int, tuple[Any, ...]]:
+    """Per channel > 0 of the ``recent`` rows (``channel, value``, newest first), its newest
+    row's time, value, name and unit: read again with its texts (they cost more, read for
+    every recent row). On SQLite a query a channel (no round trips), on a server one
+    statement (a round trip a channel took longer than the statement)."""
+    d = db.dialect
+    order = "ORDER BY time DESC, counter DESC"
+    if d.postgres:
+        every = d.query(
+            "channel, time, counter, value, name, unit",
+            "channel, time, counter, value, name, unit",
+            "logger = ?",
+            order=order,
+            limit=True,
+            positive=False,
+        )
+        return {
+            row[0]: row[1:]
+            for row in db.rows(
+                f"SELECT channel, {d.time('time')}, value, name, unit FROM (SELECT *, "
+                f"row_number() OVER (PARTITION BY channel {order}) AS nth FROM ({every}) r) w "
+                "WHERE nth = 1 AND channel > 0",
+                (logger, RECENT_ROWS),
+            )
+        }
+    one = f"SELECT time, value, name, unit FROM readings WHERE logger = ? AND channel = ? {order}"
+    return {
+        ch: db.rows(one + " LIMIT 1", (logger, ch))[0]
+        for ch in dict.fromkeys(map(itemgetter(0), recent))
+        if ch > 0
+    }
 
 
 def format_decimals(form: str) -> int:

@@ -173,7 +173,7 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
     from the blocks where they are complete (``use_blocks`` None) or when told, else from
     the rows (the same answer). :func:`by_channel` as one list."""
     per = {ch: list(got) for ch, got in by_channel(db, logger, p, use_blocks=use_blocks)}
-    return [(k, ch, *rest) for ch in sorted(per) for k, *rest in per[ch]]  # type: ignore[misc]
+    return [(k, ch, a, b, c, d) for ch in sorted(per) for k, a, b, c, d in per[ch]]
 
 
 def by_channel(

@@ -87,8 +87,7 @@ def answer(
     """The plot's answer (``/api/loggers/{logger}/series``): ``[lo, hi]``, or up to the last
     reading (``hi`` None: the plot follows the new rows) and ``span_s`` back from ``hi``
     (``lo`` None: not before the first reading)."""
-    last = store.last_time(db, logger)
-    first = store.first_time(db, logger)
+    first, last = store.first_and_last(db, logger)
     to = hi or last or "1970-01-01T00:00:00"
     frm = lo or max(shift(to, -span_s), min(first or to, to))
     chans = store.channels(db, logger)

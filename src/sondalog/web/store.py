@@ -239,6 +239,16 @@ def last_time(db: Db, logger: str) -> str | None:
     return None if row is None else str(row[0])
 
 
+def first_and_last(db: Db, logger: str) -> tuple[str | None, str | None]:
+    """:func:`first_time` and :func:`last_time` in one statement (one round trip)."""
+    d, keys = db.dialect, db.dialect.keys
+    one = f"(SELECT {d.time('time')} FROM {keys} WHERE logger = ? ORDER BY time{{}} LIMIT 1)"
+    row = db.first(f"SELECT {one.format('')}, {one.format(' DESC')}", (logger, logger))
+    if row is None:  # never: one row of two subqueries
+        return None, None
+    return row[0], row[1]
+
+
 def first_time(db: Db, logger: str) -> str | None:
     row = db.first(
         f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "

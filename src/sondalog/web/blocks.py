@@ -283,15 +283,17 @@ def _markers(sql: str) -> Iterator[bool]:
 
 def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:
     """The buckets of ``p`` from the rows: on PostgreSQL one statement over the range's
-    rows (:func:`_by_rows_pg`); on SQLite one key range per bucket."""
+    rows (:func:`_by_rows_pg`); on SQLite one key range per bucket, one statement."""
     if db.dialect.postgres:
         return _by_rows_pg(db, logger, p)
     (smin, smax), _ = _span(db, (), 0, 1)
     texts = p.texts()
     out: list[Row] = []
+    # the bucket a parameter: one text, compiled once (a text a bucket was compiled each
+    # time, past the connection's cache of statements: most of a week's time)
+    sql = db.dialect.sql(_pair(False, smin, smax, "channel", "?"))
     for i in range(len(texts) - 1):
-        sql = db.dialect.sql(_pair(False, smin, smax, "channel", str(i)))
-        out += db.conn.execute(sql, [logger, texts[i], texts[i + 1]] * 2)
+        out += db.conn.execute(sql, [i, *[logger, texts[i], texts[i + 1]] * 2])
     out.sort(key=lambda r: (r[1], r[0]))
     return out
 

@@ -114,11 +114,12 @@ def _span(db: Db, sizes: Sequence[int], lo: int, hi: int) -> tuple[list[str], li
             args += [from_epoch(p), from_epoch(q)]
             for which in arms:
                 arms[which].append(sql)
-        else:
+        else:  # the span's seconds parameters: a range's text is its sizes' (cached once)
+            args += [p, q]
             for which in arms:
                 arms[which].append(
                     f"SELECT channel, v{which} AS v, t{which} AS t FROM {TABLE} "
-                    f"WHERE logger = ? AND size = {size} AND start >= {p} AND start < {q}"
+                    f"WHERE logger = ? AND size = {size} AND start >= ? AND start < ?"
                 )
     return [" UNION ALL ".join(arms[w]) for w in ("min", "max")], args
 

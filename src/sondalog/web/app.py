@@ -326,25 +326,7 @@ class Api(AlarmHandlers):
 
         def work(c: store.Db) -> dict[str, Any]:
             cpu.append(time.thread_time())
-            last = store.last_time(c, logger)
-            first = store.first_time(c, logger)
-            to = hi or last or "1970-01-01T00:00:00"
-            frm = lo or max(shift(to, -span), min(first or to, to))
-            chans = store.channels(c, logger)
-            got, width = series.load(c, logger, chans, frm, to, points)
-            return {
-                "logger": logger,
-                "from": frm,
-                "to": to,
-                "x_from": to_epoch(frm),
-                "x_to": to_epoch(to),
-                "following": hi is None,
-                "last": last,
-                "first": first,
-                "downsampled": width is not None,
-                "bucket_s": width,
-                "series": [s.as_json() for s in got],
-            }
+            return series.answer(c, logger, lo, hi, points, span)
 
         began = time.perf_counter()
         body = await self._db(partial(_cpu_timed, work, cpu))

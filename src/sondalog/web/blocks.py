@@ -19,9 +19,13 @@ a read-only copy), the same buckets are read from the rows (slower; tested equal
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Iterator, Sequence
+import operator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from itertools import groupby
+from operator import itemgetter
 from typing import Any
 
 from sondalog.collect.schema import EXTREMES as TABLE
@@ -31,7 +35,7 @@ from sondalog.collect.schema import EXTREMES_TODO as TODO
 from .db import Db
 from .times import from_epoch, to_epoch
 
-__all__ = ["SIZES", "Plan", "pieces", "plan", "rows"]
+__all__ = ["SIZES", "Plan", "by_channel", "pieces", "plan", "rows"]
 
 Row = tuple[int, int, float | None, int, float | None, int]
 _RAW = "channel, time, value"
@@ -110,11 +114,12 @@ def _span(db: Db, sizes: Sequence[int], lo: int, hi: int) -> tuple[list[str], li
             args += [from_epoch(p), from_epoch(q)]
             for which in arms:
                 arms[which].append(sql)
-        else:
+        else:  # the span's seconds parameters: a range's text is its sizes' (cached once)
+            args += [p, q]
             for which in arms:
                 arms[which].append(
                     f"SELECT channel, v{which} AS v, t{which} AS t FROM {TABLE} "
-                    f"WHERE logger = ? AND size = {size} AND start >= {p} AND start < {q}"
+                    f"WHERE logger = ? AND size = {size} AND start >= ? AND start < ?"
                 )
     return [" UNION ALL ".join(arms[w]) for w in ("min", "max")], args
 
@@ -147,16 +152,17 @@ def _pair(pg: bool, source_min: str, source_max: str, keys: str, k: str) -> str:
 
 def _ends(db: Db, p: Plan) -> tuple[str, list[object]]:
     """One statement of the two ends of ``p`` (before its first whole block, after its last:
-    finer blocks and raw rows; ``k, ch, vmin, tmin, vmax, tmax``), and the parameters of
-    its ``?`` other than the logger's (see :func:`_markers`); "" without ends."""
+    finer blocks and raw rows; ``e, ch, vmin, tmin, vmax, tmax``, ``e`` 0 for the part before,
+    1 for the part after), and the parameters of its ``?`` other than the logger's (see
+    :func:`_markers`); "" without ends."""
     pg = db.dialect.postgres
     args: list[object] = []
     parts = []
     finer = [s for s in SIZES if s < p.size]
-    for k, lo, hi in ((0, p.edges[0], p.a), (p.m - 1, p.b, p.edges[-1])):
+    for e, lo, hi in ((0, p.edges[0], p.a), (1, p.b, p.edges[-1])):
         if lo < hi:
             (smin, smax), more = _span(db, finer, lo, hi)
-            parts.append(_pair(pg, smin, smax, "channel", str(k)))
+            parts.append(_pair(pg, smin, smax, "channel", str(e)))
             args += more + more
     return " UNION ALL ".join(f"SELECT * FROM ({x}) u{i}" for i, x in enumerate(parts)), args
 
@@ -166,66 +172,107 @@ def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> lis
     bucket: the channel's smallest and largest value in the bucket, each with the earliest
     time (seconds) of a reading that has it (every value NULL: NULL and the latest time);
     from the blocks where they are complete (``use_blocks`` None) or when told, else from
-    the rows (the same answer).
+    the rows (the same answer). :func:`by_channel` as one list."""
+    per = {ch: list(got) for ch, got in by_channel(db, logger, p, use_blocks=use_blocks)}
+    return [(k, ch, a, b, c, d) for ch in sorted(per) for k, a, b, c, d in per[ch]]
+
+
+def by_channel(
+    db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None
+) -> Iterator[tuple[int, Iterator[Bucket]]]:
+    """Per channel (once each, in no particular order) its buckets ``(bucket, vmin, tmin,
+    vmax, tmax)`` in order, as :func:`rows` tells them; a channel's buckets are to be read
+    before the next channel is asked for.
 
     From the blocks: one statement reads the whole blocks of the range (a year: 1,460 a
-    channel), and each bucket's are merged here in time order (measured half the CPU of
-    grouping them in SQL and reading the groups); one more reads the two ends."""
+    channel) with each one's bucket, by channel and time, and a channel's blocks of one
+    bucket are merged here as they come (:func:`_merged`); one more reads the two ends.
+    On PostgreSQL a channel's blocks come as one row of arrays, in binary (psycopg makes
+    the lists in C; a row a block, each converted by Python code, took most of a year's
+    CPU)."""
     blocks = usable(db, logger, p.edges[0]) if use_blocks is None else use_blocks
     if not (blocks and p.size):
-        return _by_rows(db, logger, p)
-    a, size, m, n = p.a, p.size, p.m, p.n
-    per: dict[int, list[list[Any]]] = {}
-    sql = (
-        f"SELECT channel, start, vmin, tmin, vmax, tmax FROM {TABLE} WHERE logger = ? "
-        "AND size = ? AND start >= ? AND start < ? ORDER BY start, channel"
-    )
-    got = db.conn.execute(db.dialect.sql(sql), (logger, size, a, p.b))
-    if db.dialect.postgres:
-        got = _chunks(got)
-    for ch, start, vmin, tmin, vmax, tmax in got:
-        k = (start - a) // size * m // n
-        mine = per.get(ch)
-        if mine is None:
-            per[ch] = [[k, ch, vmin, tmin, vmax, tmax]]
-            continue
-        c = mine[-1]
-        if c[0] != k:
-            mine.append([k, ch, vmin, tmin, vmax, tmax])
-            continue
-        # the rule of _better, inlined (blocks in time order: a tie keeps the earlier)
-        if vmin is not None:
-            if c[2] is None or vmin < c[2]:
-                c[2], c[3] = vmin, tmin
-        elif c[2] is None:
-            c[3] = tmin
-        if vmax is not None:
-            if c[4] is None or vmax > c[4]:
-                c[4], c[5] = vmax, tmax
-        elif c[4] is None:
-            c[5] = tmax
-    ends, args = _ends(db, p)
-    if ends:
+        for ch, group in groupby(_by_rows(db, logger, p), itemgetter(1)):
+            yield ch, ((k, a, b, c, d) for k, _, a, b, c, d in group)
+        return
+    ends: dict[int, list[Block | None]] = {}
+    sql, args = _ends(db, p)
+    if sql:
         rest = iter(args)  # every '?' is the logger's (``logger = ?``) or the next of args
-        params = [logger if mine else next(rest) for mine in _markers(ends)]
-        for row in db.conn.execute(db.dialect.sql(ends), params).fetchall():
-            k, ch = row[0], row[1]
-            mine = per.setdefault(ch, [])
-            at = 0 if k == 0 else len(mine) - 1  # the first or the last bucket
-            if mine and mine[at][0] == k:
-                mine[at] = list(_both(tuple(mine[at]), row))
-            else:
-                mine.insert(0 if k == 0 else len(mine), list(row))
-    return [tuple(r) for ch in sorted(per) for r in per[ch]]
+        params = [logger if mine else next(rest) for mine in _markers(sql)]
+        for e, ch, vmin, tmin, vmax, tmax in db.conn.execute(db.dialect.sql(sql), params):
+            ends.setdefault(ch, [None, None])[e] = (e, e * (p.m - 1), vmin, tmin, vmax, tmax)
+    # a block's bucket (``start >= a``: no negative division to round differently)
+    k = "(start - ?::bigint) / ?::bigint * ?::bigint / ?::bigint"
+    if not db.dialect.postgres:
+        k = k.replace("::bigint", "")
+    where = "logger = ? AND size = ? AND start >= ? AND start < ?"
+    args = [p.a, p.size, p.m, p.n, logger, p.size, p.a, p.b]
+    if db.dialect.postgres:
+        # the key's order, grouped by a hash (the blocks' arrays in the order they come; a
+        # sort by channel, or one an aggregate, took the server twice as long), which
+        # each channel's starts prove (else they are sorted here)
+        arrays = ", ".join(f"array_agg({c})" for c in ("start", "k", *_EXTREMES))
+        sql = (
+            f"SELECT channel, {arrays} FROM (SELECT channel, start, {k} AS k, "
+            f"{', '.join(_EXTREMES)} FROM {TABLE} "
+            f"WHERE {where} {_KEY_ORDER}) b GROUP BY channel"
+        )
+        with db.conn.cursor(binary=True) as cur:
+            got = cur.execute(db.dialect.sql(sql), args).fetchall()
+        for ch, *columns in got:
+            head, tail = ends.pop(ch, (None, None))
+            blocks_of: Iterable[Block] = zip(*columns, strict=True)
+            if not all(map(operator.lt, columns[0], columns[0][1:])):
+                blocks_of = sorted(blocks_of, key=_first)
+            yield ch, _merged(blocks_of, head, tail)
+    else:
+        sql = f"SELECT channel, {k}, {', '.join(_EXTREMES)} FROM {TABLE} WHERE {where}"
+        for ch, group in groupby(db.conn.execute(sql + " ORDER BY channel, start", args), _first):
+            head, tail = ends.pop(ch, (None, None))
+            yield ch, _merged(group, head, tail)  # (channel, k, ...): as a Block
+    for ch, (head, tail) in ends.items():  # channels with readings at the ends only
+        yield ch, _merged((), head, tail)
 
 
-def _chunks(cursor: Any, size: int = 2000) -> Iterator[Any]:
-    """The rows of a psycopg ``cursor``, converted a chunk at a time: iterating the cursor
-    runs Python code a row (most of a year's CPU in a profile), and fetching all 17,520
-    rows at once kept them alive together (the garbage collector's passes over them cost
-    as much again in the server's process)."""
-    while chunk := cursor.fetchmany(size):
-        yield from chunk
+_EXTREMES = ("vmin", "tmin", "vmax", "tmax")
+_first = itemgetter(0)
+#: The blocks' order the server's arrays are expected in (``ORDER BY`` the key, a tests' knob).
+_KEY_ORDER = "ORDER BY start, channel"
+#: One bucket's extremes: ``(bucket, vmin, tmin, vmax, tmax)``.
+Bucket = tuple[int, float | None, int, float | None, int]
+#: A block's (or an end's) extremes with its bucket, after a column not read here (what
+#: the statement gives first): ``(_, bucket, vmin, tmin, vmax, tmax)``.
+Block = tuple[Any, int, float | None, int, float | None, int]
+
+
+def _merged(got: Iterable[Block], head: Block | None, tail: Block | None) -> Iterator[Bucket]:
+    """One channel's buckets of its blocks ``got`` (in time order), with ``head`` (the first
+    bucket's end) before them and ``tail`` (the last's) after: the blocks of one bucket
+    merged by the rule of :func:`rows` (in time order, so on a tie the one before stays,
+    and every value NULL takes the later time)."""
+    it = itertools.chain(got, () if tail is None else (tail,))
+    if head is None:
+        head = next(it, None)
+        if head is None:
+            return
+    _, ck, cmin, ctmin, cmax, ctmax = head
+    for _, k, vmin, tmin, vmax, tmax in it:
+        if k != ck:
+            yield ck, cmin, ctmin, cmax, ctmax
+            ck, cmin, ctmin, cmax, ctmax = k, vmin, tmin, vmax, tmax
+            continue
+        if vmin is not None:
+            if cmin is None or vmin < cmin:
+                cmin, ctmin = vmin, tmin
+        elif cmin is None:
+            ctmin = tmin
+        if vmax is not None:
+            if cmax is None or vmax > cmax:
+                cmax, ctmax = vmax, tmax
+        elif cmax is None:
+            ctmax = tmax
+    yield ck, cmin, ctmin, cmax, ctmax
 
 
 def _markers(sql: str) -> Iterator[bool]:
@@ -235,39 +282,19 @@ def _markers(sql: str) -> Iterator[bool]:
         yield before.rstrip().endswith("logger =")
 
 
-def _both(one: Row, two: Row) -> Row:
-    """One bucket's extremes from two parts of it."""
-    vmin, tmin = _better(0, (one[2], one[3]), (two[2], two[3]))
-    vmax, tmax = _better(1, (one[4], one[5]), (two[4], two[5]))
-    return one[0], one[1], vmin, tmin, vmax, tmax
-
-
-def _better(
-    which: int, old: tuple[float | None, int], new: tuple[float | None, int]
-) -> tuple[float | None, int]:
-    """The smallest (``which`` 0) or largest of two (value, time) of one bucket and channel
-    by the rule of :func:`rows`."""
-    (ov, ot), (nv, nt) = old, new
-    if nv is None:
-        return (ov, max(ot, nt)) if ov is None else old
-    if ov is None:
-        return new
-    if nv == ov:
-        return new if nt < ot else old
-    return new if (nv < ov) == (which == 0) else old
-
-
 def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:
     """The buckets of ``p`` from the rows: on PostgreSQL one statement over the range's
-    rows (:func:`_by_rows_pg`); on SQLite one key range per bucket."""
+    rows (:func:`_by_rows_pg`); on SQLite one key range per bucket, one statement."""
     if db.dialect.postgres:
         return _by_rows_pg(db, logger, p)
     (smin, smax), _ = _span(db, (), 0, 1)
     texts = p.texts()
     out: list[Row] = []
+    # the bucket a parameter: one text, compiled once (a text a bucket was compiled each
+    # time, past the connection's cache of statements: most of a week's time)
+    sql = db.dialect.sql(_pair(False, smin, smax, "channel", "?"))
     for i in range(len(texts) - 1):
-        sql = db.dialect.sql(_pair(False, smin, smax, "channel", str(i)))
-        out += db.conn.execute(sql, [logger, texts[i], texts[i + 1]] * 2)
+        out += db.conn.execute(sql, [i, *[logger, texts[i], texts[i + 1]] * 2])
     out.sort(key=lambda r: (r[1], r[0]))
     return out
 

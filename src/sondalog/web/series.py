@@ -12,7 +12,7 @@ is put there so the line breaks instead of bridging it. Each series carries its 
 (``t``, seconds on the logger's clock read as UTC) and values (``v``); the browser joins them.
 
 The buckets (:func:`.blocks.plan`: on the grid of a block size for a long range) and their
-extremes come from :func:`.blocks.rows`: from the per-block extremes the sinks keep
+extremes come from :func:`.blocks.by_channel`: from the per-block extremes the sinks keep
 where they are complete (a year in tens of milliseconds), else from the rows; the same
 answer either way, on SQLite and PostgreSQL.
 """
@@ -20,14 +20,14 @@ answer either way, on SQLite and PostgreSQL.
 from __future__ import annotations
 
 import operator
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from itertools import pairwise
 from statistics import median
 from typing import Any
 
 from . import blocks, store
-from .times import to_epoch
+from .times import shift, to_epoch
 
 
 @dataclass
@@ -81,6 +81,32 @@ def break_gaps(
     return usual
 
 
+def answer(
+    db: store.Db, logger: str, lo: str | None, hi: str | None, max_points: int, span_s: float
+) -> dict[str, Any]:
+    """The plot's answer (``/api/loggers/{logger}/series``): ``[lo, hi]``, or up to the last
+    reading (``hi`` None: the plot follows the new rows) and ``span_s`` back from ``hi``
+    (``lo`` None: not before the first reading)."""
+    first, last = store.first_and_last(db, logger)
+    to = hi or last or "1970-01-01T00:00:00"
+    frm = lo or max(shift(to, -span_s), min(first or to, to))
+    chans = store.channels(db, logger)
+    got, width = load(db, logger, chans, frm, to, max_points)
+    return {
+        "logger": logger,
+        "from": frm,
+        "to": to,
+        "x_from": to_epoch(frm),
+        "x_to": to_epoch(to),
+        "following": hi is None,
+        "last": last,
+        "first": first,
+        "downsampled": width is not None,
+        "bucket_s": width,
+        "series": [s.as_json() for s in got],
+    }
+
+
 def load(
     db: store.Db,
     logger: str,
@@ -94,7 +120,12 @@ def load(
     # raw when every series has at most max_points rows; past this many rows in all, some
     # channel has more (pigeonhole), so counting stops there
     cap = max_points * max(1, len(by_ch)) + 1
-    per_channel, capped = store.counts(db, logger, lo, hi, cap)
+    per_channel: dict[int, int] = {}
+    # a long range is downsampled without its channels counted: those with rows in the
+    # range come with the buckets
+    capped = store.reaches(db, logger, lo, hi, cap)
+    if not capped:
+        per_channel, capped = store.counts(db, logger, lo, hi, cap)
     for ch in per_channel:
         if ch not in by_ch:
             by_ch[ch] = Series(store.Channel(ch, None, None))
@@ -136,41 +167,40 @@ def _downsampled(
     by_ch: dict[int, Series],
 ) -> float:
     p = blocks.plan(lo, hi, buckets)
-    got = blocks.rows(db, logger, p)  # by channel and bucket
-    start = 0
-    while start < len(got):
-        ch = got[start][1]
-        end = start
-        while end < len(got) and got[end][1] == ch:
-            end += 1
+    for ch, got in blocks.by_channel(db, logger, p):
         s = by_ch.setdefault(ch, Series(store.Channel(ch, None, None)))
-        bars = s.channel.kind == "bars"
-        t, v = s.t, s.v
-        # a pause is broken only across an empty bucket, so the nulls keep within 2 per bucket
-        jumps: list[int] = []
-        last = got[start][0]
-        for k, _, vmin, tmin, vmax, tmax in got[start:end]:
-            # a bucket's points: its smallest and largest value at the times of readings that
-            # have them, in time order (so every point lies in the range, where a reading
-            # was); bars: the largest only
-            if k - last > 1:
-                jumps.append(len(t))
-            last = k
-            if bars or vmin == vmax:
-                t.append(tmax)
-                v.append(vmax)
-            elif tmin == tmax:  # two rows of one second (counters): a millisecond apart
-                t += (tmin, tmax + 0.001)
-                v += (vmin, vmax)
-            elif tmin < tmax:
-                t += (tmin, tmax)
-                v += (vmin, vmax)
-            else:
-                t += (tmax, tmin)
-                v += (vmax, vmin)
-        s.step = _break_at(t, v, jumps)
-        start = end
+        s.step = _break_at(s.t, s.v, _points(got, s.channel.kind == "bars", s.t, s.v))
     return float(p.width)
+
+
+def _points(
+    got: Iterable[blocks.Bucket], bars: bool, t: list[float], v: list[float | None]
+) -> list[int]:
+    """A series' points of its buckets ``got`` (in order) appended to ``t`` and ``v``, and
+    the points a pause may be broken before: only across an empty bucket, so the nulls keep
+    within 2 per bucket."""
+    jumps: list[int] = []
+    last = 1 << 62  # the first bucket is no jump
+    for k, vmin, tmin, vmax, tmax in got:
+        # a bucket's points: its smallest and largest value at the times of readings that
+        # have them, in time order (so every point lies in the range, where a reading
+        # was); bars: the largest only
+        if k - last > 1:
+            jumps.append(len(t))
+        last = k
+        if bars or vmin == vmax:
+            t.append(tmax)
+            v.append(vmax)
+        elif tmin == tmax:  # two rows of one second (counters): a millisecond apart
+            t += (tmin, tmax + 0.001)
+            v += (vmin, vmax)
+        elif tmin < tmax:
+            t += (tmin, tmax)
+            v += (vmin, vmax)
+        else:
+            t += (tmax, tmin)
+            v += (vmax, vmin)
+    return jumps
 
 
 def _break_at(t: list[float], v: list[float | None], at: list[int]) -> float | None:

@@ -15,9 +15,12 @@ from the readings themselves.
 
 from __future__ import annotations
 
+import re
 import sqlite3
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
+from itertools import groupby
+from operator import itemgetter
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +121,9 @@ def sources(db: Db) -> list[dict[str, Any]]:
 def channels(db: Db, logger: str) -> list[Channel]:
     """The logger's channels with their last values, by channel number.
 
-    From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows.
+    From the optional ``channels`` table and the logger's newest :data:`RECENT_ROWS` rows
+    (their channels and values; each channel's newest row read again for its time, name
+    and unit, :func:`_newest`).
     """
     out: dict[int, Channel] = {}
     formats: dict[int, int] = {}
@@ -132,26 +137,19 @@ def channels(db: Db, logger: str) -> list[Channel]:
             if form:
                 formats[int(ch)] = format_decimals(str(form))
     d = db.dialect
+    order = "ORDER BY time DESC, counter DESC"
     recent = db.rows(
-        d.query(
-            f"channel, {d.time('time')}, value, name, unit",
-            "channel, time, counter, value, name, unit",
-            "logger = ?",
-            order="ORDER BY time DESC, counter DESC",
-            limit=True,
-            positive=False,
-        ),
+        d.query("channel, value", "channel, time, counter, value", "logger = ?", order=order,
+                limit=True, positive=False),
         (logger, RECENT_ROWS),
-    )
+    )  # fmt: skip
     places: dict[int, int] = {}
-    for ch, time, value, name, unit in recent:
-        if ch <= 0:
-            continue
-        if value is not None and ch not in formats:  # the logger's own format wins
-            places[ch] = max(places.get(ch, 0), decimals(value))
+    for ch, group in groupby(sorted(recent, key=itemgetter(0)), itemgetter(0)):
+        values = [v for _, v in group if v is not None]
+        if ch > 0 and values and ch not in formats:  # the logger's own format wins
+            places[ch] = most_decimals(values)
+    for ch, (time, value, name, unit) in _newest(db, logger, recent).items():
         old = out.get(ch)
-        if old is not None and old.last_time is not None:
-            continue
         out[ch] = Channel(
             ch,
             (old.name if old and old.name else None) or name,
@@ -166,11 +164,61 @@ def channels(db: Db, logger: str) -> list[Channel]:
     return [out[k] for k in sorted(out)]
 
 
+def _newest(db: Db, logger: str, recent: list[tuple[Any, ...]]) -> dict[int, tuple[Any, ...]]:
+    """Per channel > 0 of the ``recent`` rows (``channel, value``, newest first), its newest
+    row's time, value, name and unit: read again with its texts (they cost more, read for
+    every recent row). On SQLite a query a channel (no round trips), on a server one
+    statement (a round trip a channel took longer than the statement)."""
+    d = db.dialect
+    order = "ORDER BY time DESC, counter DESC"
+    if d.postgres:
+        every = d.query(
+            "channel, time, counter, value, name, unit",
+            "channel, time, counter, value, name, unit",
+            "logger = ?",
+            order=order,
+            limit=True,
+            positive=False,
+        )
+        return {
+            row[0]: row[1:]
+            for row in db.rows(
+                f"SELECT channel, {d.time('time')}, value, name, unit FROM (SELECT *, "
+                f"row_number() OVER (PARTITION BY channel {order}) AS nth FROM ({every}) r) w "
+                "WHERE nth = 1 AND channel > 0",
+                (logger, RECENT_ROWS),
+            )
+        }
+    one = f"SELECT time, value, name, unit FROM readings WHERE logger = ? AND channel = ? {order}"
+    return {
+        ch: db.rows(one + " LIMIT 1", (logger, ch))[0]
+        for ch in dict.fromkeys(map(itemgetter(0), recent))
+        if ch > 0
+    }
+
+
 def format_decimals(form: str) -> int:
     """The decimals of a number format ``w.p`` (§4.3.5: ``p`` decimal places, §6.5.7):
     ``0.1`` -> 1, ``5.2`` -> 2, ``0.0`` -> 0."""
     _, _, places = form.strip().partition(".")
     return int(places) if places.isdigit() else 0
+
+
+_FRACTION = re.compile(r"\.(\d+)")
+
+
+def most_decimals(values: Sequence[float]) -> int:
+    """``max(map(decimals, values))`` (``values`` not empty) with the digits read from all
+    the values' text at once: a fraction of more than one digit is never ``0`` (the
+    shortest text of a number ends in a digit other than 0 after its point)."""
+    text = ",".join(map(repr, map(float, values)))
+    if "e" in text:  # 1e-05, 1.5e+16: the rare values decimals() spells out
+        return max(map(decimals, values))
+    fractions = _FRACTION.findall(text)
+    longest = max(map(len, fractions), default=0)
+    if longest > 1:
+        return min(longest, 6)
+    return 1 if set(fractions) - {"0"} else 0
 
 
 def decimals(value: float) -> int:
@@ -189,6 +237,16 @@ def last_time(db: Db, logger: str) -> str | None:
         (logger,),
     )
     return None if row is None else str(row[0])
+
+
+def first_and_last(db: Db, logger: str) -> tuple[str | None, str | None]:
+    """:func:`first_time` and :func:`last_time` in one statement (one round trip)."""
+    d, keys = db.dialect, db.dialect.keys
+    one = f"(SELECT {d.time('time')} FROM {keys} WHERE logger = ? ORDER BY time{{}} LIMIT 1)"
+    row = db.first(f"SELECT {one.format('')}, {one.format(' DESC')}", (logger, logger))
+    if row is None:  # never: one row of two subqueries
+        return None, None
+    return row[0], row[1]
 
 
 def first_time(db: Db, logger: str) -> str | None:
@@ -215,6 +273,15 @@ def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, i
         )
     }
     return got, sum(got.values()) >= cap
+
+
+def reaches(db: Db, logger: str, lo: str, hi: str, cap: int) -> bool:
+    """Whether ``[lo, hi]`` holds ``cap`` rows or more: whether it has a ``cap``-th (the
+    rows before it skipped, not counted by channel: a long range's plot needs no more,
+    :func:`counts` costs three times as much)."""
+    where = "logger = ? AND time >= ? AND time <= ?"
+    nth = db.dialect.query("1", "channel", where, limit=True) + " OFFSET ?"
+    return db.first(nth, (logger, lo, hi, 1, cap - 1)) is not None
 
 
 def raw(db: Db, logger: str, lo: str, hi: str) -> Iterator[tuple[str, int, int, float | None]]:

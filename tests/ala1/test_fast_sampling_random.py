@@ -387,3 +387,37 @@ def test_calibrated_pulse_channels_without_pulses(monkeypatch: pytest.MonkeyPatc
         "ds_cal": ("3200", "-1.5"),
     }
     assert run(case, True, monkeypatch) == run(case, False, monkeypatch)
+
+
+def test_instants_of_several_periods_that_only_look_like_a_progression(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Found by the property test: the instants of five cohorts (periods of 15, 20 and 30 s,
+    starts 0, 5, 37 and 7 s into the minute) start 5 s apart and end as far apart as 5 s
+    steps would, without being every 5 s; the series path took them for a progression and
+    powered output 2 at the wrong instants (a channel reading the input it powers got no
+    value where it had one, and one where it had none)."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.0", "mult": "1", "second_switch": 0, "switch": 0, "advance": 0}
+    channels = [
+        base | {"input": "analog", "period": 20, "start": 0},
+        base | {"input": "analog", "period": 20, "start": 0, "switch": 2},
+        base | {"input": "analog", "period": 20, "start": 45},
+        base | {"input": "powered", "period": 15, "start": 0},
+        base | {"input": "analog", "period": 15, "start": 1117},
+        base | {"input": "analog", "period": 30, "start": 7},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 75), ("advance", 206), ("advance", 207), ("advance", 582)],
+        "watch": 1,
+        "function": "up",
+        "threshold": "0",
+        "hysteresis": "0",
+        "of_record": False,
+    }
+    fast, slow = run(case, True, monkeypatch), run(case, False, monkeypatch)
+    assert fast == slow
+    rows: list[str] = slow[-2]  # type: ignore[assignment]
+    fields = [row.split(",")[5] for row in rows if row[12:14] == "00"]  # channel 4's
+    assert "" in fields and any(fields), fields  # powered at some instants, not at others

@@ -93,10 +93,12 @@ def _groups(
     before each of their samples (none runs on past the last instant: :func:`_clean`)."""
     masks = [0] * len(instants)
     first, step = instants[0], instants[1] - instants[0] if len(instants) > 1 else 0
-    if step > 0 and instants[-1] - first == (len(instants) - 1) * step:  # (a progression)
-        gap, where = step, {}  # (looked up only where an index is not worked out)
+    gap = min(map(operator.sub, instants[1:], instants), default=0)  # (the least of two)
+    # a progression: no gap shorter than the first and the ends as far apart as its steps
+    # (the ends alone are not enough: gaps of 5, 2 and 8 s end where three of 5 s do)
+    if step > 0 and gap == step and instants[-1] - first == (len(instants) - 1) * step:
+        where: dict[int, int] = {}  # (looked up only where an index is not worked out)
     else:
-        gap = min(map(operator.sub, instants[1:], instants), default=0)  # (the least of two)
         where, step = {t: i for i, t in enumerate(instants)}, 0
     right = bisect.bisect_right
     sampled: dict[tuple[int, int], int] = {}  # outputs on at each cohort's samples, as bits

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import operator
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -326,12 +328,7 @@ class RecordMemory:
     # -- writing ---------------------------------------------------------------------------
     def append(self, stamp: str, body: str) -> str | None:
         """Store a row written at ``stamp`` (YYYYMMDDhhmmss); None if it does not fit."""
-        counter = 0
-        if len(self):
-            last = self._tail[-1] if self._tail else self._row(self._count() - 1)
-            if last.startswith(stamp) and last[14] == ".":
-                counter = min(_COUNTERS.index(last[15]) + 1, len(_COUNTERS) - 1)
-        row = f"{stamp}.{_COUNTERS[counter]},{body}"
+        row = f"{stamp}.{_COUNTERS[self._counter(stamp)]},{body}"
         size = len(row) + 2
         if size > self.capacity:
             self.refused = not self.cyclic
@@ -349,6 +346,77 @@ class RecordMemory:
         self.chars += size
         self._seal()
         return row
+
+    def _counter(self, stamp: str) -> int:
+        """The counter of a row written at ``stamp``: one more than the newest row's when
+        that was written in the same second (§6.6.5: ``YYYYMMDDhhmmss.c``)."""
+        if len(self):
+            last = self._tail[-1] if self._tail else self._row(self._count() - 1)
+            if last.startswith(stamp) and last[14] == ".":
+                return min(_COUNTERS.index(last[15]) + 1, len(_COUNTERS) - 1)
+        return 0
+
+    def append_many(self, stamps: list[str], bodies: list[str]) -> None:
+        """Store rows written at ``stamps`` with ``bodies``, as :meth:`append` of each in
+        turn does (issue 24: a stretch of sampling instants at once). Rows of ascending
+        seconds, the first not in the newest row's second, are counted ``.0`` each; all
+        appended, a cyclic record then drops its oldest rows until they fit, as it would have
+        row by row (a row's drops make room for it and for every row after it: the oldest
+        rows kept are the same). Anything else (a linear record that does not take them all,
+        a row larger than the record, seconds repeated) goes row by row."""
+        count = len(stamps)
+        if not count:
+            return
+        if self._counter(stamps[0]) or any(
+            map(operator.ge, stamps, itertools.islice(stamps, 1, None))
+        ):
+            for stamp, body in zip(stamps, bodies, strict=True):
+                self.append(stamp, body)
+            return
+        rows = [f"{stamp}.0,{body}" for stamp, body in zip(stamps, bodies, strict=True)]
+        sizes = sum(map(len, rows)) + 2 * count
+        capacity = self.capacity
+        if self.chars + sizes > capacity and (
+            not self.cyclic or max(map(len, rows)) + 2 > capacity
+        ):
+            for stamp, body in zip(stamps, bodies, strict=True):
+                self.append(stamp, body)
+            return
+        self._tail.extend(rows)
+        self._staged += count
+        self.chars += sizes
+        if self.chars > capacity:
+            self._drop(self.chars - capacity)
+            self.wrapped = True
+        self._seal()
+
+    def _drop(self, excess: int) -> None:
+        """Drop the oldest rows until at least ``excess`` characters (each row with its
+        CR LF) are gone, page by page (:meth:`_length` of each row, without the calls)."""
+        head, dropped = self._head, 0
+        sealed = len(self._pages) * PAGE
+        while dropped < excess and head < sealed:
+            number, at = divmod(head, PAGE)
+            page = self._pages[number]
+            ends: Sequence[int]
+            if page is None:
+                self._length(head)  # (the page let go comes back: its rows' ends)
+                ends = self._held_ends
+            else:
+                ends = page.ends
+            before = ends[at - 1] if at else 0
+            while dropped < excess and at < PAGE:
+                end = ends[at]
+                dropped += end - before + 2
+                before = end
+                at += 1
+            head = number * PAGE + at
+        tail = self._tail
+        while dropped < excess:
+            dropped += len(tail[head - sealed]) + 2
+            head += 1
+        self._head = head
+        self.chars -= dropped
 
     def load_rows(self, rows: list[str]) -> None:
         """Append rows as they are (an image written by XMODEM, §6.16.3)."""

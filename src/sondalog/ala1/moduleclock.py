@@ -64,11 +64,9 @@ def stamps(seconds: list[int]) -> list[str]:
                 out.append(stamp(t))  # (held at the calendar's ends: one by one)
                 begin = end = 0
                 continue
-            day = t // 86400
-            begin = day * 86400
+            begin = t - t % 86400  # (the calendar's ends are midnights: its whole days)
+            end = begin + 86400
             date = stamp(begin)[:8]
-            end = min(begin + 86400, _HIGH + 1)
-            begin = max(begin, _LOW)
         rest = t % 86400
         out.append(date + hhmm[rest // 60] + ss[rest % 60])
     return out

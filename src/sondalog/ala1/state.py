@@ -23,7 +23,6 @@ from sondalog.ala1.moduleclock import (
     CLOCK_MIN,
     FACTORY_DATE,
     from_seconds,
-    stamp,
     stamps,
     to_seconds,
 )
@@ -265,12 +264,10 @@ class ModuleState:
             self.hardware.prepare(upcoming)
 
     def _store_row(self, module_second: int, fields: list[str]) -> None:
-        self.record.append(stamp(module_second), "1," + ",".join(fields))
+        self.record.append(stamps([module_second])[0], "1," + ",".join(fields))
 
-    def _store_rows(self, module_seconds: list[int], fields: list[list[str]]) -> None:
-        """:meth:`_store_row` of a stretch of rows in one pass (issue 24)."""
-        join = ",".join
-        self.record.append_many(stamps(module_seconds), ["1," + join(f) for f in fields])
+    def _store_rows(self, seconds: list[int], fields: list[list[str]]) -> None:  # (issue 24)
+        self.record.append_many(stamps(seconds), ["1," + ",".join(f) for f in fields])
 
     def _next_event(self) -> float | None:
         """The sampler's next event, computed once per change (issue 11)."""

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from test_record_pages import _observe
 
 from sondalog.ala1.moduleclock import stamp
-from sondalog.ala1.record import RecordMemory, load_record
+from sondalog.ala1.record import RecordChanges, RecordMemory, load_record
 from sondalog.backends.store.ala1_nv import NvDatabase
 
 T = 1_167_609_600  # 2007-01-01 00:00:00 in module seconds
@@ -53,6 +53,20 @@ def _state(memory: RecordMemory) -> tuple[Any, ...]:
     """What is observable of the memory, and its pointers and flags."""
     first = memory.next_seq - len(memory)
     return (*_observe(memory, ["2007", "20070101003000"]), first, memory.wrapped, memory.refused)
+
+
+def _both(
+    many: RecordMemory, single: RecordMemory, stamps: list[str], bodies: list[str]
+) -> RecordChanges | None:
+    """The stretch at once to ``many``, row by row to ``single``: the same state and the
+    same changes for the store (returned)."""
+    many.append_many(stamps, bodies)
+    for s, body in zip(stamps, bodies, strict=True):
+        single.append(s, body)
+    assert _state(many) == _state(single)
+    changes = many.take_changes()
+    assert changes == single.take_changes()
+    return changes
 
 
 @settings(
@@ -90,12 +104,7 @@ def test_a_stretch_at_once_stores_what_rows_one_by_one_store(
             t = max(seconds)
             stamps = [stamp(s) for s in seconds]
             bodies = [f"1,{n}," + "7" * length for length in lengths]
-            many.append_many(stamps, bodies)
-            for s, body in zip(stamps, bodies, strict=True):
-                single.append(s, body)
-            assert _state(many) == _state(single)
-            changes = many.take_changes()
-            assert changes == single.take_changes()
+            changes = _both(many, single, stamps, bodies)
             if store is not None and changes is not None:
                 store.commit({}, None, changes)  # (its pages let go: dropped from the store)
         assert many.rows() == single.rows()
@@ -125,12 +134,7 @@ def test_a_stretch_that_wraps_a_paged_record_drops_pages_let_go(
                 bodies = [f"1,{day},{k % 10:06}" for k in range(len(seconds))]
             else:
                 bodies = [f"1,{day},{k % 9}" + ",5" * (k % 3) for k in range(len(seconds))]
-            many.append_many(stamps, bodies)
-            for s, body in zip(stamps, bodies, strict=True):
-                single.append(s, body)
-            assert _state(many) == _state(single)
-            changes = many.take_changes()
-            assert changes == single.take_changes()
+            changes = _both(many, single, stamps, bodies)
             assert changes is not None
             store.commit({}, None, changes)
         assert many.paged and None in many._pages  # (pages were let go)
@@ -155,8 +159,4 @@ def test_stretches_that_drop_rows_of_pages(capacity: int, stretches: list[list[i
         stamps = [stamp(t + 60 * k) for k in range(1, len(lengths) + 1)]
         t += 60 * len(lengths)
         bodies = [f"1,{n}," + "3" * length for length in lengths]
-        many.append_many(stamps, bodies)
-        for s, body in zip(stamps, bodies, strict=True):
-            single.append(s, body)
-        assert _state(many) == _state(single)
-        assert many.take_changes() == single.take_changes()
+        _both(many, single, stamps, bodies)

@@ -10,10 +10,13 @@ input and the channel, a message on a threshold and a message of the record; on-
 reads, manual outputs and the clock set between random clock steps; every signal model the
 simulation reads as a column (shifted to the start as a site file's, clamped). The two must
 agree on every byte: the record memory, every answer, and every sending of the message
-outbox. (Checked by breaking the series path on purpose: ignoring the switch-on delays of
-channels not sampled at an instant, taking every first pulse window as a whole period,
-ignoring the delays of other periods when grouping instants by the outputs on, or moving
-the samples condition of a run of one text by a sample, fails it.)
+outbox; the record large, or small enough to wrap (cyclic) or fill up (linear), its oldest
+and next rows (the erase and read pointers) as RAM and the store have them, and its
+download by XMODEM. (Checked by breaking the series path on purpose: ignoring the switch-on
+delays of channels not sampled at an instant, taking every first pulse window as a whole
+period, ignoring the delays of other periods when grouping instants by the outputs on, or
+moving the samples condition of a run of one text by a sample, fails it; and the stretch's
+rows at once: not setting the wrapped flag, or filling a linear record past its size.)
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import pytest
 from ala1_module import T0, Module
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_special_xmodem import pump
 
 from sondalog.ala1 import series
 from sondalog.ala1.hardware import rom_code
@@ -32,6 +36,7 @@ from sondalog.ala1.measure import Measurer
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware, Thermometer
 from sondalog.backends.sim.signals import Clamp, RandomWalk, Schedule, constant, ramp, shifted, sine
 from sondalog.protocol.tables import build_files
+from sondalog.protocol.xmodem import XmodemReceiver
 
 ROM_A, ROM_B = rom_code(0x1234), rom_code(0x5678)
 TABLES = {
@@ -128,6 +133,11 @@ setup = st.fixed_dictionaries(
         "device_cal": st.sampled_from([("1", "0"), ("1", "0"), ("0.5", "0.01")]),
         # the DS18B20's (its factory value turns a reading into degrees Celsius)
         "ds_cal": st.sampled_from([None, ("3200", "-1.5")]),
+        # the record: large, or small enough to wrap (cyclic) or fill (linear) with the
+        # rows of a stretch, over a page (64 rows) or within one
+        "record": st.sampled_from(
+            [(983040, "CYCLIC")] * 3 + [(1024, "CYCLIC"), (8192, "CYCLIC"), (8192, "LINEAR")]
+        ),
     }
 )
 
@@ -136,7 +146,9 @@ def configure(m: Module, case: dict[str, Any]) -> None:
     channels = case["channels"]
     n = len(channels)
     m.ok(f"write date 20070101000000 write channel max number {n}")
-    m.ok("write file record size 983040 write file list size 256 write file data size 51200")
+    size, kind = case.get("record", (983040, "CYCLIC"))
+    m.ok(f"write file record size {size} write file list size 256 write file data size 51200")
+    m.ok(f"write record type {kind}")
     listing, data = build_files(TABLES)
     m.engine.state.write_file("list", listing)
     m.engine.state.write_file("data", data)
@@ -210,7 +222,15 @@ def run(case: dict[str, Any], fast: bool, monkeypatch: pytest.MonkeyPatch) -> li
     seen.append(m.ask("read channel sample"))
     seen.append(m.ask("read channel record value"))
     seen.append(m.ask("read record status"))
-    seen.append(m.engine.state.record.rows())
+    seen.append(m.ask("read record 3 from end"))
+    record = m.engine.state.record
+    # the oldest row kept and the next (the erase and read pointers), as RAM and the store
+    # have them, and the record downloaded by XMODEM (§6.16.3)
+    seen.append((record.next_seq - len(record), record.next_seq, record.wrapped, record.refused))
+    seen.append(m.store.load_record())
+    got = XmodemReceiver()
+    seen.append((pump(m, got, "read special file record xmodem"), got.data))
+    seen.append(record.rows())
     seen.append(dict(m.engine.state.outputs.applied))
     return seen
 
@@ -387,3 +407,67 @@ def test_calibrated_pulse_channels_without_pulses(monkeypatch: pytest.MonkeyPatc
         "ds_cal": ("3200", "-1.5"),
     }
     assert run(case, True, monkeypatch) == run(case, False, monkeypatch)
+
+
+def test_instants_of_several_periods_that_only_look_like_a_progression(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Found by the property test: the instants of five cohorts (periods of 15, 20 and 30 s,
+    starts 0, 5, 37 and 7 s into the minute) start 5 s apart and end as far apart as 5 s
+    steps would, without being every 5 s; the series path took them for a progression and
+    powered output 2 at the wrong instants (a channel reading the input it powers got no
+    value where it had one, and one where it had none)."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.0", "mult": "1", "second_switch": 0, "switch": 0, "advance": 0}
+    channels = [
+        base | {"input": "analog", "period": 20, "start": 0},
+        base | {"input": "analog", "period": 20, "start": 0, "switch": 2},
+        base | {"input": "analog", "period": 20, "start": 45},
+        base | {"input": "powered", "period": 15, "start": 0},
+        base | {"input": "analog", "period": 15, "start": 1117},
+        base | {"input": "analog", "period": 30, "start": 7},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 75), ("advance", 206), ("advance", 207), ("advance", 582)],
+        "watch": 1,
+        "function": "up",
+        "threshold": "0",
+        "hysteresis": "0",
+        "of_record": False,
+    }
+    fast, slow = run(case, True, monkeypatch), run(case, False, monkeypatch)
+    assert fast == slow
+    rows: list[str] = slow[-2]  # type: ignore[assignment]
+    fields = [row.split(",")[5] for row in rows if row[12:14] == "00"]  # channel 4's
+    assert "" in fields and any(fields), fields  # powered at some instants, not at others
+
+
+@pytest.mark.parametrize("record", [(1024, "CYCLIC"), (8192, "CYCLIC"), (8192, "LINEAR")])
+def test_stretches_that_wrap_or_fill_the_record(
+    monkeypatch: pytest.MonkeyPatch, record: tuple[int, str]
+) -> None:
+    """Stretches of rows at once (``RecordMemory.append_many``) wrap a small cyclic record
+    (within a page, over pages) and fill a linear one as rows one by one do: the same rows
+    kept, flags, pointers, store and download."""
+    base = {"average": 0, "change": "0", "samples": 0, "table1": "", "table2": ""}
+    base |= {"format": "0.3", "mult": "1", "second_switch": 0, "switch": 0, "advance": 0}
+    channels = [
+        base | {"input": "analog", "period": 10, "start": 0},
+        base | {"input": "walk", "period": 20, "start": 5, "average": 3, "change": "0.01"},
+        base | {"input": "powered", "period": 30, "start": 0, "switch": 2, "advance": 7},
+    ]
+    case = {
+        "channels": channels,
+        "steps": [("advance", 600), ("advance", 3000), ("read", 1), ("advance", 2000)],
+        "watch": 1,
+        "function": "no",
+        "threshold": "1",
+        "hysteresis": "0",
+        "of_record": False,
+        "record": record,
+    }
+    fast, slow = run(case, True, monkeypatch), run(case, False, monkeypatch)
+    assert fast == slow
+    status = slow[-7]
+    assert isinstance(status, bytes) and b"FULL" in status, status

@@ -1,10 +1,11 @@
 """A record whose older pages live only in the store (issue 24) answers exactly as one with
 every row in RAM (record_reference.ListRecordMemory): every read, search, status and change
 handed to the store, over random appends (cyclic wraps, linear refusals, the clock set
-back), clears, images, resizes, rollbacks of a line and of a failed commit, restarts from
-the store (only its newest page read) and restores from a snapshot. The store is a real
-SQLite file (:mod:`sondalog.backends.store.ala1_nv`), committed at once or in groups at the
-end of a turn (written by the loop or by a writer thread, as a fleet does); the fleet-wide
+back; stretches of rows at once, :meth:`RecordMemory.append_many`), clears, images,
+resizes, rollbacks of a line and of a failed commit, restarts from the store (only its
+newest page read) and restores from a snapshot. The store is a real SQLite file
+(:mod:`sondalog.backends.store.ala1_nv`), committed at once or in groups at the end of a
+turn (written by the loop or by a writer thread, as a fleet does); the fleet-wide
 cache of loaded pages is two pages, so reads go to the file."""
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ operations = st.lists(
         st.tuples(st.just("append"), st.integers(0, len(STAMPS) - 1), st.integers(1, 40)),
         st.tuples(st.just("burst"), st.integers(0, len(STAMPS) - 1), st.integers(1, 300)),
         st.tuples(st.just("back"), st.integers(0, len(STAMPS) - 1), st.integers(1, 3)),
+        st.tuples(st.just("stretch"), st.integers(0, len(STAMPS) - 1), st.integers(1, 150)),
         st.tuples(st.just("mark"), st.just(0), st.just(0)),
         st.tuples(st.just("rollback"), st.just(0), st.just(0)),
         st.tuples(st.just("take"), st.just(0), st.just(0)),
@@ -137,6 +139,14 @@ def test_a_record_with_its_pages_in_the_store_answers_as_one_in_ram(
                     stamp = STAMPS[(a + n // 3) % len(STAMPS)] if kind == "burst" else STAMPS[a]
                     body = f"1,{n}" + ",12.5" * (n % 4)
                     assert paged.append(stamp, body) == plain.append(stamp, body)
+            elif kind == "stretch":  # a stretch of sampling instants at once (series path)
+                stamps = [STAMPS[(a + n) % len(STAMPS)] for n in range(b)]  # (may wrap: back)
+                bodies = [
+                    f"1,{n}" + ",12.5" * (n % 4) + "," * (b % 7 * 60 * (n == 3)) for n in range(b)
+                ]
+                paged.append_many(stamps, bodies)
+                for stamp, body in zip(stamps, bodies, strict=True):
+                    plain.append(stamp, body)
             elif kind == "mark":
                 marks.append((paged.mark(), plain.mark()))
             elif kind == "rollback" and marks:

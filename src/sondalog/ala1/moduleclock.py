@@ -52,6 +52,26 @@ def stamp(seconds: float) -> str:
     return date + _HHMM[minute] + _SS[secs]
 
 
+def stamps(seconds: list[int]) -> list[str]:
+    """:func:`stamp` of each of ``seconds`` (ascending whole seconds: a stretch of sampling
+    instants, issue 24), the date looked up once a day instead of once a row."""
+    out: list[str] = []
+    hhmm, ss = _HHMM, _SS
+    date, begin, end = "", 0, 0  # the day stamped last: its date, its seconds [begin, end)
+    for t in seconds:
+        if type(t) is not int or not begin <= t < end:
+            if type(t) is not int or not _LOW <= t <= _HIGH:
+                out.append(stamp(t))  # (held at the calendar's ends: one by one)
+                begin = end = 0
+                continue
+            begin = t - t % 86400  # (the calendar's ends are midnights: its whole days)
+            end = begin + 86400
+            date = stamp(begin)[:8]
+        rest = t % 86400
+        out.append(date + hhmm[rest // 60] + ss[rest % 60])
+    return out
+
+
 _LOW, _HIGH = math.ceil(CLOCK_MIN), math.floor(CLOCK_MAX)
 #: Dates of the days stamped lately, by day since 1970.
 _DATES: dict[int, str] = {}

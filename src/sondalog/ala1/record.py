@@ -29,11 +29,14 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import operator
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 from sondalog.ala1.record_page import BULK, Page, PageSource, decoded, loaded, read_pages
 from sondalog.ala1.record_page import PAGE as PAGE
+from sondalog.ala1.record_page import Sealed as Sealed
 
 _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 #: The newest rows (at least KEEP) stay plain strings.
@@ -102,38 +105,6 @@ class RecordMark:
     staged: int
     #: The head the store was last handed (a commit that failed after the mark did not).
     stored_head: int | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class Sealed:
-    """A record's rows as RAM holds them (:meth:`RecordMemory.sealed`): the sealed pages
-    (immutable, so shared), then the plain rows; the first ``head`` rows are not in the
-    record. A snapshot keeps one, and a restore starts from it without sealing again.
-
-    A store hands one with ``None`` pages (they are in ``source``) and the record's
-    characters (``known_chars``): a start that reads only the newest page."""
-
-    pages: tuple[Page | None, ...]
-    tail: tuple[str, ...]
-    head: int
-    source: PageSource | None = None
-    known_chars: int | None = None
-
-    @property
-    def chars(self) -> int:
-        """The record's characters, each row with its CR LF."""
-        if self.known_chars is not None:
-            return self.known_chars
-        assert all(page is not None for page in self.pages), "pages not in RAM: known_chars"
-        rows = len(self.pages) * PAGE + len(self.tail) - self.head
-        whole, part = divmod(self.head, PAGE)  # the dropped rows: whole pages, then a part
-        pages, kept = self.pages[whole:], self.tail
-        if not pages:
-            kept = self.tail[self.head - len(self.pages) * PAGE :]
-        text = sum(page.ends[-1] for page in pages if page) + sum(map(len, kept))
-        if pages and part and pages[0]:
-            text -= pages[0].ends[part - 1]
-        return text + 2 * rows
 
 
 class RecordMemory:
@@ -326,12 +297,7 @@ class RecordMemory:
     # -- writing ---------------------------------------------------------------------------
     def append(self, stamp: str, body: str) -> str | None:
         """Store a row written at ``stamp`` (YYYYMMDDhhmmss); None if it does not fit."""
-        counter = 0
-        if len(self):
-            last = self._tail[-1] if self._tail else self._row(self._count() - 1)
-            if last.startswith(stamp) and last[14] == ".":
-                counter = min(_COUNTERS.index(last[15]) + 1, len(_COUNTERS) - 1)
-        row = f"{stamp}.{_COUNTERS[counter]},{body}"
+        row = f"{stamp}.{_COUNTERS[self._counter(stamp)]},{body}"
         size = len(row) + 2
         if size > self.capacity:
             self.refused = not self.cyclic
@@ -349,6 +315,57 @@ class RecordMemory:
         self.chars += size
         self._seal()
         return row
+
+    def _counter(self, stamp: str) -> int:
+        """A row's counter (§6.6.5): one more than the newest row's of the same second."""
+        if len(self):
+            last = self._tail[-1] if self._tail else self._row(self._count() - 1)
+            if last.startswith(stamp) and last[14] == ".":
+                return min(_COUNTERS.index(last[15]) + 1, len(_COUNTERS) - 1)
+        return 0
+
+    def append_many(self, stamps: list[str], bodies: list[str]) -> None:
+        """:meth:`append` of each row in turn, in one pass (issue 24: a stretch of instants;
+        why: docs/decisions.md, fifth round). Anything but rows of ascending seconds that a
+        cyclic record takes or a linear one takes all of goes row by row."""
+        rows = [f"{stamp}.0,{body}" for stamp, body in zip(stamps, bodies, strict=True)]
+        sizes, capacity = sum(map(len, rows)) + 2 * len(rows), self.capacity
+        fits = self.chars + sizes <= capacity or (
+            self.cyclic and max(map(len, rows), default=0) + 2 <= capacity
+        )
+        ascending = not any(map(operator.ge, stamps, itertools.islice(stamps, 1, None)))
+        if not rows or not fits or not ascending or self._counter(stamps[0]):
+            for stamp, body in zip(stamps, bodies, strict=True):
+                self.append(stamp, body)
+            return
+        self._tail.extend(rows)
+        self._staged += len(rows)
+        self.chars += sizes
+        if self.chars > capacity:
+            self._drop(self.chars - capacity)
+            self.wrapped = True
+        self._seal()
+
+    def _drop(self, excess: int) -> None:
+        """Drop the oldest rows until ``excess`` characters (with CR LF) or more are gone."""
+        head, dropped = self._head, 0
+        sealed = len(self._pages) * PAGE
+        while dropped < excess and head < sealed:
+            number, at = divmod(head, PAGE)
+            page = self._pages[number]
+            if page is None:
+                self._length(head)  # (the page let go comes back: its rows' ends)
+            ends: Sequence[int] = self._held_ends if page is None else page.ends
+            while dropped < excess and at < PAGE:
+                dropped += ends[at] - (ends[at - 1] if at else 0) + 2
+                at += 1
+            head = number * PAGE + at
+        tail = self._tail
+        while dropped < excess:
+            dropped += len(tail[head - sealed]) + 2
+            head += 1
+        self._head = head
+        self.chars -= dropped
 
     def load_rows(self, rows: list[str]) -> None:
         """Append rows as they are (an image written by XMODEM, §6.16.3)."""

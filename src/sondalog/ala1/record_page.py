@@ -12,6 +12,7 @@ import itertools
 import zlib
 from array import array
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import Protocol
 
 #: Rows sealed into one page (a page on disk holds as many: ``seq // PAGE``).
@@ -55,6 +56,38 @@ class Page:
     def length(self, index: int) -> int:
         """The length of row ``index`` of the page (without decompressing it)."""
         return self.ends[index] - (self.ends[index - 1] if index else 0)
+
+
+@dataclass(frozen=True, slots=True)
+class Sealed:
+    """A record's rows as RAM holds them (``RecordMemory.sealed``): the sealed pages
+    (immutable, so shared), then the plain rows; the first ``head`` rows are not in the
+    record. A snapshot keeps one, and a restore starts from it without sealing again.
+
+    A store hands one with ``None`` pages (they are in ``source``) and the record's
+    characters (``known_chars``): a start that reads only the newest page."""
+
+    pages: tuple[Page | None, ...]
+    tail: tuple[str, ...]
+    head: int
+    source: PageSource | None = None
+    known_chars: int | None = None
+
+    @property
+    def chars(self) -> int:
+        """The record's characters, each row with its CR LF."""
+        if self.known_chars is not None:
+            return self.known_chars
+        assert all(page is not None for page in self.pages), "pages not in RAM: known_chars"
+        rows = len(self.pages) * PAGE + len(self.tail) - self.head
+        whole, part = divmod(self.head, PAGE)  # the dropped rows: whole pages, then a part
+        pages, kept = self.pages[whole:], self.tail
+        if not pages:
+            kept = self.tail[self.head - len(self.pages) * PAGE :]
+        text = sum(page.ends[-1] for page in pages if page) + sum(map(len, kept))
+        if pages and part and pages[0]:
+            text -= pages[0].ends[part - 1]
+        return text + 2 * rows
 
 
 @functools.lru_cache(maxsize=32)

@@ -14,9 +14,11 @@ from collections.abc import Callable
 from sondalog.ala1.columns import Many
 from sondalog.ala1.measure import ChannelConfig, Measurer
 from sondalog.ala1.runs import ChannelRun, FaultLog, Outputs, decide
-from sondalog.ala1.series import SeriesObserver, run_series
+from sondalog.ala1.series import RowsSink, SeriesObserver, run_series
 
-__all__ = ["ChannelRun", "FaultLog", "Outputs", "RowSink", "SampleObserver", "Sampler"]
+__all__ = [
+    "ChannelRun", "FaultLog", "Outputs", "RowSink", "RowsSink", "SampleObserver", "Sampler",
+]  # fmt: skip
 
 
 RowSink = Callable[[int, list[str]], None]
@@ -103,8 +105,11 @@ class Sampler:
         sample, _, power, hold = self._scan()
         return min((t for t in (sample, power, hold) if t is not None), default=None)
 
-    def run_until(self, target: float, offset: float, sink: RowSink) -> None:
-        """Process every event up to module time ``target``; rows go to ``sink``."""
+    def run_until(
+        self, target: float, offset: float, sink: RowSink, many: RowsSink | None = None
+    ) -> None:
+        """Process every event up to module time ``target``; rows go to ``sink`` (a
+        stretch's rows at once to ``many``, when given: :func:`~.series.run_series`)."""
         outputs = self.outputs
         while True:
             sample, due, power, hold = self._scan()
@@ -120,7 +125,7 @@ class Sampler:
             if sample is None or sample > target:
                 outputs.update(target, offset)
                 return
-            if hold is None and run_series(self, sample, target, offset, sink):
+            if hold is None and run_series(self, sample, target, offset, sink, many):
                 continue
             if hold is None and not self._switching and len(due) == len(self.runs):
                 self._series(sample, due, target, offset, sink)

@@ -23,7 +23,7 @@ from sondalog.ala1.moduleclock import (
     CLOCK_MIN,
     FACTORY_DATE,
     from_seconds,
-    stamp,
+    stamps,
     to_seconds,
 )
 from sondalog.ala1.nvstore import NvStore as NvStore  # (re-exported: the engine, stores)
@@ -247,7 +247,7 @@ class ModuleState:
         mark = self.record.mark()
         try:
             self._event = None
-            self.sampler.run_until(target, self.clock_offset, self._store_row)
+            self.sampler.run_until(target, self.clock_offset, self._store_row, self._store_rows)
             changes = self.record.take_changes()
             if changes is not None:
                 self.store.commit_scheduled(changes, host_now)  # group commit (issue 11)
@@ -264,7 +264,10 @@ class ModuleState:
             self.hardware.prepare(upcoming)
 
     def _store_row(self, module_second: int, fields: list[str]) -> None:
-        self.record.append(stamp(module_second), "1," + ",".join(fields))
+        self.record.append(stamps([module_second])[0], "1," + ",".join(fields))
+
+    def _store_rows(self, seconds: list[int], fields: list[list[str]]) -> None:  # (issue 24)
+        self.record.append_many(stamps(seconds), ["1," + ",".join(f) for f in fields])
 
     def _next_event(self) -> float | None:
         """The sampler's next event, computed once per change (issue 11)."""

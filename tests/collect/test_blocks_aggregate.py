@@ -66,6 +66,47 @@ def test_aggregate_matches_the_rule(items: list[tuple[str, int, int, float | Non
         assert all(same(x, y) for x, y in zip(finest[key], c, strict=True)), key
 
 
+def reference_sizes(batch: list[Reading]) -> dict[tuple[Any, ...], list[Any]]:
+    """The blocks of every size: the finest by the rule (:func:`reference`), each coarser
+    block taking the finest ones by :func:`blocks_rule.take` in their order (NaN orders
+    nowhere, so the order counts)."""
+    fine = reference(batch)
+    out = dict(fine)
+    for size in blocks_rule.SIZES[1:]:
+        for (lg, _, start, ch), c in fine.items():
+            key = (lg, size, start - start % size, ch)
+            b = out.get(key)
+            if b is None:
+                out[key] = list(c)
+            else:
+                blocks_rule.take(b, c[0], c[1], 0, -1)
+                blocks_rule.take(b, c[2], c[3], 2, 1)
+    return out
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["a", "b"]),
+            st.integers(1, 2),
+            st.integers(0, 200_000),  # seconds: blocks of every size, several of each
+            VALUES,
+        ),
+        max_size=60,
+    )
+)
+def test_coarser_blocks_match_the_rule(items: list[tuple[str, int, int, float | None]]) -> None:
+    """Every size, NULLs, NaN, infinities and ties included (the coarse blocks' comparison
+    is inlined where no value is NULL)."""
+    batch = [Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v) for lg, ch, s, v in items]
+    got = {row[:4]: list(row[4:]) for row in blocks_rule.aggregate(batch)}
+    want = reference_sizes(batch)
+    assert got.keys() == want.keys()
+    for key, c in want.items():
+        assert all(same(x, y) for x, y in zip(got[key], c, strict=True)), (key, got[key], c)
+
+
 def blocks_of(out: list[tuple[Any, ...]]) -> dict[tuple[Any, ...], list[Any]]:
     got = {row[:4]: list(row[4:]) for row in out}
     assert len(got) == len(out)  # each block once
@@ -99,6 +140,41 @@ def test_aggregate_of_rows_is_aggregate_of_their_readings(
 ) -> None:
     """By column (min/max of a block's rows of one channel) exactly as reading by reading,
     NULLs, NaN, infinities, ties and rows out of time order included."""
+    batch = [
+        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
+        for lg, s, channels, values in items
+        for ch, v in zip(channels, values, strict=False)
+    ]
+    assert_same_blocks(
+        blocks_rule.aggregate_rows(pg_rows.group(batch)), blocks_rule.aggregate(batch)
+    )
+
+
+#: Rows without NULL or NaN (so the batch's columns are taken by min/max at once), ties
+#: and infinities among them.
+CLEAN_ROWS = st.lists(
+    st.tuples(
+        st.sampled_from(["a", "b"]),
+        st.integers(0, 9000),
+        st.sampled_from([(1, 2, 3), (1, 2, 3), (0,), (2, 5)]),
+        st.lists(
+            st.one_of(st.sampled_from([1.0, -0.0, 0.0, math.inf, -math.inf]), st.floats(-9, 9)),
+            min_size=3,
+            max_size=3,
+        ),
+    ),
+    max_size=40,
+    unique_by=lambda r: (r[0], r[1]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(CLEAN_ROWS)
+def test_aggregate_of_rows_without_null_or_nan(
+    items: list[tuple[str, int, tuple[int, ...], list[float]]],
+) -> None:
+    """The batch without NULL or NaN (each block's columns by min/max, none tested): the
+    same blocks as reading by reading."""
     batch = [
         Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
         for lg, s, channels, values in items

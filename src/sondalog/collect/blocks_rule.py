@@ -117,7 +117,9 @@ def _add(fine: dict[tuple[str, int, int], list[Any]], key: Any, v: Any, sec: int
 
 
 def _coarser(fine: dict[tuple[str, int, int], list[Any]]) -> list[tuple[Any, ...]]:
-    """The finest blocks as rows of the table, and the blocks of every coarser size."""
+    """The finest blocks as rows of the table, and the blocks of every coarser size (each
+    from the finest, in their order; :func:`take` inlined where neither value is NULL, as in
+    :func:`_add`)."""
     out = [(lg, SIZES[0], st, ch, *c) for (lg, st, ch), c in fine.items()]
     for coarse in SIZES[1:]:
         blocks: dict[tuple[str, int, int], list[Any]] = {}
@@ -125,10 +127,18 @@ def _coarser(fine: dict[tuple[str, int, int], list[Any]]) -> list[tuple[Any, ...
             key = (lg, st - st % coarse, ch)
             b = blocks.get(key)
             if b is None:
-                blocks[key] = list(c)
-            else:
-                take(b, c[0], c[1], 0, -1)
-                take(b, c[2], c[3], 2, 1)
+                blocks[key] = [*c]
+                continue
+            v, old = c[0], b[0]
+            if v is None or old is None:
+                take(b, v, c[1], 0, -1)
+            elif v < old or (v == old and c[1] < b[1]):
+                b[0], b[1] = v, c[1]
+            v, old = c[2], b[2]
+            if v is None or old is None:
+                take(b, v, c[3], 2, 1)
+            elif v > old or (v == old and c[3] < b[3]):
+                b[2], b[3] = v, c[3]
         out += [(lg, coarse, st, ch, *c) for (lg, st, ch), c in blocks.items()]
     return out
 
@@ -144,29 +154,45 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
     fine: dict[tuple[str, int, int], list[Any]] = {}
     size = SIZES[0]
     seconds: dict[datetime, int] = {}
-    blocks: dict[tuple[str, int], list[tuple[int, tuple[Any, ...]]]] = {}
+    blocks: dict[tuple[str, int], tuple[list[int], list[tuple[Any, ...]]]] = {}
     for r in rows:
         sec = seconds.get(r[1])
         if sec is None:
             sec = seconds[r[1]] = epoch(r[1])
         got = blocks.get((r[0], sec - sec % size))
         if got is None:
-            blocks[r[0], sec - sec % size] = [(sec, r)]
+            blocks[r[0], sec - sec % size] = ([sec], [r])
         else:
-            got.append((sec, r))
-    for (lg, start), got in blocks.items():
-        secs = [sec for sec, _ in got]
-        channels = got[0][1][4]
-        ordered = all(a <= b for a, b in itertools.pairwise(secs))
-        if not all(r[4] == channels for _, r in got):
-            slow = [(sec, ch, v) for sec, r in got for ch, v in zip(r[4], r[6], strict=True)]
+            got[0].append(sec)
+            got[1].append(r)
+    try:  # one sum for the batch: no NULL (TypeError) and no NaN (nor both infinities)
+        total = sum(itertools.chain.from_iterable([r[6] for r in rows]))
+        clean = total == total
+    except TypeError:
+        clean = False
+    for (lg, start), (secs, got) in blocks.items():
+        channels = got[0][4]
+        if [r[4] for r in got].count(channels) != len(got):
+            slow = [
+                (sec, ch, v)
+                for sec, r in zip(secs, got, strict=True)
+                for ch, v in zip(r[4], r[6], strict=True)
+            ]
             if any(v != v for _, _, v in slow):
                 return _by_reading(rows, seconds)
             for sec, ch, v in slow:
                 if ch > 0:
                     _add(fine, (lg, start, ch), v, sec)
             continue
-        for ch, col in zip(channels, zip(*(r[6] for _, r in got), strict=True), strict=True):
+        ordered = secs == sorted(secs)
+        columns = zip(channels, zip(*[r[6] for r in got], strict=True), strict=True)
+        if clean and ordered:  # the common case: no test a column
+            for ch, col in columns:
+                if ch > 0:
+                    lo, hi = min(col), max(col)
+                    fine[lg, start, ch] = [lo, secs[col.index(lo)], hi, secs[col.index(hi)]]
+            continue
+        for ch, col in columns:
             if ch <= 0:
                 continue
             key = (lg, start, ch)
@@ -236,19 +262,34 @@ class Written:
 
     def changing(self, blocks: Iterable[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
         """The ``blocks`` (rows of the table, as :func:`aggregate`'s) that may change the
-        stored ones: unknown, or better in an extreme than what is known."""
+        stored ones: unknown, or better in an extreme than what is known (:func:`_beats`,
+        inlined where no value is NULL)."""
         known = self._known
         out: list[tuple[Any, ...]] = []
+        add = out.append
         for b in blocks:
             old = known.get(b[:4])
-            if (
-                old is None
-                or b[4] != b[4]  # NaN (NULL: None == None)
-                or b[6] != b[6]
-                or _beats(b[4], b[5], old[0], old[1], -1)
-                or _beats(b[6], b[7], old[2], old[3], 1)
+            if old is None:
+                add(b)
+                continue
+            lo, hi, old_lo, old_hi = b[4], b[6], old[0], old[2]
+            if lo is None or hi is None or old_lo is None or old_hi is None:
+                if (
+                    lo != lo  # NaN (NULL: None == None)
+                    or hi != hi
+                    or _beats(lo, b[5], old_lo, old[1], -1)
+                    or _beats(hi, b[7], old_hi, old[3], 1)
+                ):
+                    add(b)
+            elif (
+                lo < old_lo
+                or hi > old_hi
+                or lo != lo  # NaN
+                or hi != hi
+                or (lo == old_lo and b[5] < old[1])
+                or (hi == old_hi and b[7] < old[3])
             ):
-                out.append(b)
+                add(b)
         return out
 
     def note(self, blocks: Iterable[tuple[Any, ...]]) -> None:

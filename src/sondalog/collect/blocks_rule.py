@@ -159,12 +159,12 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
         sec = seconds.get(r[1])
         if sec is None:
             sec = seconds[r[1]] = epoch(r[1])
-        got = blocks.get((r[0], sec - sec % size))
-        if got is None:
+        block = blocks.get((r[0], sec - sec % size))
+        if block is None:
             blocks[r[0], sec - sec % size] = ([sec], [r])
         else:
-            got[0].append(sec)
-            got[1].append(r)
+            block[0].append(sec)
+            block[1].append(r)
     try:  # one sum for the batch: no NULL (TypeError) and no NaN (nor both infinities)
         total = sum(itertools.chain.from_iterable([r[6] for r in rows]))
         clean = total == total

@@ -269,3 +269,43 @@ def test_nan_is_always_sent_and_the_memory_is_bounded() -> None:
     assert len(written) == 3 and written.changing([block]) == [block]  # the oldest forgotten
     written.clear()
     assert len(written) == 0
+
+
+def noted_one_at_a_time(
+    known: dict[tuple[Any, ...], tuple[Any, ...]], blocks: list[tuple[Any, ...]], limit: int
+) -> None:
+    """``Written.note`` as it was: each block taken, the oldest forgotten one at a time."""
+    for b in blocks:
+        old = known.pop(b[:4], None)
+        c = list(b[4:]) if old is None else list(old)
+        if old is not None:
+            blocks_rule.take(c, b[4], b[5], 0, -1)
+            blocks_rule.take(c, b[6], b[7], 2, 1)
+        if c[0] == c[0] and c[2] == c[2]:
+            known[b[:4]] = tuple(c)
+            if len(known) > limit:
+                del known[next(iter(known))]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.lists(BLOCK.map(lambda b: (b[0], b[1], b[2] * (1 + b[5]), *b[3:])), max_size=8,
+                 unique_by=lambda b: b[:4]),
+        max_size=12,
+    ),
+    st.integers(1, 6),
+)  # fmt: skip
+def test_the_oldest_blocks_are_forgotten_first(
+    batches: list[list[tuple[Any, ...]]], limit: int
+) -> None:
+    """Forgetting at the end of a batch keeps exactly the blocks (and what is known of them,
+    in their order) that forgetting one at a time kept."""
+    written = blocks_rule.Written()
+    written.LIMIT = limit
+    known: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+    for blocks in batches:
+        written.note(blocks)
+        noted_one_at_a_time(known, blocks, limit)
+        assert list(written._known.items()) == list(known.items())
+        assert len(written) <= limit

@@ -11,6 +11,7 @@ to any value, and between NULLs the later time wins.
 from __future__ import annotations
 
 import itertools
+from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from datetime import UTC, datetime
 from typing import Any
@@ -252,7 +253,10 @@ class Written:
     LIMIT = 8_192
 
     def __init__(self) -> None:
-        self._known: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+        # Ordered by the last write; an OrderedDict finds its first key at once (a dict's
+        # ``next(iter())`` goes past the places of every key deleted before it: thousands,
+        # block after block, measured 0.2 us a reading of a batch).
+        self._known: OrderedDict[tuple[Any, ...], tuple[Any, ...]] = OrderedDict()
 
     def __len__(self) -> int:
         return len(self._known)
@@ -306,4 +310,4 @@ class Written:
             if c[0] == c[0] and c[2] == c[2]:  # NaN is not remembered: always sent
                 known[key] = tuple(c)
                 if len(known) > self.LIMIT:
-                    del known[next(iter(known))]
+                    known.popitem(last=False)

@@ -309,3 +309,25 @@ def test_the_oldest_blocks_are_forgotten_first(
         noted_one_at_a_time(known, blocks, limit)
         assert list(written._known.items()) == list(known.items())
         assert len(written) <= limit
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.one_of(ROWS, CLEAN_ROWS), st.lists(st.integers(1, 8), max_size=6))
+def test_blocks_of_pieces_are_those_of_the_rows_together(
+    items: list[tuple[str, int, tuple[int, ...], list[float | None]]], cuts: list[int]
+) -> None:
+    """``Aggregate`` given the rows a piece at a time (as the sink sends them), a block's
+    rows in several pieces, out of time order, NULLs, NaN and ties included: exactly the
+    blocks of the readings taken one by one."""
+    batch = [
+        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
+        for lg, s, channels, values in items
+        for ch, v in zip(channels, values, strict=False)
+    ]
+    rows = pg_rows.group(batch)
+    pieces = blocks_rule.Aggregate()
+    start = 0
+    for n in [*cuts, len(rows)]:
+        pieces.add(rows[start : start + n])
+        start += n
+    assert_same_blocks(pieces.blocks(), blocks_rule.aggregate(batch))

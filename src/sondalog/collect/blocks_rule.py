@@ -151,10 +151,47 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
     channels and in time order, give each channel's extremes by ``min``/``max`` and ``index``
     (the first, so the earliest time, as the rule wants on a tie); other rows (NULLs, out of
     time order or of other channels) go reading by reading. With a NaN anywhere (which the
-    rule orders nowhere, so the order met counts) every reading goes in the rows' order."""
-    fine: dict[tuple[str, int, int], list[Any]] = {}
+    rule orders nowhere, so the order met counts) every reading goes in the rows' order.
+    (:class:`Aggregate` takes the rows a piece at a time.)"""
+    whole = Aggregate()
+    whole.add(rows)
+    return whole.blocks()
+
+
+class Aggregate:
+    """:func:`aggregate_rows` of rows given a piece at a time (:meth:`add`), so that the
+    PostgreSQL sink computes a piece's blocks while the server stores it; :meth:`blocks`
+    at the end. Exact: a finest block's extremes from two pieces are merged by the rule
+    (:func:`take`), which without NaN gives what the rows together give in any order; with a
+    NaN in any piece every reading of every piece goes in the rows' order at the end."""
+
+    def __init__(self) -> None:
+        self._fine: dict[tuple[str, int, int], list[Any]] = {}
+        self._seconds: dict[datetime, int] = {}
+        self._rows: list[tuple[Any, ...]] = []
+        self._nan = False
+
+    def add(self, rows: Sequence[tuple[Any, ...]]) -> None:
+        """The next rows (all of a record row's readings in one piece)."""
+        self._rows += rows
+        if not self._nan:
+            self._nan = not _fine_of(rows, self._seconds, self._fine)
+
+    def blocks(self) -> list[tuple[Any, ...]]:
+        """The blocks of every size of all the rows added (as :func:`aggregate_rows`)."""
+        if self._nan:
+            return _by_reading(self._rows, self._seconds)
+        return _coarser(self._fine)
+
+
+def _fine_of(
+    rows: Sequence[tuple[Any, ...]],
+    seconds: dict[datetime, int],
+    fine: dict[tuple[str, int, int], list[Any]],
+) -> bool:
+    """The finest blocks of ``rows`` merged into ``fine`` by column (:func:`aggregate_rows`);
+    False, ``fine`` then unfinished, at a NaN."""
     size = SIZES[0]
-    seconds: dict[datetime, int] = {}
     blocks: dict[tuple[str, int], tuple[list[int], list[tuple[Any, ...]]]] = {}
     for r in rows:
         sec = seconds.get(r[1])
@@ -166,7 +203,7 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
         else:
             block[0].append(sec)
             block[1].append(r)
-    try:  # one sum for the batch: no NULL (TypeError) and no NaN (nor both infinities)
+    try:  # one sum for the rows: no NULL (TypeError) and no NaN (nor both infinities)
         total = sum(itertools.chain.from_iterable([r[6] for r in rows]))
         clean = total == total
     except TypeError:
@@ -180,7 +217,7 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
                 for ch, v in zip(r[4], r[6], strict=True)
             ]
             if any(v != v for _, _, v in slow):
-                return _by_reading(rows, seconds)
+                return False
             for sec, ch, v in slow:
                 if ch > 0:
                     _add(fine, (lg, start, ch), v, sec)
@@ -191,7 +228,9 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
             for ch, col in columns:
                 if ch > 0:
                     lo, hi = min(col), max(col)
-                    fine[lg, start, ch] = [lo, secs[col.index(lo)], hi, secs[col.index(hi)]]
+                    _extremes(
+                        fine, (lg, start, ch), lo, secs[col.index(lo)], hi, secs[col.index(hi)]
+                    )
             continue
         for ch, col in columns:
             if ch <= 0:
@@ -199,18 +238,31 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
             key = (lg, start, ch)
             if None in col:
                 if any(v != v for v in col):
-                    return _by_reading(rows, seconds)
+                    return False
                 for v, sec in zip(col, secs, strict=True):
                     _add(fine, key, v, sec)
             elif (total := sum(col)) != total:  # NaN (or both infinities)
-                return _by_reading(rows, seconds)
+                return False
             elif not ordered:
                 for v, sec in zip(col, secs, strict=True):
                     _add(fine, key, v, sec)
             else:
                 lo, hi = min(col), max(col)
-                fine[key] = [lo, secs[col.index(lo)], hi, secs[col.index(hi)]]
-    return _coarser(fine)
+                _extremes(fine, key, lo, secs[col.index(lo)], hi, secs[col.index(hi)])
+    return True
+
+
+def _extremes(
+    fine: dict[tuple[str, int, int], list[Any]], key: Any, lo: Any, t_lo: int, hi: Any, t_hi: int
+) -> None:
+    """A finest block's extremes of some of its rows (no NULL, no NaN) into ``fine``: merged
+    by the rule with those of other rows (another piece) if there are some."""
+    c = fine.get(key)
+    if c is None:
+        fine[key] = [lo, t_lo, hi, t_hi]
+    else:
+        take(c, lo, t_lo, 0, -1)
+        take(c, hi, t_hi, 2, 1)
 
 
 def _by_reading(rows: Sequence[tuple[Any, ...]], seconds: dict[datetime, int]) -> list[Any]:
@@ -218,7 +270,9 @@ def _by_reading(rows: Sequence[tuple[Any, ...]], seconds: dict[datetime, int]) -
     fine: dict[tuple[str, int, int], list[Any]] = {}
     size = SIZES[0]
     for r in rows:
-        sec = seconds[r[1]]
+        sec = seconds.get(r[1])
+        if sec is None:
+            sec = seconds[r[1]] = epoch(r[1])
         for ch, v in zip(r[4], r[6], strict=True):
             if ch > 0:
                 _add(fine, (r[0], sec - sec % size, ch), v, sec)

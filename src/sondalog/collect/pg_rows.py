@@ -63,15 +63,15 @@ def group(batch: Iterable[Reading]) -> list[Row]:
     out: list[Row] = []
     where: dict[tuple[str, datetime, int], int] = {}
     apart: dict[int, list[tuple[Any, ...]]] = {}  # rows whose readings came apart
+    ordered = _ORDERED
     for key, run in itertools.groupby(batch, key=_key):
         got = list(run)
-        at = where.get(key)
-        if at is not None:
+        at = where.setdefault(key, len(out))
+        if at != len(out):
             apart.setdefault(at, [*_cells_of(out[at])]).extend(map(_fields, got))
             continue
-        where[key] = len(out)
-        ch, ty, va, tx, na, un = zip(*map(_cells, got), strict=True)
-        if not _in_order(ch):
+        ch, ty, va, tx, na, un = zip(*map(_cells, got), strict=False)  # six each: equal
+        if not (ordered.get(ch) or _in_order(ch)):
             out.append(_merged(list(map(_fields, got))))
             continue
         out.append((key[0], key[1], key[2], got[0].utc, ch, ty, va, tx, na, un))

@@ -4,8 +4,10 @@ way the block upsert passed them before), on random arrays."""
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections.abc import Callable, Iterator, Sequence
+from datetime import datetime
 from typing import Any
 
 import psycopg
@@ -14,12 +16,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from services import PostgresServer
 
-from sondalog.collect import blocks_sql, pg_arrays
+from sondalog.collect import blocks_rule, blocks_sql, pg_arrays, schema_pg
+from sondalog.collect.model import Reading
 
 
 @pytest.fixture(scope="module")
 def conn(postgres: PostgresServer) -> Iterator[psycopg.Connection[Any]]:
     with psycopg.connect(postgres.dsn(), autocommit=True) as c:
+        pg_arrays.register(c)
         yield c
 
 
@@ -70,3 +74,26 @@ def test_the_block_upsert_parameters_read_as_before(conn: psycopg.Connection[Any
     columns[0] = [t.replace("\x00", "") for t in columns[0]]
     for cast, new, old in zip(casts, blocks_sql.upsert_params(blocks), columns, strict=True):
         assert sent(conn, cast, new) == sent(conn, cast, old)
+
+
+def test_a_connection_made_before_the_first_upsert_takes_them(pg_dsn: str) -> None:
+    """The sink's connections exist before the module that encodes the arrays is first
+    used: the first batch registers them on its connection and cursor (a connection copies
+    psycopg's adapters when it is made; an array it does not know goes as ``bytea``)."""
+    batch = [Reading("L1", ch, datetime(2026, 1, 1, 0, m), 0, 1, float(m)) for m in range(3)
+             for ch in (1, 2)]  # fmt: skip
+
+    async def run() -> None:
+        async with await psycopg.AsyncConnection.connect(pg_dsn, autocommit=True) as conn:
+            for sql in schema_pg.statements(0):  # record_rows, which the tables' making reads
+                await conn.execute(sql)  # type: ignore[arg-type]
+            for _ in range(2):  # the first cursor, and one made after
+                async with conn.transaction(), conn.cursor() as cur:
+                    await blocks_sql.after_batch_postgres(
+                        cur, batch, len(batch), blocks_rule.aggregate(batch)
+                    )
+
+    asyncio.run(run())
+    with psycopg.connect(pg_dsn) as c:
+        got = c.execute("SELECT count(*) FROM readings_extremes").fetchone()
+    assert got == (len(blocks_rule.aggregate(batch)),)

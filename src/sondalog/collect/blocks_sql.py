@@ -46,7 +46,6 @@ from collections.abc import Iterable, Sequence
 from datetime import UTC, datetime
 from typing import Any
 
-from sondalog.collect import pg_arrays
 from sondalog.collect.blocks_rule import CONFLICT, MERGE, REPLACE, aggregate, epoch
 from sondalog.collect.model import Reading
 from sondalog.collect.schema import EXTREMES, EXTREMES_SIZES, EXTREMES_TODO
@@ -149,10 +148,13 @@ _PG_UPSERT = (
 )  # binary parameters: psycopg's text form quotes every element (a fifth of the cost)
 
 
-def upsert_params(blocks: Sequence[tuple[Any, ...]]) -> list[pg_arrays.Array]:
+def upsert_params(blocks: Sequence[tuple[Any, ...]]) -> list[bytes]:
     """The parameters of the PostgreSQL upsert of ``blocks`` (rows of the table): its eight
     columns as arrays encoded at once (:mod:`.pg_arrays`; psycopg's dumping of lists, Python
-    element by element, was the largest share of the collector's CPU of a batch)."""
+    element by element, was the largest share of the collector's CPU of a batch). Imported
+    here: the SQLite store and the dashboard use this module without psycopg."""
+    from sondalog.collect import pg_arrays
+
     lg, size, start, ch, vmin, tmin, vmax, tmax = zip(*blocks, strict=True)
     return [
         pg_arrays.texts(lg),
@@ -381,6 +383,10 @@ async def after_batch_postgres(
             await cur.execute(_PG_TODO)
         for key in [k for k, c in _ENSURED.items() if c.closed]:
             del _ENSURED[key]
+        from sondalog.collect import pg_arrays  # psycopg: not for SQLite's users
+
+        pg_arrays.register(conn)  # the upsert's arrays (cursors copy the adapters when made)
+        pg_arrays.register(cur)
         _ENSURED[id(conn)] = conn
     if whole:
         await cur.execute(_PG_UPSERT, upsert_params(rows))

@@ -5,8 +5,8 @@ psycopg dumps a list parameter in Python element by element (choosing each eleme
 and packing it): for the few hundred blocks of a batch, eight arrays, that was the largest
 single share of the collector's CPU on PostgreSQL. Here each array is one ``struct`` call
 (lengths and elements interleaved), the loggers' names encoded once a call; the result is a
-:class:`bytes` of a type whose dumper (registered on :data:`psycopg.adapters`) passes it as
-it is, binary, with the array's type. The same bytes as the binary ``COPY`` of
+:class:`bytes` of a type whose dumper passes it as it is, binary, with the array's type, on
+a connection that :func:`register` prepared. The same bytes as the binary ``COPY`` of
 :mod:`.pg_rows` writes for a field; NUL characters, which PostgreSQL text cannot hold, are
 dropped as there.
 """
@@ -59,10 +59,18 @@ class _Dumper(adapt.Dumper):
         return bytes(obj)
 
 
-for _kind in (Int4s, Int8s, Float8s, Texts):
-    psycopg.adapters.register_dumper(
-        _kind, type(f"{_kind.__name__}Dumper", (_Dumper,), {"oid": _kind.oid})
-    )
+_KINDS = (Int4s, Int8s, Float8s, Texts)
+_DUMPERS = [
+    (kind, type(f"{kind.__name__}Dumper", (_Dumper,), {"oid": kind.oid})) for kind in _KINDS
+]
+
+
+def register(context: psycopg.abc.AdaptContext) -> None:
+    """Let ``context`` (a connection: it copies psycopg's global adapters when it is made)
+    pass these arrays as they are."""
+    for kind, dumper in _DUMPERS:
+        context.adapters.register_dumper(kind, dumper)
+
 
 #: Packers of ``n`` elements after the head, by element code and ``n`` (bounded).
 _PACKS: dict[tuple[str, int], Callable[..., bytes]] = {}

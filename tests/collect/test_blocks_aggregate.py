@@ -44,28 +44,6 @@ def same(a: object, b: object) -> bool:
     return a == b or (isinstance(a, float) and isinstance(b, float) and a != a and b != b)
 
 
-@settings(max_examples=300, deadline=None)
-@given(
-    st.lists(
-        st.tuples(
-            st.sampled_from(["a", "b"]),
-            st.integers(0, 3),
-            st.integers(0, 4000),
-            VALUES,
-        ),
-        max_size=60,
-    )
-)
-def test_aggregate_matches_the_rule(items: list[tuple[str, int, int, float | None]]) -> None:
-    batch = [Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v) for lg, ch, s, v in items]
-    got = {row[:4]: list(row[4:]) for row in blocks_rule.aggregate(batch)}
-    want = reference(batch)
-    finest = {k: v for k, v in got.items() if k[1] == blocks_rule.SIZES[0]}
-    assert finest.keys() == want.keys()
-    for key, c in want.items():
-        assert all(same(x, y) for x, y in zip(finest[key], c, strict=True)), key
-
-
 def reference_sizes(batch: list[Reading]) -> dict[tuple[Any, ...], list[Any]]:
     """The blocks of every size: the finest by the rule (:func:`reference`), each coarser
     block taking the finest ones by :func:`blocks_rule.take` in their order (NaN orders
@@ -84,19 +62,19 @@ def reference_sizes(batch: list[Reading]) -> dict[tuple[Any, ...], list[Any]]:
     return out
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=400, deadline=None)
 @given(
     st.lists(
         st.tuples(
             st.sampled_from(["a", "b"]),
-            st.integers(1, 2),
-            st.integers(0, 200_000),  # seconds: blocks of every size, several of each
+            st.integers(0, 3),
+            st.one_of(st.integers(0, 4000), st.integers(0, 200_000)),  # blocks of every size
             VALUES,
         ),
         max_size=60,
     )
 )
-def test_coarser_blocks_match_the_rule(items: list[tuple[str, int, int, float | None]]) -> None:
+def test_aggregate_matches_the_rule(items: list[tuple[str, int, int, float | None]]) -> None:
     """Every size, NULLs, NaN, infinities and ties included (the coarse blocks' comparison
     is inlined where no value is NULL)."""
     batch = [Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v) for lg, ch, s, v in items]
@@ -120,66 +98,46 @@ def assert_same_blocks(a: list[tuple[Any, ...]], b: list[tuple[Any, ...]]) -> No
         assert all(same(p, q) for p, q in zip(c, y[key], strict=True)), (key, c, y[key])
 
 
-#: Record rows as a logger's download brings them: a row's readings together, by channel.
-ROWS = st.lists(
-    st.tuples(
-        st.sampled_from(["a", "b"]),
-        st.integers(0, 9000),  # seconds: several blocks of every size
-        st.sampled_from([(1, 2, 3), (1, 2, 3), (0,), (2, 5)]),
-        st.lists(VALUES, min_size=3, max_size=3),
-    ),
-    max_size=40,
-    unique_by=lambda r: (r[0], r[1]),
+def record_rows(values: Any) -> Any:
+    """Record rows as a logger's download brings them (a row's readings together, by
+    channel), their values drawn from ``values``."""
+    return st.lists(
+        st.tuples(
+            st.sampled_from(["a", "b"]),
+            st.integers(0, 9000),  # seconds: several blocks of every size
+            st.sampled_from([(1, 2, 3), (1, 2, 3), (0,), (2, 5)]),
+            st.lists(values, min_size=3, max_size=3),
+        ),
+        max_size=40,
+        unique_by=lambda r: (r[0], r[1]),
+    )
+
+
+ROWS = record_rows(VALUES)
+#: Rows without NULL or NaN (so the batch's columns are taken by min/max at once), ties
+#: and infinities among them.
+CLEAN_ROWS = record_rows(
+    st.one_of(st.sampled_from([1.0, -0.0, 0.0, math.inf, -math.inf]), st.floats(-9, 9))
 )
 
 
-@settings(max_examples=300, deadline=None)
-@given(ROWS)
+def readings_of_rows(items: list[tuple[str, int, tuple[int, ...], list[Any]]]) -> list[Reading]:
+    return [
+        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
+        for lg, s, channels, values in items
+        for ch, v in zip(channels, values, strict=False)
+    ]
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.one_of(ROWS, CLEAN_ROWS))
 def test_aggregate_of_rows_is_aggregate_of_their_readings(
     items: list[tuple[str, int, tuple[int, ...], list[float | None]]],
 ) -> None:
     """By column (min/max of a block's rows of one channel) exactly as reading by reading,
-    NULLs, NaN, infinities, ties and rows out of time order included."""
-    batch = [
-        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
-        for lg, s, channels, values in items
-        for ch, v in zip(channels, values, strict=False)
-    ]
-    assert_same_blocks(
-        blocks_rule.aggregate_rows(pg_rows.group(batch)), blocks_rule.aggregate(batch)
-    )
-
-
-#: Rows without NULL or NaN (so the batch's columns are taken by min/max at once), ties
-#: and infinities among them.
-CLEAN_ROWS = st.lists(
-    st.tuples(
-        st.sampled_from(["a", "b"]),
-        st.integers(0, 9000),
-        st.sampled_from([(1, 2, 3), (1, 2, 3), (0,), (2, 5)]),
-        st.lists(
-            st.one_of(st.sampled_from([1.0, -0.0, 0.0, math.inf, -math.inf]), st.floats(-9, 9)),
-            min_size=3,
-            max_size=3,
-        ),
-    ),
-    max_size=40,
-    unique_by=lambda r: (r[0], r[1]),
-)
-
-
-@settings(max_examples=300, deadline=None)
-@given(CLEAN_ROWS)
-def test_aggregate_of_rows_without_null_or_nan(
-    items: list[tuple[str, int, tuple[int, ...], list[float]]],
-) -> None:
-    """The batch without NULL or NaN (each block's columns by min/max, none tested): the
-    same blocks as reading by reading."""
-    batch = [
-        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
-        for lg, s, channels, values in items
-        for ch, v in zip(channels, values, strict=False)
-    ]
+    NULLs, NaN, infinities, ties and rows out of time order included, and batches without
+    NULL or NaN (each block's columns by min/max, none tested)."""
+    batch = readings_of_rows(items)
     assert_same_blocks(
         blocks_rule.aggregate_rows(pg_rows.group(batch)), blocks_rule.aggregate(batch)
     )
@@ -319,11 +277,7 @@ def test_blocks_of_pieces_are_those_of_the_rows_together(
     """``Aggregate`` given the rows a piece at a time (as the sink sends them), a block's
     rows in several pieces, out of time order, NULLs, NaN and ties included: exactly the
     blocks of the readings taken one by one."""
-    batch = [
-        Reading(lg, ch, T0 + timedelta(seconds=s), 0, 0, v)
-        for lg, s, channels, values in items
-        for ch, v in zip(channels, values, strict=False)
-    ]
+    batch = readings_of_rows(items)
     rows = pg_rows.group(batch)
     pieces = blocks_rule.Aggregate()
     start = 0

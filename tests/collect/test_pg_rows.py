@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import itertools
 import random
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
+from unittest import mock
 
 import pytest
 from hypothesis import given, settings
@@ -109,3 +110,45 @@ def test_a_row_is_never_cut_between_pieces() -> None:
     with pytest.raises(pg_rows.Apart):
         list(pg_rows.pieces(apart, 4))
     assert len(list(pg_rows.pieces(apart, 100))) == 1  # one piece: merged as before
+
+
+VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([0.0, -0.0, 1.5]), st.none()
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["A", "B\x00", "Cé"]),
+            st.integers(0, 3),  # minute
+            st.integers(0, 1),  # counter
+            st.lists(st.integers(0, 5), min_size=1, max_size=6),  # channels
+            st.lists(VALUES, min_size=6, max_size=6),
+            st.booleans(),  # a UTC time
+        ),
+        max_size=12,
+    ),
+    st.integers(1, 5),
+)
+def test_values_encoded_at_once_are_those_of_each_row(
+    items: list[tuple[str, int, int, list[int], list[float | None], bool]], cut: int
+) -> None:
+    """The body's fast path (every value of the rows at once, :func:`pg_rows._all_values`)
+    writes the bytes of the row-by-row path (``_values``), on random rows: NULLs, NaN,
+    infinities, -0.0, rows of any length, times met again, pieces of any size."""
+    t0 = datetime(2026, 1, 1)
+    batch = [
+        Reading(lg, ch, t0 + timedelta(minutes=m), cn, 1 + ch % 2, values[i], None, f"n{ch}",
+                "V", (t0 + timedelta(minutes=m)).replace(tzinfo=UTC) if utc else None)
+        for lg, m, cn, channels, values, utc in items
+        for i, ch in enumerate(channels)
+    ]  # fmt: skip
+    rows = pg_rows.group(batch)
+    encoder = pg_rows.Encoder()
+    fast = [encoder.body(rows[i : i + cut]) for i in range(0, len(rows), cut)]
+    assert any(v is None for r in rows for v in r[6]) or not rows or pg_rows._all_values(rows)
+    with mock.patch.object(pg_rows, "_all_values", lambda rows: None):
+        slow = [pg_rows.Encoder().body(rows[i : i + cut]) for i in range(0, len(rows), cut)]
+    assert fast == slow

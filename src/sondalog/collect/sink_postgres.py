@@ -50,9 +50,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import functools
 import logging
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import psycopg
@@ -132,29 +131,50 @@ _ENCODER = pg_rows.Encoder()
 _PIECE = 2_048
 
 
+class _Blocks:
+    """The dashboard's blocks of a part of a batch, computed while the server stores its
+    rows: a piece's once it is sent (:meth:`add`), those that may change the stored ones
+    once the last is sent (:meth:`done`), in the key's order (the server's look-ups then go
+    page after page of its index, measured about a fifth less a new block, and concurrent
+    collectors lock blocks in one order)."""
+
+    def __init__(self, written: blocks_rule.Written) -> None:
+        self._written = written
+        self._aggregate = blocks_rule.Aggregate()
+        self.changing: list[tuple[object, ...]] = []
+
+    def add(self, rows: Sequence[pg_rows.Row]) -> None:
+        self._aggregate.add(rows)
+
+    def done(self) -> None:
+        self.changing = sorted(self._written.changing(self._aggregate.blocks()))
+
+
 async def _copy(
     cur: psycopg.AsyncCursor[tuple[object, ...]],
     sql: str,
     pieces: Iterable[Sequence[pg_rows.Row]],
-    meanwhile: Callable[[Sequence[pg_rows.Row]], None] | None = None,
+    meanwhile: _Blocks | None = None,
 ) -> int:
     """COPY the record rows of ``pieces`` in the binary format (:class:`pg_rows.Encoder`), a
     piece at a time, so that the server's work overlaps the making of the next piece; after
-    each piece the other parts of the batch get their turn. ``meanwhile`` runs on all the
-    rows once they are sent and before the server's answer is awaited: its CPU overlaps the
-    server's too. The number of readings copied."""
-    sent: list[pg_rows.Row] = []
+    each piece the other parts of the batch get their turn. ``meanwhile`` takes each piece
+    once it is sent, and is done before the server's answer is awaited: its CPU overlaps
+    the server's too. The number of readings copied."""
+    copied = 0
     async with cur.copy(sql) as copy:
         head = pg_rows.SIGNATURE
         for rows in pieces:
-            sent += rows
             await copy.write(head + _ENCODER.body(rows))
             head = b""
+            copied += pg_rows.readings_in(rows)
+            if meanwhile is not None:
+                meanwhile.add(rows)
             await asyncio.sleep(0)
         await copy.write(head + pg_rows.TRAILER)
         if meanwhile is not None:
-            meanwhile(sent)
-    return pg_rows.readings_in(sent)
+            meanwhile.done()
+    return copied
 
 
 async def _number(cur: psycopg.AsyncCursor[tuple[object, ...]], sql: str) -> int:
@@ -167,7 +187,7 @@ async def insert_rows(
     cur: psycopg.AsyncCursor[tuple[object, ...]],
     batch: Sequence[Reading],
     direct: bool,
-    meanwhile: Callable[[Sequence[pg_rows.Row]], None] | None = None,
+    meanwhile: _Blocks | None = None,
 ) -> tuple[int, int]:
     """Insert the record rows of ``batch`` in the cursor's transaction: the number of
     readings new to the table, and of the batch's readings (each counted once).
@@ -191,14 +211,6 @@ async def insert_rows(
     return new, total
 
 
-def _aggregate_into(
-    out: list[tuple[object, ...]], written: blocks_rule.Written, rows: Sequence[pg_rows.Row]
-) -> None:
-    # In the key's order: the server's look-ups go page after page of its index (measured:
-    # about a fifth less a new block), and concurrent collectors lock blocks in one order.
-    out.extend(sorted(written.changing(blocks_rule.aggregate_rows(rows))))
-
-
 async def store_part(
     conn: Conn, batch: Sequence[Reading], direct: bool, written: blocks_rule.Written
 ) -> tuple[int, bool]:
@@ -209,21 +221,20 @@ async def store_part(
     conflicted, deadlocks = False, 0
     while True:
         try:
-            blocks: list[tuple[object, ...]] = []
+            blocks = _Blocks(written)
             async with conn.transaction(), conn.cursor() as cur:
                 # A direct COPY stores every reading or fails: the dashboard's extremes of
                 # the part are computed while the server stores its rows.
-                aggregate = functools.partial(_aggregate_into, blocks, written)
-                new, total = await insert_rows(cur, batch, direct, aggregate if direct else None)
+                new, total = await insert_rows(cur, batch, direct, blocks if direct else None)
                 # Here the part is written and not yet committed: what must change with the
                 # readings runs here, in the same transaction: the dashboard's extremes
                 # (unchanged when no reading was new: a replay reads nothing back).
                 if new:
                     await blocks_sql.after_batch_postgres(
-                        cur, batch, new, blocks if direct else None
+                        cur, batch, new, blocks.changing if direct else None
                     )
             if direct and new == len(batch):  # the blocks of every reading were merged
-                written.note(blocks)
+                written.note(blocks.changing)
             return new, conflicted or new < total
         except pg_rows.Apart:
             direct = False  # rolled back: again, the rows grouped at once

@@ -19,6 +19,8 @@
     retry_max = 600             # ... up to this many seconds
     config_every = 1            # optional: read its configuration every N contacts (0: never)
     expect = "station.toml"     # optional: the station file it should match (config_expect.py)
+    keep_open = false           # optional: true keeps the TCP connection between contacts
+                                # (a server that takes several connections; keep_open.py)
 
     [[source]]                  # HCTMPS1 modules on a bus, polled
     kind = "bus"
@@ -68,6 +70,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.client.endpoints import TcpEndpoint
 from sondalog.client.station_file import Station
 from sondalog.collect.alarms import AlarmPlan, parse_alarms
 from sondalog.collect.alarms.senders import find_sender
@@ -101,6 +104,7 @@ _SOURCE = (
     "channels",
     "expect",
     "config_every",
+    "keep_open",
 )
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Sources whose rows come in loggers' data messages (docs/collector.md).
@@ -140,6 +144,8 @@ class SourceConfig:
     config_every: int = 1
     expect: Station | None = None
     expect_path: str | None = None
+    #: A ``tcp://`` logger's connection is kept between contacts (:mod:`keep_open`).
+    keep_open: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -296,9 +302,21 @@ def _source(t: Table) -> SourceConfig:
         retry_max=max(retry, _seconds(t, "retry_max", 600.0)),
         modules=tuple(modules),
         units=t.text_map("units"),
+        keep_open=_keep_open(t, kind, url),
         **message,
         **watch,
     )
+
+
+def _keep_open(t: Table, kind: str, url: str) -> bool:
+    """``keep_open``: only a logger's ``tcp://`` connection is kept between contacts (a
+    serial line, a data call and a bus are connected for each contact)."""
+    keep = t.flag("keep_open", False)
+    if keep and kind != "logger":
+        raise t.fail("keep_open", "only a logger source keeps its connection open")
+    if keep and not isinstance(parse_url(url), TcpEndpoint):
+        raise t.fail("keep_open", "only a tcp:// connection is kept open")
+    return keep
 
 
 def _watch_keys(t: Table, kind: str, url: str) -> dict[str, Any]:

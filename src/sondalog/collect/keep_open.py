@@ -21,7 +21,6 @@ import asyncio
 import contextlib
 import logging
 import resource
-from collections.abc import Iterable
 from typing import cast
 
 from sondalog.client import Ala1Client
@@ -128,12 +127,6 @@ class KeptConnections:
         held = self._held.pop(name, None)
         if held is not None:
             held[1].transport.close()
-
-    def retain(self, names: Iterable[str]) -> None:
-        """Close the connections of every source not in ``names`` (a new configuration)."""
-        keep = set(names)
-        for name in [n for n in self._held if n not in keep]:
-            self.drop(name)
 
     def close(self) -> None:
         """Close every kept connection (the collector stops)."""

@@ -216,14 +216,12 @@ class Collector:
         old = {s.config.name: s for s in self.sources}
         new = {c.name: c for c in config.sources}
         stopped = [n for n, s in old.items() if new.get(n) != s.config]
-        for name in stopped:
+        for name in stopped:  # its task's end closes its kept connection
             task = self._tasks.pop(name, None)
             if task is not None:
                 task.cancel()
                 with contextlib.suppress(asyncio.CancelledError, Exception):
                     await task
-            self.kept.drop(name)
-        self.kept.retain(new)
         self.config = dataclasses.replace(self.config, sources=config.sources)
         sources = []
         for source_config in config.sources:

@@ -190,12 +190,13 @@ def measure(
         config = Path(tmp) / "collector.toml"
         config.write_text(
             '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
+            # the [collect] default: a key a source would not fit 10,000 in the 1 MiB
+            + ("[collect]\nkeep_open = true\n" if keep_open else "")
             + "".join(
                 # compact (retry = 5 is the default): 10,000 sources within the 1 MiB a
                 # configuration file may have
                 f'\n[[source]]\nname="s{i:05d}"\nurl="tcp://127.0.0.1:{port}"\n'
                 f"interval={args.interval:g}\nretry_max=30\nconfig_every={args.config_every}\n"
-                + ("keep_open=true\n" if keep_open else "")
                 for i, port in enumerate(ports)
             )
         )

@@ -316,6 +316,17 @@ def test_keep_open_is_checked_in_the_file(tmp_path: Path) -> None:
     ok = load('[[source]]\nurl = "tcp://127.0.0.1:1"\nkeep_open = true\n')
     assert ok.sources[0].keep_open
     assert not load('[[source]]\nurl = "tcp://127.0.0.1:1"\n').sources[0].keep_open
+    every = load(
+        '[collect]\nkeep_open = true\n[[source]]\nurl = "tcp://127.0.0.1:1"\n'
+        '[[source]]\nurl = "tcp://127.0.0.1:2"\nkeep_open = false\n'
+        '[[source]]\nkind = "bus"\nurl = "tcp://127.0.0.1:3"\n'
+        '[[source]]\nurl = "serial:///dev/ttyS0"\n'
+    )
+    assert [s.keep_open for s in every.sources] == [True, False, False, False]
+    with pytest.raises(ConfigError, match=r":2: collect.keep_open: must be true or false"):
+        load('[collect]\nkeep_open = "yes"\n[[source]]\nurl = "tcp://127.0.0.1:1"\n')
+    with pytest.raises(ConfigError, match=r"collect.keep_opn"):
+        load('[collect]\nkeep_opn = true\n[[source]]\nurl = "tcp://127.0.0.1:1"\n')
     for text, message in [
         ('url = "tcp://127.0.0.1:1"\nkeep_open = 1', ":3: source[0].keep_open: must be true"),
         ('url = "serial:///dev/ttyS0"\nkeep_open = true', "only a tcp:// connection"),

@@ -9,6 +9,9 @@
     [buffer]                    # where batches wait while a sink is down
     path = "collector.buffer.sqlite"
 
+    [collect]                   # optional: defaults of every source
+    keep_open = false           # the default of the tcp:// loggers' keep_open
+
     [[source]]                  # a logger, downloaded incrementally
     url = "tcp://127.0.0.1:10001"
     interval = 60               # seconds between contacts
@@ -83,7 +86,7 @@ from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.config import Table, load
 
 #: The collector's own tables; any other top-level table is a sink's (``sinks.find_sink``).
-OWN_TABLES = ("sqlite", "buffer", "source", "web", "alarm", "notify", "cluster")
+OWN_TABLES = ("sqlite", "buffer", "collect", "source", "web", "alarm", "notify", "cluster")
 _SOURCE = (
     "url",
     "interval",
@@ -195,7 +198,9 @@ def parse_config(root: Table) -> CollectorConfig:
     tables = root.tables("source", keys=_SOURCE)
     if not tables:
         raise root.fail("source", "no [[source]] table: nothing to collect")
-    sources = [_source(t) for t in tables]
+    defaults = root.table("collect", keys=("keep_open",))
+    keep_open = defaults.flag("keep_open", False)
+    sources = [_source(t, keep_open) for t in tables]
     seen: set[str] = set()
     for table, source in zip(tables, sources, strict=True):
         if source.name in seen:
@@ -276,7 +281,7 @@ def _check_url(kind: str, url: str) -> str:
     return url
 
 
-def _source(t: Table) -> SourceConfig:
+def _source(t: Table, keep_open: bool = False) -> SourceConfig:
     if "url" not in t:
         raise t.fail("url", "required: the logger's or the bus's URL")
     kind = t.text("kind", "logger", choices=KINDS)
@@ -302,16 +307,19 @@ def _source(t: Table) -> SourceConfig:
         retry_max=max(retry, _seconds(t, "retry_max", 600.0)),
         modules=tuple(modules),
         units=t.text_map("units"),
-        keep_open=_keep_open(t, kind, url),
+        keep_open=_keep_open(t, kind, url, keep_open),
         **message,
         **watch,
     )
 
 
-def _keep_open(t: Table, kind: str, url: str) -> bool:
+def _keep_open(t: Table, kind: str, url: str, default: bool) -> bool:
     """``keep_open``: only a logger's ``tcp://`` connection is kept between contacts (a
-    serial line, a data call and a bus are connected for each contact)."""
-    keep = t.flag("keep_open", False)
+    serial line, a data call and a bus are connected for each contact); ``default`` (the
+    ``[collect]`` table's) applies to the sources that can keep theirs."""
+    if "keep_open" not in t:
+        return default and kind == "logger" and isinstance(parse_url(url), TcpEndpoint)
+    keep = t.flag("keep_open")
     if keep and kind != "logger":
         raise t.fail("keep_open", "only a logger source keeps its connection open")
     if keep and not isinstance(parse_url(url), TcpEndpoint):

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import sqlite3
 import time
@@ -71,6 +72,12 @@ _STATE_COLUMNS = (
 
 
 _COLUMNS = frozenset(_STATE_COLUMNS)
+
+
+@functools.lru_cache(maxsize=256)
+def _update_text(columns: tuple[str, ...]) -> str:
+    """``UPDATE sources SET a = ?, b = ? WHERE name = ?`` for the state columns given."""
+    return f"UPDATE sources SET {', '.join(f'{c} = ?' for c in columns)} WHERE name = ?"
 
 
 class StoreError(Exception):
@@ -170,8 +177,14 @@ class SqliteStore:
         with self._transaction(db):
             if self._readings:
                 self._insert(self._readings)
+            # the sources' states by the columns they set: one executemany for each set
+            # (a second's contacts set the same few), not an UPDATE text and call a source
+            groups: dict[tuple[str, ...], list[tuple[Any, ...]]] = {}
             for name, state in self._states.items():
-                self._update(name, state)
+                if state:  # checked by _pend, and already in _known
+                    groups.setdefault(tuple(state), []).append((*state.values(), name))
+            for columns, rows in groups.items():
+                db.executemany(_update_text(columns), rows)
             if self._events:
                 db.executemany(
                     "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
@@ -381,10 +394,7 @@ class SqliteStore:
         known = self._known.get(name)
         if known is not None:
             known.update(state)
-        assignments = ", ".join(f"{column} = ?" for column in state)
-        self._conn().execute(
-            f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name)
-        )
+        self._conn().execute(_update_text(tuple(state)), (*state.values(), name))
 
     def set_channels(
         self,

@@ -220,6 +220,12 @@ def measure(
             rss, peak = memory_mb(proc.pid)
             c1, e1 = counts(db)
             never = lags(db, offset)[1]
+            if e1 > e0:  # what went wrong, most often
+                text = db.execute(
+                    "SELECT text, count(*) AS n FROM events WHERE kind = 'error' "
+                    "GROUP BY substr(text, 1, 40) ORDER BY n DESC LIMIT 1"
+                ).fetchone()
+                print(f"  {label}: errors, most often ({text[1]}): {text[0]}", flush=True)
             db.close()
         finally:
             proc.send_signal(signal.SIGTERM)

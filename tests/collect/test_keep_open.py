@@ -242,9 +242,13 @@ def test_reload_removing_a_source_closes_its_connection(logger: Served, tmp_path
         await _until(lambda: collector.contacts >= contacts + 3)
         assert len(peers[0].links) == 1 and peers[0].accepted == 1 and peers[1].accepted == 1
         assert [s.config.name for s in collector.sources] == ["a"]
+        added = SourceConfig("c", peers[1].url, interval=0.2, keep_open=True)
+        await collector.reload(dataclasses.replace(config, sources=(sources[0], added)))
+        await _until(lambda: "c" in collector.kept)  # a new source starts, and keeps its own
+        assert peers[1].accepted == 2 and peers[0].accepted == 1
         stop.set()
         await run
-        await _until(lambda: not peers[0].links)  # the collector's stop closed it
+        await _until(lambda: not peers[0].links and not peers[1].links)  # closed at the stop
         assert len(collector.kept) == 0
         for peer in peers:
             await peer.stop()

@@ -209,8 +209,8 @@ class Collector:
         """Take the sources of ``config`` (the file read again) while running: a source no
         longer in it stops and its kept connection is closed, a new one starts, a changed
         one starts again with its new settings. Everything else (store, sinks, web, alarms,
-        cluster) stays as it was loaded; a collector sharing its sources (``[cluster]``)
-        takes no new list (``ValueError``)."""
+        cluster) stays as it was loaded (the alarms stop watching a removed source); a
+        collector sharing its sources (``[cluster]``) takes no new list (``ValueError``)."""
         if self.share is not None or config.cluster is not None:
             raise ValueError("a collector of a [cluster] takes a new source list at a restart")
         old = {s.config.name: s for s in self.sources}
@@ -233,6 +233,8 @@ class Collector:
                     self._start(source, 0.0)
             sources.append(source)
         self.sources = sources
+        if self.alarms is not None:  # a removed source is watched no more (a new one is not
+            self.alarms.hold(set(new))  # watched for no contact before a restart)
         if self._changed is not None and not self._changed.done():
             self._changed.set_result(None)
 

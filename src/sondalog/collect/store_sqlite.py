@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import functools
 import logging
 import sqlite3
 import time
@@ -72,12 +71,7 @@ _STATE_COLUMNS = (
 
 
 _COLUMNS = frozenset(_STATE_COLUMNS)
-
-
-@functools.lru_cache(maxsize=256)
-def _update_text(columns: tuple[str, ...]) -> str:
-    """``UPDATE sources SET a = ?, b = ? WHERE name = ?`` for the state columns given."""
-    return f"UPDATE sources SET {', '.join(f'{c} = ?' for c in columns)} WHERE name = ?"
+_EVENT = "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)"
 
 
 class StoreError(Exception):
@@ -177,19 +171,16 @@ class SqliteStore:
         with self._transaction(db):
             if self._readings:
                 self._insert(self._readings)
-            # the sources' states by the columns they set: one executemany for each set
-            # (a second's contacts set the same few), not an UPDATE text and call a source
-            groups: dict[tuple[str, ...], list[tuple[Any, ...]]] = {}
-            for name, state in self._states.items():
-                if state:  # checked by _pend, and already in _known
-                    groups.setdefault(tuple(state), []).append((*state.values(), name))
+            groups: dict[tuple[str, ...], list[tuple[Any, ...]]] = {}  # one UPDATE a column set
+            for name, state in self._states.items():  # (checked by _pend, in _known already)
+                groups.setdefault(tuple(state), []).append((*state.values(), name))
+            groups.pop((), None)  # a set_state of no column
             for columns, rows in groups.items():
-                db.executemany(_update_text(columns), rows)
-            if self._events:
                 db.executemany(
-                    "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-                    self._events,
+                    f"UPDATE sources SET {' = ?, '.join(columns)} = ? WHERE name = ?", rows
                 )
+            if self._events:
+                db.executemany(_EVENT, self._events)
         self._readings, self._states, self._events = [], {}, []
 
     def _flush_due(self) -> None:
@@ -380,10 +371,7 @@ class SqliteStore:
             return
         with self._conn():
             self._update(name, state)
-            self._conn().execute(
-                "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-                (now_text(), name, kind, text),
-            )
+            self._conn().execute(_EVENT, (now_text(), name, kind, text))
 
     def _update(self, name: str, state: dict[str, Any]) -> None:
         if not state:
@@ -394,7 +382,10 @@ class SqliteStore:
         known = self._known.get(name)
         if known is not None:
             known.update(state)
-        self._conn().execute(_update_text(tuple(state)), (*state.values(), name))
+        assignments = ", ".join(f"{column} = ?" for column in state)
+        self._conn().execute(
+            f"UPDATE sources SET {assignments} WHERE name = ?", (*state.values(), name)
+        )
 
     def set_channels(
         self,
@@ -415,10 +406,7 @@ class SqliteStore:
 
     def event(self, source: str, kind: str, text: str, time: str | None = None) -> None:
         with self.db:
-            self.db.execute(
-                "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-                (time or now_text(), source, kind, text),
-            )
+            self.db.execute(_EVENT, (time or now_text(), source, kind, text))
 
     def events(self, source: str | None = None) -> list[tuple[str, str, str, str]]:
         sql = "SELECT time, source, kind, text FROM events"

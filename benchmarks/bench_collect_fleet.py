@@ -18,6 +18,13 @@ Each source reads its logger's configuration every ``--config-every`` contacts (
 about ten times a contact's own work for both ends, which ``bench_config_watch.py`` measures;
 for ten thousand sources docs/collector.md advises ``config_every = 0`` or a large N.
 
+``--keep-open`` measures this tree twice a run: its default path (a connection a contact)
+and with ``keep_open = true`` on every source (the connection kept between contacts,
+docs/collector.md), side by side in the table; the sondalog fleet's servers take several
+connections, as keep_open needs. A kept connection is a file on both sides: a logger process
+then holds two a logger (its listener and the connection), so the fleet is split over
+``--fleets`` processes (default: as many as the open-file limit needs) for every path alike.
+
 ``--compare OLD_SRC`` runs the same measurement with the collector's code from another tree
 (``git archive BASE src | tar -x -C /tmp/base``), interleaved with this tree's runs against
 the same fleet, so that before and after meet the same machine load.
@@ -33,6 +40,7 @@ import asyncio
 import contextlib
 import os
 import random
+import resource
 import select
 import signal
 import sqlite3
@@ -171,12 +179,19 @@ def lags(db: sqlite3.Connection, offset: float) -> tuple[float, int]:
 
 
 def measure(
-    label: str, src: Path, ports: list[int], args: argparse.Namespace, offset: float
+    label: str,
+    src: Path,
+    ports: list[int],
+    args: argparse.Namespace,
+    offset: float,
+    keep_open: bool = False,
 ) -> Run:
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "collector.toml"
         config.write_text(
             '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
+            # the [collect] default: a key a source would not fit 10,000 in the 1 MiB
+            + ("[collect]\nkeep_open = true\n" if keep_open else "")
             + "".join(
                 # compact (retry = 5 is the default): 10,000 sources within the 1 MiB a
                 # configuration file may have
@@ -205,6 +220,12 @@ def measure(
             rss, peak = memory_mb(proc.pid)
             c1, e1 = counts(db)
             never = lags(db, offset)[1]
+            if e1 > e0:  # what went wrong, most often
+                text = db.execute(
+                    "SELECT text, count(*) AS n FROM events WHERE kind = 'error' "
+                    "GROUP BY substr(text, 1, 40) ORDER BY n DESC LIMIT 1"
+                ).fetchone()
+                print(f"  {label}: errors, most often ({text[1]}): {text[0]}", flush=True)
             db.close()
         finally:
             proc.send_signal(signal.SIGTERM)
@@ -257,15 +278,39 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--compare", type=Path, help="another tree's src/ (before)")
     parser.add_argument(
+        "--keep-open",
+        action="store_true",
+        help="also measure this tree with keep_open = true on every source (both reported)",
+    )
+    parser.add_argument(
         "--config-every", type=int, default=0, help="config_every of each source (0: never)"
     )
+    parser.add_argument(
+        "--fleets", type=int, default=None, help="serve processes (default: what files allow)"
+    )
     args = parser.parse_args()
+    if args.fleets is None:  # a kept connection is a second file a logger in its process
+        files = resource.getrlimit(resource.RLIMIT_NOFILE)[0] - 500
+        per = files // 2 if args.keep_open else files
+        args.fleets = max(1, -(-args.loggers // per))
     if args.warmup is None:
         args.warmup = args.interval + 20
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
-    trees = [("this tree", HERE)] + ([("compare", args.compare)] if args.compare else [])
+    trees = [("this tree", HERE, False)]
+    if args.keep_open:
+        trees.append(("this tree, keep_open", HERE, True))
+    if args.compare:
+        trees.append(("compare", args.compare, False))
     with tempfile.TemporaryDirectory() as tmp:
-        fleet, ports, started = start(args.loggers, Path(tmp))
+        fleets, ports, started = [], [], 0.0
+        for n in range(args.fleets):
+            count = args.loggers // args.fleets + (n < args.loggers % args.fleets)
+            work = Path(tmp) / f"fleet{n}"
+            work.mkdir()
+            fleet, more, took = start(count, work)
+            fleets.append(fleet)
+            ports += more
+            started += took
         try:
             asyncio.run(configure(ports, args.channels))
             offset = asyncio.run(logger_offset(ports[0]))
@@ -279,8 +324,8 @@ def main() -> None:
             )
             runs: list[Run] = []
             for index in range(args.runs):
-                for label, src in trees if index % 2 == 0 else trees[::-1]:
-                    run = measure(label, src, ports, args, offset)
+                for label, src, keep in trees if index % 2 == 0 else trees[::-1]:
+                    run = measure(label, src, ports, args, offset, keep)
                     print(
                         f"  {label}: {run.share:.1%} of a core, {run.ms_per_contact:.2f} ms a "
                         f"contact, {run.contacts} contacts, RSS {run.rss:.0f} MB, "
@@ -289,8 +334,10 @@ def main() -> None:
                     )
                     runs.append(run)
         finally:
-            fleet.terminate()
-            fleet.wait(timeout=60)
+            for fleet in fleets:
+                fleet.terminate()
+            for fleet in fleets:
+                fleet.wait(timeout=60)
     if not summary(runs, args):
         sys.exit(1)
 

@@ -45,6 +45,8 @@ STEP = st.one_of(
     st.tuples(st.just("finish"), st.sampled_from(SOURCES), st.text("xyz", max_size=3)),
     st.tuples(st.just("event"), st.sampled_from(SOURCES), st.text("xyz", max_size=3)),
     st.tuples(st.just("tick")),
+    # readings without a cursor or a state column (the flush updates no source for them)
+    st.tuples(st.just("bare"), st.sampled_from(SOURCES), st.lists(READING, max_size=3)),
 )
 
 
@@ -52,6 +54,8 @@ def _apply(store: SqliteStore, step: tuple[Any, ...], seen: list[Any]) -> None:
     kind = step[0]
     if kind == "chunk":
         store.commit_chunk(step[1], step[2], step[3], logger="000001", offset_s=1.5)
+    elif kind == "bare":
+        store.commit_chunk(step[1], step[2], None)
     elif kind == "state":
         store.set_state(step[1], state=step[2])
     elif kind == "finish":

@@ -126,6 +126,16 @@ class Ala1Client:
             self._stream.transport.close()
         self._stream = None
 
+    @property
+    def open_transport(self) -> asyncio.Transport | None:
+        """The connection's transport while it is open; None once it closed (or before it
+        opened). For a holder that keeps the connection between uses
+        (:mod:`sondalog.collect.keep_open`)."""
+        stream = self._stream
+        if stream is None or stream.closed or stream.transport is None:
+            return None
+        return None if stream.transport.is_closing() else stream.transport
+
     async def __aenter__(self) -> Ala1Client:
         return self
 

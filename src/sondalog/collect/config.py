@@ -9,6 +9,9 @@
     [buffer]                    # where batches wait while a sink is down
     path = "collector.buffer.sqlite"
 
+    [collect]                   # optional: defaults of every source
+    keep_open = false           # the default of the tcp:// loggers' keep_open
+
     [[source]]                  # a logger, downloaded incrementally
     url = "tcp://127.0.0.1:10001"
     interval = 60               # seconds between contacts
@@ -19,6 +22,8 @@
     retry_max = 600             # ... up to this many seconds
     config_every = 1            # optional: read its configuration every N contacts (0: never)
     expect = "station.toml"     # optional: the station file it should match (config_expect.py)
+    keep_open = false           # optional: true keeps the TCP connection between contacts
+                                # (a server that takes several connections; keep_open.py)
 
     [[source]]                  # HCTMPS1 modules on a bus, polled
     kind = "bus"
@@ -68,6 +73,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from sondalog.client import parse_url
 from sondalog.client.bus_links import BusUrlError, parse_bus_url
+from sondalog.client.endpoints import TcpEndpoint
 from sondalog.client.station_file import Station
 from sondalog.collect.alarms import AlarmPlan, parse_alarms
 from sondalog.collect.alarms.senders import find_sender
@@ -80,7 +86,7 @@ from sondalog.collect.web_config import WebConfig, parse_web
 from sondalog.config import Table, load
 
 #: The collector's own tables; any other top-level table is a sink's (``sinks.find_sink``).
-OWN_TABLES = ("sqlite", "buffer", "source", "web", "alarm", "notify", "cluster")
+OWN_TABLES = ("sqlite", "buffer", "collect", "source", "web", "alarm", "notify", "cluster")
 _SOURCE = (
     "url",
     "interval",
@@ -101,6 +107,7 @@ _SOURCE = (
     "channels",
     "expect",
     "config_every",
+    "keep_open",
 )
 KINDS = ("logger", "bus", "mailbox", "network")
 #: Sources whose rows come in loggers' data messages (docs/collector.md).
@@ -140,6 +147,8 @@ class SourceConfig:
     config_every: int = 1
     expect: Station | None = None
     expect_path: str | None = None
+    #: A ``tcp://`` logger's connection is kept between contacts (:mod:`keep_open`).
+    keep_open: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -189,7 +198,9 @@ def parse_config(root: Table) -> CollectorConfig:
     tables = root.tables("source", keys=_SOURCE)
     if not tables:
         raise root.fail("source", "no [[source]] table: nothing to collect")
-    sources = [_source(t) for t in tables]
+    defaults = root.table("collect", keys=("keep_open",))
+    keep_open = defaults.flag("keep_open", False)
+    sources = [_source(t, keep_open) for t in tables]
     seen: set[str] = set()
     for table, source in zip(tables, sources, strict=True):
         if source.name in seen:
@@ -270,7 +281,7 @@ def _check_url(kind: str, url: str) -> str:
     return url
 
 
-def _source(t: Table) -> SourceConfig:
+def _source(t: Table, keep_open: bool = False) -> SourceConfig:
     if "url" not in t:
         raise t.fail("url", "required: the logger's or the bus's URL")
     kind = t.text("kind", "logger", choices=KINDS)
@@ -296,9 +307,24 @@ def _source(t: Table) -> SourceConfig:
         retry_max=max(retry, _seconds(t, "retry_max", 600.0)),
         modules=tuple(modules),
         units=t.text_map("units"),
+        keep_open=_keep_open(t, kind, url, keep_open),
         **message,
         **watch,
     )
+
+
+def _keep_open(t: Table, kind: str, url: str, default: bool) -> bool:
+    """``keep_open``: only a logger's ``tcp://`` connection is kept between contacts (a
+    serial line, a data call and a bus are connected for each contact); ``default`` (the
+    ``[collect]`` table's) applies to the sources that can keep theirs."""
+    if "keep_open" not in t:
+        return default and kind == "logger" and isinstance(parse_url(url), TcpEndpoint)
+    keep = t.flag("keep_open")
+    if keep and kind != "logger":
+        raise t.fail("keep_open", "only a logger source keeps its connection open")
+    if keep and not isinstance(parse_url(url), TcpEndpoint):
+        raise t.fail("keep_open", "only a tcp:// connection is kept open")
+    return keep
 
 
 def _watch_keys(t: Table, kind: str, url: str) -> dict[str, Any]:

@@ -12,12 +12,16 @@
   batches queued, and a task replays them every few seconds. Then the readings and the
   source's cursor are committed to the SQLite store in one transaction. Sinks insert
   idempotently, so a batch replayed after a crash is stored once.
+- A ``keep_open`` source's connection waits between its contacts in :attr:`Collector.kept`
+  (:mod:`sondalog.collect.keep_open`); it is closed when its source stops (the collector
+  stops, the cluster hands the source on, :meth:`Collector.reload` removes it).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import gc
 import logging
 import time
@@ -26,6 +30,7 @@ from typing import Any
 from sondalog.collect.alarm_loop import AlarmLoop
 from sondalog.collect.buffer import DiskBuffer, deliver, drain
 from sondalog.collect.config import CollectorConfig
+from sondalog.collect.keep_open import KeptConnections
 from sondalog.collect.model import Announcing, Reading, Sink, SinkUnavailable
 from sondalog.collect.share import Share, share_of
 from sondalog.collect.sinks import build_sinks
@@ -77,6 +82,12 @@ class Collector:
         self._opened: set[str] = set()
         self.buffer: DiskBuffer | None = None
         self.sources: list[Source] = []
+        #: The ``keep_open`` sources' connections between contacts.
+        self.kept = KeptConnections()
+        #: The running sources' tasks by name (:meth:`run`, :meth:`reload`).
+        self._tasks: dict[str, asyncio.Task[None]] = {}
+        self._once = False
+        self._changed: asyncio.Future[None] | None = None  # set when reload changes them
         self.contacts = 0
         #: Sources whose last contact failed.
         self.failing: set[str] = set()
@@ -94,7 +105,7 @@ class Collector:
             self.buffer = DiskBuffer(self.config.buffer)
         for source_config in self.config.sources:
             self.store.add_source(source_config.name, source_config.url, source_config.kind)
-            self.sources.append(make_source(source_config, self.store))
+            self.sources.append(make_source(source_config, self.store, self.kept))
         hold = None if self.alarms is None else self.alarms.hold
         self.share = share_of(self.config, self.store, self.sources, self._confirmed, hold)
         if self.alarms is not None:
@@ -111,16 +122,13 @@ class Collector:
         count = len(self.sources)
         shortest = min([*(s.config.interval for s in self.sources), 1e9])
         spread = 0.0 if once else min(shortest, max(SPREAD, count / START_RATE))
-        tasks = [
-            asyncio.create_task(
-                self._loop(source, spread * i / count, once),
-                name=f"source {source.config.name}",
-            )
-            for i, source in enumerate(self.sources)
-            if self.share is None
-        ]
+        self._once = once
+        if self.share is None:
+            for i, source in enumerate(self.sources):
+                self._start(source, spread * i / count)
+        cluster = []
         if self.share is not None:  # the sources it holds, started and stopped by it
-            tasks.append(asyncio.create_task(self.share.run(self._loop, once), name="cluster"))
+            cluster.append(asyncio.create_task(self.share.run(self._loop, once), name="cluster"))
         if not once:
             # what exists now (every source, its configuration, the modules) lives as long as
             # the process: out of the cyclic collector's way, whose full passes over ten
@@ -136,19 +144,19 @@ class Collector:
             background.append(asyncio.create_task(self.alarms.run(), name="alarms"))
         try:
             if once:
-                await asyncio.gather(*tasks)
+                await asyncio.gather(*self._tasks.values(), *cluster)
                 await self._replay_once()
                 if self.alarms is not None:  # one turn: timers, and what is due now
                     self.alarms.turn(time.time())
                     await self.alarms.deliver_due(time.time())
             else:
-                stopper = asyncio.create_task(stop.wait())
-                await asyncio.wait([stopper, *tasks], return_when=asyncio.FIRST_COMPLETED)
-                stopper.cancel()
+                await self._until(stop, cluster)
         finally:
-            for task in [*tasks, *background]:
+            tasks = [*self._tasks.values(), *cluster, *background]
+            self._tasks.clear()
+            for task in tasks:
                 task.cancel()
-            for task in [*tasks, *background]:
+            for task in tasks:
                 with contextlib.suppress(asyncio.CancelledError, Exception):
                     await task
             if not once:  # a clean stop hands a sink that is up what waits for it, briefly
@@ -168,6 +176,67 @@ class Collector:
             self.buffer.close()
             self.buffer = None
         self.store.close_sync()
+        self.kept.close()
+
+    def _start(self, source: Source, delay: float) -> None:
+        name = source.config.name
+        self._tasks[name] = asyncio.create_task(
+            self._loop(source, delay, self._once), name=f"source {name}"
+        )
+
+    async def _until(self, stop: asyncio.Event, cluster: list[asyncio.Task[None]]) -> None:
+        """Until ``stop`` is set, or a source's task (or the cluster's) ends: only by a bug
+        (it stops the collector, as it always did); a task :meth:`reload` stopped is not."""
+        stopper = asyncio.create_task(stop.wait())
+        try:
+            while not stopper.done():
+                self._changed = asyncio.get_running_loop().create_future()
+                watched: list[asyncio.Future[Any]] = [
+                    stopper,
+                    self._changed,
+                    *self._tasks.values(),
+                    *cluster,
+                ]
+                done, _ = await asyncio.wait(watched, return_when=asyncio.FIRST_COMPLETED)
+                running = {*self._tasks.values(), *cluster}
+                if any(task in running for task in done):
+                    return
+        finally:
+            stopper.cancel()
+            self._changed = None
+
+    async def reload(self, config: CollectorConfig) -> None:
+        """Take the sources of ``config`` (the file read again) while running: a source no
+        longer in it stops and its kept connection is closed, a new one starts, a changed
+        one starts again with its new settings. Everything else (store, sinks, web, alarms,
+        cluster) stays as it was loaded (the alarms stop watching a removed source); a
+        collector sharing its sources (``[cluster]``) takes no new list (``ValueError``)."""
+        if self.share is not None or config.cluster is not None:
+            raise ValueError("a collector of a [cluster] takes a new source list at a restart")
+        old = {s.config.name: s for s in self.sources}
+        new = {c.name: c for c in config.sources}
+        stopped = [n for n, s in old.items() if new.get(n) != s.config]
+        for name in stopped:  # its task's end closes its kept connection
+            task = self._tasks.pop(name, None)
+            if task is not None:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError, Exception):
+                    await task
+        self.config = dataclasses.replace(self.config, sources=config.sources)
+        sources = []
+        for source_config in config.sources:
+            source = old.get(source_config.name)
+            if source is None or source_config.name in stopped:
+                self.store.add_source(source_config.name, source_config.url, source_config.kind)
+                source = make_source(source_config, self.store, self.kept)
+                if self._changed is not None:  # running (else run starts it)
+                    self._start(source, 0.0)
+            sources.append(source)
+        self.sources = sources
+        if self.alarms is not None:  # a removed source is watched no more (a new one is not
+            self.alarms.hold(set(new))  # watched for no contact before a restart)
+        if self._changed is not None and not self._changed.done():
+            self._changed.set_result(None)
 
     async def _open_sink(self, sink: Sink) -> bool:
         try:
@@ -209,6 +278,12 @@ class Collector:
         self.store.set_state(name, state="contacting")
 
     async def _loop(self, source: Source, delay: float, once: bool) -> None:
+        try:
+            await self._contacts(source, delay, once)
+        finally:  # stopped: its connection is not kept for a contact that will not come
+            self.kept.drop(source.config.name)
+
+    async def _contacts(self, source: Source, delay: float, once: bool) -> None:
         cfg = source.config
         loop = asyncio.get_running_loop()
         await asyncio.sleep(delay)

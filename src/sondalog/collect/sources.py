@@ -26,6 +26,7 @@ from sondalog.collect.config import MESSAGE_KINDS, SourceConfig
 from sondalog.collect.config_watch import ConfigWatch
 from sondalog.collect.delivery import GSM_TYPES, Deliver
 from sondalog.collect.delivery import Source as Source
+from sondalog.collect.keep_open import KeptConnections, close_quietly
 from sondalog.collect.message_sources import MailboxSource, NetworkSource
 from sondalog.collect.model import Reading
 from sondalog.collect.readings import rows_to_readings
@@ -49,9 +50,14 @@ class LoggerSource:
 
     kind = "logger"
 
-    def __init__(self, config: SourceConfig, store: SqliteStore) -> None:
+    def __init__(
+        self, config: SourceConfig, store: SqliteStore, kept: KeptConnections | None = None
+    ) -> None:
         self.config = config
         self.store = store
+        #: Where a ``keep_open`` source's connection waits between contacts (None: closed
+        #: after each contact).
+        self.kept = kept if config.keep_open else None
         self._hint: str | None = None  # the last idle_hint logged
         self.watch = ConfigWatch(config, store)  # its configuration (issue 22)
         self._count: int | None = None  # the channel count of the last contact
@@ -61,10 +67,37 @@ class LoggerSource:
         self._gsm: dict[int, str] = {}  # channel -> the sources column of its GSM type
 
     async def poll(self, deliver: Deliver) -> str:
-        cfg, store = self.config, self.store
+        cfg, kept = self.config, self.kept
         if self._endpoint is None:
             self._endpoint = parse_url(cfg.url)
+        if kept is not None and (reused := kept.take(cfg.name)) is not None:
+            try:
+                summary = await self._contact(reused, deliver)
+            except Exception as exc:  # closed or reset since, or dead: once more, afresh
+                await close_quietly(reused)
+                log.info("source %s: kept connection failed (%s); reconnecting", cfg.name, exc)
+            except BaseException:
+                await close_quietly(reused)
+                raise
+            else:
+                kept.keep(cfg.name, reused)
+                return summary
         client = await Ala1Client.connect(self._endpoint, timeout=cfg.timeout)
+        if kept is not None:
+            kept.opened += 1
+        try:
+            summary = await self._contact(client, deliver)
+        except BaseException:
+            await close_quietly(client)
+            raise
+        if kept is None or not kept.keep(cfg.name, client):
+            await client.close()
+        return summary
+
+    async def _contact(self, client: Ala1Client, deliver: Deliver) -> str:
+        """One contact on ``client``'s connection (left open: :meth:`poll` closes or keeps
+        it); resumes after the store's cursor, so a repeated contact reads no row twice."""
+        cfg, store = self.config, self.store
         state: dict[str, Any] = {}
         try:
             known = store.source(cfg.name) or {}
@@ -109,7 +142,6 @@ class LoggerSource:
                 first = first or (chunk.rows[0].key if chunk.rows else None)
                 last = chunk.cursor or last
         finally:
-            await client.close()
             if state:  # no chunk took it (nothing new, or the download failed)
                 store.set_state(cfg.name, **state)
         span = f" ({first} .. {last})" if rows else ""
@@ -225,7 +257,10 @@ class BusSource:
         return text + (f"; no answer from {', '.join(failed)}" if failed else "")
 
 
-def make_source(config: SourceConfig, store: SqliteStore) -> Source:
+def make_source(
+    config: SourceConfig, store: SqliteStore, kept: KeptConnections | None = None
+) -> Source:
+    """The source of ``config``; a ``keep_open`` logger keeps its connection in ``kept``."""
     if config.kind == "bus":
         return BusSource(config, store)
     if config.kind in MESSAGE_KINDS:
@@ -234,4 +269,4 @@ def make_source(config: SourceConfig, store: SqliteStore) -> Source:
             if config.kind == "mailbox"
             else NetworkSource(config, store)
         )
-    return LoggerSource(config, store)
+    return LoggerSource(config, store, kept)

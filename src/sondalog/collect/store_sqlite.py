@@ -71,6 +71,7 @@ _STATE_COLUMNS = (
 
 
 _COLUMNS = frozenset(_STATE_COLUMNS)
+_EVENT = "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)"
 
 
 class StoreError(Exception):
@@ -170,13 +171,16 @@ class SqliteStore:
         with self._transaction(db):
             if self._readings:
                 self._insert(self._readings)
-            for name, state in self._states.items():
-                self._update(name, state)
-            if self._events:
+            groups: dict[tuple[str, ...], list[tuple[Any, ...]]] = {}  # one UPDATE a column set
+            for name, state in self._states.items():  # (checked by _pend, in _known already)
+                groups.setdefault(tuple(state), []).append((*state.values(), name))
+            groups.pop((), None)  # a set_state of no column
+            for columns, rows in groups.items():
                 db.executemany(
-                    "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-                    self._events,
+                    f"UPDATE sources SET {' = ?, '.join(columns)} = ? WHERE name = ?", rows
                 )
+            if self._events:
+                db.executemany(_EVENT, self._events)
         self._readings, self._states, self._events = [], {}, []
 
     def _flush_due(self) -> None:
@@ -367,10 +371,7 @@ class SqliteStore:
             return
         with self._conn():
             self._update(name, state)
-            self._conn().execute(
-                "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-                (now_text(), name, kind, text),
-            )
+            self._conn().execute(_EVENT, (now_text(), name, kind, text))
 
     def _update(self, name: str, state: dict[str, Any]) -> None:
         if not state:
@@ -405,10 +406,7 @@ class SqliteStore:
 
     def event(self, source: str, kind: str, text: str, time: str | None = None) -> None:
         with self.db:
-            self.db.execute(
-                "INSERT INTO events (time, source, kind, text) VALUES (?, ?, ?, ?)",
-                (time or now_text(), source, kind, text),
-            )
+            self.db.execute(_EVENT, (time or now_text(), source, kind, text))
 
     def events(self, source: str | None = None) -> list[tuple[str, str, str, str]]:
         sql = "SELECT time, source, kind, text FROM events"

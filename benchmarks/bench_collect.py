@@ -33,6 +33,7 @@ import argparse
 import asyncio
 import contextlib
 import functools
+import gc
 import importlib
 import os
 import shutil
@@ -163,8 +164,23 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--only", choices=("postgres", "mqtt", "sqlite"))
     ap.add_argument("--writers", type=int, default=1, help="PostgreSQL writer connections")
+    ap.add_argument(
+        "--gc",
+        choices=("collector", "default"),
+        default="collector",
+        help="the garbage collector as `sondalog collect` sets it (default) or Python's own",
+    )
     args = ap.parse_args()
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
+    if args.gc == "collector":  # before the batches: they are young objects, as a contact's
+        from sondalog.collect import runner
+
+        if hasattr(runner, "settle_gc"):
+            runner.settle_gc()
+        else:  # a tree from before settle_gc (--compare runs): what its runner did inline
+            gc.freeze()
+            gc.set_threshold(max(runner.GC_YOUNG, gc.get_threshold()[0]), *gc.get_threshold()[1:])
+        print(f"garbage collector as the collector runs it: thresholds {gc.get_threshold()}")
     batches = make_batches(args.readings, args.batch)
     print(f"{args.readings:,} readings in batches of {args.batch:,}")
 

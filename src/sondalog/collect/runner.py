@@ -71,6 +71,22 @@ GC_YOUNG = 10_000
 FINAL_REPLAY = 5.0
 
 
+def settle_gc() -> None:
+    """The cyclic garbage collector as a running collector process wants it (issue 24).
+
+    What exists now (every source, its configuration, the modules) lives as long as the
+    process: frozen, out of the way of the full passes that came with the contacts' garbage
+    over ten thousand sources' objects. A contact's or a batch's objects die within
+    milliseconds: the youngest generation is looked at after ``GC_YOUNG`` new objects instead
+    of 700, by when most are gone (never traversed, never promoted to be traversed again).
+    ``benchmarks/bench_collect.py`` calls it too, so that a sink is measured in the process
+    a user runs it in.
+    """
+    gc.freeze()
+    young, *older = gc.get_threshold()
+    gc.set_threshold(max(GC_YOUNG, young), *older)
+
+
 class Collector:
     """Runs the sources of ``config`` until :meth:`run`'s ``stop`` event is set."""
 
@@ -130,14 +146,7 @@ class Collector:
         if self.share is not None:  # the sources it holds, started and stopped by it
             cluster.append(asyncio.create_task(self.share.run(self._loop, once), name="cluster"))
         if not once:
-            # what exists now (every source, its configuration, the modules) lives as long as
-            # the process: out of the cyclic collector's way, whose full passes over ten
-            # thousand sources' objects came with the contacts' garbage (issue 24)
-            gc.freeze()
-            # a contact's objects die within milliseconds: the youngest generation is looked
-            # at after GC_YOUNG new objects instead of 700, by when most are gone (never
-            # traversed, never promoted to be traversed again)
-            gc.set_threshold(max(GC_YOUNG, gc.get_threshold()[0]), *gc.get_threshold()[1:])
+            settle_gc()
         replay = asyncio.create_task(self._replay(), name="sink replay")
         background = [replay]
         if self.alarms is not None:

@@ -396,8 +396,8 @@ def format_values(
         rendered[value] = text
         return text
 
+    units_text = by_units.get
     if fresh:  # (new() for anything but a value far from zero, a half and the limit)
-        units_text = by_units.get
         return [
             text
             if value is not None
@@ -408,8 +408,17 @@ def format_values(
             else new(value)
             for value in values
         ]
-    return [
-        text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
+    return [  # (a value not rendered lately: by its units, as above, before a call)
+        text
+        if (text := get(value)) is not None  # type: ignore[arg-type]
+        or (
+            value is not None
+            and -near < value < near
+            and not -1e-4 < value < 1e-4
+            and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
+            and (text := units_text(round(scaled))) is not None
+        )
+        else new(value)
         for value in values
     ]
 

@@ -18,7 +18,7 @@ import re
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from decimal import ROUND_CEILING, Decimal
-from itertools import compress, count, islice, repeat
+from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
 from sondalog.ala1.curves import has_none
@@ -204,44 +204,17 @@ def _by_units(
     or when ``samples`` samples have passed since the last write (§6.5.16.3)."""
     last = units.pop()
     since = run.since_write
-    n = len(units)
-    limit = samples if samples > 0 else since + n + 1  # (never reached)
+    limit = samples if samples > 0 else since + len(texts) + 1  # (never reached)
     out: list[tuple[int, str]] = []
-    k = 0  # (the next text to decide; ``since`` counts the samples up to k - 1)
-    while k < n:
-        due = k + max(0, limit - since - 1)  # (there the samples condition writes)
-        j = _first_far(units, k, min(n, due), last, least)
-        if j is None:
-            if due >= n:  # (nothing more is written)
-                since += n - k
-                break
-            j = due
-        out.append((j, texts[j]))
-        last, since, k = units[j], 0, j + 1
+    for k, u in enumerate(units):
+        since += 1
+        if u - last >= least or last - u >= least or since >= limit:
+            out.append((k, texts[k]))
+            last, since = u, 0
     if out:
         run.recorded = out[-1][1]
     run.since_write = since
     return out
-
-
-def _first_far(units: list[int], k: int, end: int, last: int, least: int) -> int | None:
-    """The first index from ``k`` before ``end`` whose units differ from ``last`` by
-    ``least`` or more (``least`` >= 1), else None: the next few in Python (a changing signal
-    writes soon), the rest by C iterators (a steady one writes seldom)."""
-    near = min(end, k + _NEAR)
-    for j in range(k, near):
-        u = units[j]
-        if u - last >= least or last - u >= least:
-            return j
-    if near >= end:
-        return None
-    far = map(operator.ge, map(abs, map(operator.sub, islice(units, near, end), repeat(last))),
-              repeat(least))  # fmt: skip
-    return next(compress(count(near), far), None)
-
-
-#: Texts decided one by one before the rest are searched in C (:func:`_first_far`).
-_NEAR = 8
 
 
 def _units(text: str, decimals: int) -> int | Decimal:

@@ -143,6 +143,19 @@ class Ramp:
 
     def column(self, times: list[float], shift: float | None = None) -> list[float]:
         start, rate, origin, clamp = self.start, self.rate, self.origin, self.clamp
+        if isinstance(clamp, Clamp):  # (one pass, as below)
+            lo, hi = clamp.lo, clamp.hi
+            if shift is None:
+                return [
+                    hi if hi < (w := lo if lo > (v := start + rate * (t - origin)) else v) else w
+                    for t in times
+                ]
+            return [
+                hi
+                if hi < (w := lo if lo > (v := start + rate * (t - shift - origin)) else v)
+                else w
+                for t in times
+            ]
         if shift is None:
             values = [start + rate * (t - origin) for t in times]
         else:

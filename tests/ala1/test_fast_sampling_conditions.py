@@ -78,3 +78,42 @@ def test_record_all_is_record_text_by_text(
         one.since_write,
         one.event_active,
     )
+
+
+@settings(max_examples=300)
+@given(
+    moves=st.lists(
+        st.tuples(st.integers(1, 120), st.integers(-40, 40)), min_size=1, max_size=12
+    ),  # (long runs of a slow signal, then a move)
+    decimals=st.integers(0, 3),
+    change=st.sampled_from(["0.001", "0.01", "0.05", "0.5", "2", "0.015"]),
+    samples=st.sampled_from([0, 1, 7, 9, 10, 60, 200]),
+    recorded=st.integers(-20, 20),
+    since=st.integers(0, 250),
+    drift=st.integers(0, 3),
+)
+def test_slow_signals_write_as_text_by_text(
+    moves: list[tuple[int, int]],
+    decimals: int,
+    change: str,
+    samples: int,
+    recorded: int,
+    since: int,
+    drift: int,
+) -> None:
+    """A steady or slowly drifting signal (issue 24, fifth round: the next write searched
+    in C past the first few texts): long stretches without a write, the samples condition
+    falling before, on and after a change, a ``since`` beyond ``samples``."""
+    cfg = _config(3, decimals, change, samples)
+    level, units = recorded, []
+    for length, move in moves:
+        for k in range(length):
+            units.append(level + (k * drift) // 16)  # (a slow drift, in steps of one unit)
+        level += move
+    series = [f"{Decimal(u).scaleb(-decimals):.{decimals}f}".rjust(6) for u in units]
+    first = f"{Decimal(recorded).scaleb(-decimals):.{decimals}f}".rjust(6)
+    one = ChannelRun(cfg, recorded=first, since_write=since)
+    many = replace(one)
+    expected = [(k, w) for k, text in enumerate(series) if (w := record(one, text)) is not None]
+    assert record_all(many, series) == expected
+    assert (many.recorded, many.since_write) == (one.recorded, one.since_write)

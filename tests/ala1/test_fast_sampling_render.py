@@ -9,7 +9,9 @@ from decimal import Decimal
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.ala1.measure import ChannelConfig, Input, format_values
+from sondalog.ala1 import measure
+from sondalog.ala1.conditions import _unit_of
+from sondalog.ala1.measure import KNOWN_UNITS, ChannelConfig, Input, format_values
 from sondalog.ala1.rendering import fixed as _fixed
 from sondalog.ala1.rendering import render as _render
 from sondalog.ala1.tokens import NumberFormat
@@ -115,3 +117,27 @@ def test_values_of_the_same_units_format_alike(
         expected = [fmt.render(Decimal(repr(v))) for v in values]
         assert format_values(_config(width, decimals), values) == expected
         assert format_values(_config(width, decimals), values, fresh=True) == expected
+
+
+@given(
+    values=st.lists(st.one_of(values, st.floats(-1e6, 1e6)), max_size=30),
+    width=st.integers(0, 9),
+    decimals=st.integers(0, 9),
+    fresh=st.booleans(),
+)
+def test_texts_rendered_by_units_are_known_in_units(
+    values: list[float], width: int, decimals: int, fresh: bool
+) -> None:
+    """The texts ``format_values`` renders by their units are handed to the record
+    conditions in those units (issue 24, fifth round): each the number of the channel's
+    format that ``conditions`` would otherwise match and parse, and the value's units."""
+    for kept in (KNOWN_UNITS, measure._BY_UNITS, measure._RENDERED):  # (rendered anew)
+        kept.clear()
+    texts = format_values(_config(width, decimals), values, fresh=fresh)
+    known = KNOWN_UNITS.get(decimals, {})
+    for text, units in known.items():
+        assert units == _unit_of(text, decimals), (text, units)
+        assert text in texts
+    for text, value in zip(texts, values, strict=True):
+        if text in known:
+            assert known[text] == round(Decimal(text.strip()).scaleb(decimals)), (text, value)

@@ -21,7 +21,7 @@ from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from sondalog.ala1.curves import curve_column, surface_column
+from sondalog.ala1.curves import curve_column, has_none, surface_column
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.measure import TIMER_MAX_HZ, ChannelConfig, Input, Measurer
 from sondalog.protocol.tables import Curve, Surface, TableError
@@ -337,6 +337,8 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
         def plain(rs: list[Value]) -> list[Value]:  # (channel_plan's plain)
             if m1 == 1.0 and a1 == 0.0 and 0.0 not in rs:
                 return affine(rs, mult, add)  # (r * 1.0 + 0.0 is r, but for -0.0)
+            if m1 == mult == 1.0 and a1 == add == 0.0 and not has_none(rs):  # (counts: zeros)
+                return [r + 0.0 for r in rs]  # type: ignore[operator]  # (-0.0 to 0.0 alone)
             return [None if r is None else (r * m1 + a1) * mult + add for r in rs]
 
         return plain

@@ -22,7 +22,7 @@ from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
 from sondalog.ala1.curves import has_none
-from sondalog.ala1.measure import format_value, format_values
+from sondalog.ala1.measure import KNOWN_UNITS, KNOWN_UNITS_MAX, format_value, format_values
 from sondalog.ala1.runs import ChannelRun, decide
 
 #: ``FaultLog.report``: a channel's internal error at a host time.
@@ -190,9 +190,10 @@ def _unit_of(text: str, decimals: int) -> int | None:
     return int(text.replace(".", "")) if _format_of(decimals).fullmatch(text) else None
 
 
-#: Texts in units of the last decimal (None: not a number of the format), by decimals.
-_KNOWN: dict[int, dict[str, int | None]] = {}
-_KNOWN_MAX = 8192
+#: Texts in units of the last decimal (None: not a number of the format), by decimals
+#: (shared with :func:`format_values`, which adds the texts it renders by units).
+_KNOWN = KNOWN_UNITS
+_KNOWN_MAX = KNOWN_UNITS_MAX
 
 
 def _by_units(

@@ -372,6 +372,24 @@ def format_values(
         by_units = _BY_UNITS[fmt.width * 16 + fmt.decimals] = {}
 
     near, scale = NEAR_BELOW[decimals], SCALES[decimals]
+    pattern, ten = f"%d.%0{decimals}d", 10**decimals
+    known = KNOWN_UNITS.get(decimals)
+    if known is None:
+        known = KNOWN_UNITS[decimals] = {}
+
+    def made(units: int) -> str:  # (the text of new units, kept by them)
+        if decimals:  # (whole part, then the decimals zero-padded: one % operation)
+            text: str = pattern % divmod(-units if units < 0 else units, ten)
+            text = ("-" + text if units < 0 else text).rjust(width)
+        else:
+            text = str(units).rjust(width)
+        if len(by_units) >= _RENDERED_MAX:
+            by_units.clear()
+        by_units[units] = text
+        if len(known) >= KNOWN_UNITS_MAX:
+            known.clear()
+        known[text] = units  # (a text of the format: ``int`` of its digits is ``units``)
+        return text
 
     def new(value: float | None) -> str:
         if value is None or not -near < value < near or -1e-4 < value < 1e-4:
@@ -382,34 +400,41 @@ def format_values(
         units = round(scaled)
         text = by_units.get(units)  # (an average is a new float, seldom new units)
         if text is None:
-            if decimals:
-                digits = str(-units if units < 0 else units).rjust(decimals + 1, "0")
-                text = f"{digits[:-decimals]}.{digits[-decimals:]}"
-                text = ("-" + text if units < 0 else text).rjust(width)
-            else:
-                text = str(units).rjust(width)
-            if len(by_units) >= _RENDERED_MAX:
-                by_units.clear()
-            by_units[units] = text
+            text = made(units)
         if len(rendered) >= _RENDERED_MAX:
             rendered.clear()
         rendered[value] = text
         return text
 
-    if fresh:  # (new() for anything but a value far from zero, a half and the limit)
-        units_text = by_units.get
+    units_text = by_units.get
+    if fresh:  # (new() for a value near zero, a half or beyond the limit, or no value)
         return [
-            text
+            text  # type: ignore[misc]  # (a str wherever it is taken)
             if value is not None
             and -near < value < near
             and not -1e-4 < value < 1e-4
             and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
-            and (text := units_text(round(scaled))) is not None
+            and (
+                (text := units_text(units := round(scaled))) is not None
+                or (text := made(units)) is not None
+            )
             else new(value)
             for value in values
         ]
-    return [
-        text if (text := get(value)) is not None else new(value)  # type: ignore[arg-type]
+    return [  # (a value not rendered lately: by its units, as above, before a call)
+        text  # type: ignore[misc]  # (a str wherever it is taken)
+        if (text := get(value)) is not None  # type: ignore[arg-type]
+        or (
+            value is not None
+            and -near < value < near
+            and not -1e-4 < value < 1e-4
+            and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
+            and (
+                (text := units_text(units := round(scaled))) is not None
+                or (text := made(units)) is not None
+            )
+        )
+        else new(value)
         for value in values
     ]
 
@@ -421,3 +446,8 @@ _RENDERED: dict[int, dict[float, str]] = {}  # by width * 16 + decimals
 #: The same texts by the value in units of the last decimal (far from a half).
 _BY_UNITS: dict[int, dict[int, str]] = {}
 _RENDERED_MAX = 8192
+#: Texts in units of their last decimal (None: not a number of the channel's format), by
+#: decimals: the texts rendered by units above, and those the record conditions met
+#: (:func:`sondalog.ala1.conditions.record_all`: a new text is otherwise matched and parsed).
+KNOWN_UNITS: dict[int, dict[str, int | None]] = {}
+KNOWN_UNITS_MAX = 8192

@@ -30,9 +30,11 @@ from __future__ import annotations
 import bisect
 import csv
 import math
+import operator
 import random
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from itertools import repeat, starmap
 from pathlib import Path
 
 from sondalog.backends.sim.instants import stride_of, walk_clamped
@@ -141,6 +143,19 @@ class Ramp:
 
     def column(self, times: list[float], shift: float | None = None) -> list[float]:
         start, rate, origin, clamp = self.start, self.rate, self.origin, self.clamp
+        if isinstance(clamp, Clamp):  # (one pass, as below)
+            lo, hi = clamp.lo, clamp.hi
+            if shift is None:
+                return [
+                    hi if hi < (w := lo if lo > (v := start + rate * (t - origin)) else v) else w
+                    for t in times
+                ]
+            return [
+                hi
+                if hi < (w := lo if lo > (v := start + rate * (t - shift - origin)) else v)
+                else w
+                for t in times
+            ]
         if shift is None:
             values = [start + rate * (t - origin) for t in times]
         else:
@@ -241,10 +256,13 @@ class RandomWalk:
         count = index + _BATCH - len(values) + 1
         steps: list[float] = [] if spare is None else [spare]
         pairs = (count - len(steps) + 1) // 2
-        draws = [uniform() for _ in range(2 * pairs)]  # (x2pi's, g2rad's, alternately)
+        draws = list(starmap(uniform, repeat((), 2 * pairs)))  # (x2pi's, g2rad's, alternately)
         angles = [u * _TWO_PI for u in draws[0::2]]
         radii = [sqrt(-2.0 * log(1.0 - u)) for u in draws[1::2]]
-        steps += [z for x, g in zip(angles, radii, strict=True) for z in (cos(x) * g, sin(x) * g)]
+        pair = [0.0] * (2 * pairs)  # (cos(x) * g, sin(x) * g) of each pair, by C loops
+        pair[0::2] = map(operator.mul, map(cos, angles), radii)
+        pair[1::2] = map(operator.mul, map(sin, angles), radii)
+        steps += pair
         spare = steps.pop() if len(steps) > count else None
         last = values[-1]
         append = values.append

@@ -20,11 +20,11 @@ from typing import ClassVar
 import psycopg
 from psycopg import adapt, pq
 
-#: Element types (``pg_type.oid``) and the array types of them.
-INT4, INT8, FLOAT8, TEXT = 23, 20, 701, 25
+from sondalog.collect.pg_rows import FLOAT8, INT4, INT8, NULL, TEXT, clean
+
+#: The array types of the element types.
 _ARRAY_OF = {INT4: 1007, INT8: 1016, FLOAT8: 1022, TEXT: 1009}
 
-_NULL = b"\xff\xff\xff\xff"
 _head = struct.Struct("!iiIii").pack  # ndim 1, has NULLs, element type, n, lower bound 1
 _length = struct.Struct("!i").pack
 
@@ -108,20 +108,20 @@ def float8s(items: Sequence[float | None]) -> Float8s:
     if None not in items:
         return Float8s(_fixed(FLOAT8, "d", 8, items))  # type: ignore[arg-type]
     f8 = struct.Struct("!id").pack
-    body = b"".join([_NULL if v is None else f8(8, v) for v in items])
+    body = b"".join([NULL if v is None else f8(8, v) for v in items])
     return Float8s(_head(1, 1, FLOAT8, len(items), 1) + body)
 
 
 def texts(items: Iterable[str | None]) -> Texts:
     """A ``text[]`` of ``items`` (``None``: NULL), each distinct text encoded once."""
-    done: dict[str | None, bytes] = {None: _NULL}
+    done: dict[str | None, bytes] = {None: NULL}
     parts: list[bytes] = []
     for t in items:
         got = done.get(t)
         if got is None:
             assert t is not None
-            raw = (t.replace("\x00", "") if "\x00" in t else t).encode()
+            raw = clean(t)
             got = done[t] = _length(len(raw)) + raw
         parts.append(got)
-    has_null = int(any(p is _NULL for p in parts))
+    has_null = int(any(p is NULL for p in parts))
     return Texts(_head(1, has_null, TEXT, len(parts), 1) + b"".join(parts))

@@ -160,14 +160,12 @@ def readings_in(rows: Iterable[Row]) -> int:
 
 SIGNATURE = b"PGCOPY\n\xff\r\n\x00" + bytes(8)
 TRAILER = b"\xff\xff"
-_NULL = b"\xff\xff\xff\xff"
+NULL = b"\xff\xff\xff\xff"
 _EPOCH = datetime(2000, 1, 1)
 _EPOCH_UTC = datetime(2000, 1, 1, tzinfo=UTC)
 _US = timedelta(microseconds=1)
-_INT4 = 23
-_INT2 = 21
-_FLOAT8 = 701
-_TEXT = 25
+#: Element types (``pg_type.oid``) of the binary arrays here and in :mod:`.pg_arrays`.
+INT2, INT4, INT8, FLOAT8, TEXT = 21, 23, 20, 701, 25
 
 _head = struct.Struct("!hi").pack  # the field count, the logger's length
 _i4 = struct.Struct("!ii").pack  # length 4, an int4
@@ -175,22 +173,24 @@ _i8 = struct.Struct("!iq").pack  # length 8, an int8 (a timestamp's microseconds
 _f8 = struct.Struct("!id").pack  # length 8, a float8
 _i2 = struct.Struct("!ih").pack  # length 2, an int2
 _array_head = struct.Struct("!iiiIii").pack  # length, ndim 1, has NULLs, element type, n, 1
-_F8_NULL = _NULL
+_F8_NULL = NULL
 
 
-def _clean(text: str) -> bytes:
+def clean(text: str) -> bytes:
+    """``text`` as PostgreSQL text holds it: UTF-8, its NUL characters dropped (the rule of
+    the rows' COPY and of the blocks' parameters, :mod:`.pg_arrays`, alike)."""
     return (text.replace("\x00", "") if "\x00" in text else text).encode()
 
 
 def _array(oid: int, items: Sequence[bytes | None]) -> bytes:
     """A one-dimensional array field of encoded ``items`` (``None``: NULL)."""
-    body = b"".join(_NULL if i is None else struct.pack("!i", len(i)) + i for i in items)
+    body = b"".join(NULL if i is None else struct.pack("!i", len(i)) + i for i in items)
     has_null = int(any(i is None for i in items))
     return _array_head(20 + len(body), 1, has_null, oid, len(items), 1) + body
 
 
 def _texts(items: Sequence[str | None]) -> bytes:
-    return _array(_TEXT, [None if t is None else _clean(t) for t in items])
+    return _array(TEXT, [None if t is None else clean(t) for t in items])
 
 
 def _values(items: Sequence[float | None]) -> bytes:
@@ -201,9 +201,9 @@ def _values(items: Sequence[float | None]) -> bytes:
             pack = _F8S.setdefault(n, struct.Struct("!iiiIii" + "4sd" * n).pack)
         args: list[object] = [_LEN8] * (2 * n)
         args[1::2] = items
-        return pack(20 + 12 * n, 1, 0, _FLOAT8, n, 1, *args)
-    body = b"".join([_NULL if v is None else _f8(8, v) for v in items])
-    return _array_head(20 + len(body), 1, 1, _FLOAT8, n, 1) + body
+        return pack(20 + 12 * n, 1, 0, FLOAT8, n, 1, *args)
+    body = b"".join([NULL if v is None else _f8(8, v) for v in items])
+    return _array_head(20 + len(body), 1, 1, FLOAT8, n, 1) + body
 
 
 _LEN8 = struct.pack("!i", 8)
@@ -229,8 +229,8 @@ class Encoder:
         if len(self._layouts) >= self.LIMIT:
             self._layouts.clear()
         got = self._layouts[key] = (
-            cached(_INT4, ch) + cached(_INT2, ty),
-            cached(_TEXT, tx) + cached(_TEXT, na) + cached(_TEXT, un),
+            cached(INT4, ch) + cached(INT2, ty),
+            cached(TEXT, tx) + cached(TEXT, na) + cached(TEXT, un),
         )
         return got
 
@@ -240,12 +240,12 @@ class Encoder:
         if got is None:
             if len(self._arrays) >= self.LIMIT:
                 self._arrays.clear()
-            if oid == _TEXT:
+            if oid == TEXT:
                 got = _texts(items)  # type: ignore[arg-type]
-            elif oid == _INT4:
-                got = _array(_INT4, [struct.pack("!i", int(i)) for i in items])  # type: ignore[call-overload]
+            elif oid == INT4:
+                got = _array(INT4, [struct.pack("!i", int(i)) for i in items])  # type: ignore[call-overload]
             else:
-                got = _array(_INT2, [struct.pack("!h", int(i)) for i in items])  # type: ignore[call-overload]
+                got = _array(INT2, [struct.pack("!h", int(i)) for i in items])  # type: ignore[call-overload]
             self._arrays[key] = got
         return got
 
@@ -273,7 +273,7 @@ class Encoder:
             if head is None:
                 if len(heads) >= self.LIMIT:
                     heads.clear()
-                name = _clean(logger)
+                name = clean(logger)
                 head = heads[logger] = _head(10, len(name)) + name
             add(head)
             stamp = times.get(time)
@@ -281,7 +281,7 @@ class Encoder:
                 stamp = times[time] = _i8(8, (time - _EPOCH) // _US)
             add(stamp)
             add(_i4(4, counter))
-            add(_NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))
+            add(NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))
             key = (ch, ty, tx, na, un)
             arrays = layouts.get(key) or self._layout(key)
             add(arrays[0])
@@ -322,7 +322,7 @@ def _f8_head(n: int) -> bytes:
     """The head of a float8 array of ``n`` elements without NULLs (kept by ``n``)."""
     if len(_F8_HEADS) >= 4096:
         _F8_HEADS.clear()
-    got = _F8_HEADS[n] = _array_head(20 + 12 * n, 1, 0, _FLOAT8, n, 1)
+    got = _F8_HEADS[n] = _array_head(20 + 12 * n, 1, 0, FLOAT8, n, 1)
     return got
 
 

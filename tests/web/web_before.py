@@ -312,6 +312,16 @@ def _better(
     return new if (nv < ov) == (which == 0) else old
 
 
+def first_time(db: Db, logger: str) -> str | None:
+    """The old ``store.first_time`` (the handler now asks ``store.first_and_last``)."""
+    row = db.first(
+        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
+        "ORDER BY time LIMIT 1",
+        (logger,),
+    )
+    return None if row is None else str(row[0])
+
+
 def body(
     db: Db, logger: str, lo: str | None, hi: str | None, points: int, span: int
 ) -> dict[str, Any]:
@@ -319,7 +329,7 @@ def body(
     from sondalog.web import store
 
     last = store.last_time(db, logger)
-    first = store.first_time(db, logger)
+    first = first_time(db, logger)
     to = hi or last or "1970-01-01T00:00:00"
     frm = lo or max(shift(to, -span), min(first or to, to))
     chans = channels(db, logger)

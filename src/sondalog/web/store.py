@@ -230,32 +230,24 @@ def decimals(value: float) -> int:
     return 0 if frac in ("", "0") else min(len(frac), 6)
 
 
+def _end(db: Db, order: str) -> str:
+    """The query of a logger's first (``order`` "") or last (" DESC") row's time."""
+    d = db.dialect
+    return f"SELECT {d.time('time')} FROM {d.keys} WHERE logger = ? ORDER BY time{order} LIMIT 1"
+
+
 def last_time(db: Db, logger: str) -> str | None:
-    row = db.first(
-        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
-        "ORDER BY time DESC LIMIT 1",
-        (logger,),
-    )
+    row = db.first(_end(db, " DESC"), (logger,))
     return None if row is None else str(row[0])
 
 
 def first_and_last(db: Db, logger: str) -> tuple[str | None, str | None]:
-    """:func:`first_time` and :func:`last_time` in one statement (one round trip)."""
-    d, keys = db.dialect, db.dialect.keys
-    one = f"(SELECT {d.time('time')} FROM {keys} WHERE logger = ? ORDER BY time{{}} LIMIT 1)"
-    row = db.first(f"SELECT {one.format('')}, {one.format(' DESC')}", (logger, logger))
+    """The time of the logger's first row and of its last, in one statement (one round
+    trip)."""
+    row = db.first(f"SELECT ({_end(db, '')}), ({_end(db, ' DESC')})", (logger, logger))
     if row is None:  # never: one row of two subqueries
         return None, None
     return row[0], row[1]
-
-
-def first_time(db: Db, logger: str) -> str | None:
-    row = db.first(
-        f"SELECT {db.dialect.time('time')} FROM {db.dialect.keys} WHERE logger = ? "
-        "ORDER BY time LIMIT 1",
-        (logger,),
-    )
-    return None if row is None else str(row[0])
 
 
 def counts(db: Db, logger: str, lo: str, hi: str, cap: int) -> tuple[dict[int, int], bool]:

@@ -221,6 +221,35 @@ def test_no_contact_raised_when_the_logger_stops_and_a_kill_during_delivery_lose
     assert all("station" in s for s in mail.subjects())
 
 
+def test_a_clean_stop_during_delivery_waits_for_the_answer_and_sends_nothing_twice(
+    tmp_path: Path,
+) -> None:
+    """SIGTERM while the SMTP server holds its answer: the collector waits for it, marks
+    the message sent, then stops; the restart does not send it again (a cancel would leave
+    it pending, and the e-mail's thread would have delivered it all the same)."""
+    site = _site(tmp_path, "[[0, 1.0]]")
+    with serving(tmp_path, "--site", str(site)) as served, smtp_server() as mail:
+        _configure(served)
+        config = _config(tmp_path, served.url, mail.port, NO_CONTACT)
+        store = tmp_path / "store.sqlite"
+        with _collecting(config) as proc:
+            mail.wait(lambda: _query_ok(store), 20)
+            mail.hold = 2.0  # the server holds its answer: the collector is mid-delivery
+            os.kill(served.proc.pid, signal.SIGSTOP)  # the logger stops answering
+            assert mail.entered.wait(15), "no no-contact e-mail"
+            err = _stop(proc)  # a clean stop while the e-mail is on its way
+            assert proc.returncode == 0, err
+        mail.hold = 0.0
+        assert _outbox(store) and {state for _, state in _outbox(store)} == {"sent"}
+        with _collecting(config):
+            os.kill(served.proc.pid, signal.SIGCONT)
+            mail.wait(lambda: "cleared" in _what(mail), 15)
+            mail.wait(lambda: {state for _, state in _outbox(store)} == {"sent"}, 15)
+    what = _what(mail)  # repeats (every 2 s while raised) may come in between
+    assert what[0] == "raised" and what[-1] == "cleared"
+    assert what.count("raised") == 1 and what.count("cleared") == 1
+
+
 def _query_ok(store: Path) -> bool:
     with (
         contextlib.suppress(sqlite3.OperationalError),

@@ -60,6 +60,8 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 #: Seconds between looks for acknowledgements asked for by another process.
 ACK_POLL = 1.0
+#: Seconds a clean stop waits for a notification already being sent (docs/alarms.md).
+DRAIN = 10.0
 #: Channel type of a supply voltage (§6.5.6).
 SUPPLY_TYPE = 1
 _GAP_ROWS = re.compile(r"about (\d+) rows")
@@ -350,7 +352,7 @@ class AlarmLoop:
                 sender = self.senders.get(notify.name)
                 if sender is None:
                     sender = self.senders[notify.name] = sender_for(notify)
-                await sender.send(message)
+                await self._sending(sender, message)
             except asyncio.CancelledError:
                 raise
             except Exception as exc:  # DeliveryError, or a sender's bug: retried, logged
@@ -362,6 +364,26 @@ class AlarmLoop:
             done += 1
         self.sent += done
         return done
+
+    async def _sending(self, sender: Sender, message: Message) -> None:
+        """``sender.send(message)``; cancelled (a clean stop) while the message is on its
+        way, it waits up to :data:`DRAIN` seconds for the destination's answer and records
+        the delivery before it gives way: a restart does not send it again. (The e-mail's
+        SMTP talk runs in a thread a cancel cannot stop: it would reach the server all the
+        same, and go again after the restart.) Past :data:`DRAIN` it stays pending."""
+        send = asyncio.ensure_future(sender.send(message))
+        try:
+            await asyncio.shield(send)
+        except asyncio.CancelledError:
+            done, _ = await asyncio.wait({send}, timeout=DRAIN)
+            if not done:
+                send.cancel()
+            elif not send.cancelled() and send.exception() is None:
+                with contextlib.suppress(Exception):
+                    self.store.delivered(message.key, self.clock())
+                    self.sent += 1
+                    log.info("notification %s delivered while stopping", message.key)
+            raise
 
     async def run(self) -> None:
         """Until cancelled: a turn, the deliveries, then sleep until the next deadline or

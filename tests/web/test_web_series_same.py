@@ -129,7 +129,20 @@ def ranges(rng: random.Random, span_s: int) -> Iterator[tuple[str | None, str | 
         )
 
 
+def blocks_hold_their_times(db: store.Db) -> None:
+    """Every block's tmin and tmax lie in the block: PostgreSQL's blocks, read in no order,
+    are put in order by their tmins (``blocks.by_channel``), which is their starts' only so."""
+    if not db.has_blocks:
+        return
+    outside = db.first(
+        "SELECT count(*) FROM readings_extremes WHERE NOT (tmin >= start AND "
+        "tmin < start + size AND tmax >= start AND tmax < start + size)"
+    )
+    assert outside == (0,)
+
+
 def same(db: store.Db, rng: random.Random, span_s: int) -> None:
+    blocks_hold_their_times(db)
     for logger in ("L", "M", "nobody"):
         for lo, hi, points in ranges(rng, span_s):
             span = rng.choice([3600, 7 * 86400])

@@ -18,7 +18,11 @@ channel), the plot request of the whole year, a month and a week
 Run: ``.venv/bin/python benchmarks/bench_web_long.py [--sqlite FILE] [--dsn DSN] [--runs N]``.
 An existing ``--sqlite`` file with readings is reused; without ``--dsn`` a throwaway
 PostgreSQL server is started (tests/collect/services.py; needs the Debian packages). Only
-``--sqlite`` or only ``--dsn``: ``--skip-postgres`` / ``--skip-sqlite``.
+``--sqlite`` or only ``--dsn``: ``--skip-postgres`` / ``--skip-sqlite``. ``--keep DIR``
+keeps both filled stores between runs (filling them takes minutes): the SQLite file
+``DIR/store.sqlite`` (unless ``--sqlite``) and a PostgreSQL cluster in ``DIR/pg``, started
+for the run and stopped after it (unless ``--dsn``); two trees compared in turn can share
+one ``DIR`` (the stores are the same), not run at once.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ import urllib.request
 from collections.abc import Callable
 from datetime import datetime, timedelta
 from pathlib import Path
+from typing import Any
 
 import psycopg
 
@@ -127,6 +132,31 @@ class Served:
         self.thread.join(10)
 
 
+def kept_server(services: Any, where: Path) -> Any:
+    """A :class:`services.PostgresServer` whose cluster is ``where`` (made the first time),
+    started; its database ``bench`` made if missing. ``stop()`` it, do not ``destroy()``."""
+    server = services.PostgresServer.__new__(services.PostgresServer)
+    server.bin, server.dir, server.data = services._pg_bin(), where, where / "data"
+    server.port, server._dbs = services.free_port(), itertools.count(1)
+    server._as_user = []
+    if os.geteuid() == 0:
+        server._as_user = ["runuser", "-u", "nobody", "--"]
+    if not server.data.exists():
+        where.mkdir(parents=True, exist_ok=True)
+        os.chmod(where, 0o755)
+        if server._as_user:
+            shutil.chown(where, "nobody")
+        data = str(server.data)
+        server._run(
+            "initdb", "-D", data, "-U", "postgres", "-A", "trust", "--no-sync", "-E", "UTF8"
+        )
+    server.start()
+    with psycopg.connect(server.dsn(), autocommit=True) as conn:
+        if not conn.execute("SELECT 1 FROM pg_database WHERE datname = 'bench'").fetchone():
+            conn.execute("CREATE DATABASE bench")
+    return server
+
+
 def measure(label: str, app: object, runs: int, ranges: tuple[str, ...]) -> None:
     served = Served(app)
     base = f"http://127.0.0.1:{served.port[0]}/api/loggers/1001/series"
@@ -205,12 +235,15 @@ def main() -> None:
     parser.add_argument("--skip-sqlite", action="store_true")
     parser.add_argument("--skip-postgres", action="store_true")
     parser.add_argument("--no-rows-path", action="store_true", help="skip the slow old path")
+    parser.add_argument("--keep", type=Path, help="keep the filled stores in this directory")
     args = parser.parse_args()
     print("load average: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()), flush=True)
     tmp = tempfile.TemporaryDirectory()
     ranges = ("year", "month", "week")
     if not args.skip_sqlite:
-        path = args.sqlite or Path(tmp.name) / "store.sqlite"
+        path = args.sqlite or (args.keep or Path(tmp.name)) / "store.sqlite"
+        if args.keep:
+            args.keep.mkdir(parents=True, exist_ok=True)
         if not path.exists():
             fill_sqlite(path)
         if not args.no_rows_path:
@@ -221,7 +254,18 @@ def main() -> None:
         measure("sqlite, blocks", create_app(path), args.runs, ranges)
     if not args.skip_postgres:
         server = None
+        kept = False
         dsn = args.dsn
+        if dsn is None and args.keep is not None:
+            sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "collect"))
+            import services
+
+            if services._pg_bin() is None:
+                print("postgres: no server binaries; skipped")
+                return
+            server = kept_server(services, args.keep.resolve() / "pg")
+            kept = True
+            dsn = server.dsn("bench")
         if dsn is None:
             sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "collect"))
             import services
@@ -245,7 +289,9 @@ def main() -> None:
                 fill("postgres", lambda: blocks_fill.fill_step_postgres(conn))
             measure("postgres, blocks", create_app(None, readings_dsn=dsn), args.runs, ranges)
         finally:
-            if server is not None:
+            if server is not None and kept:
+                server.stop()
+            elif server is not None:
                 server.destroy()
     tmp.cleanup()
 

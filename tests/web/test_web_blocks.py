@@ -20,6 +20,7 @@ import urllib.request
 from datetime import datetime, timedelta
 from pathlib import Path
 
+import blocks_rows
 import psycopg
 import pytest
 from hypothesis import given, settings
@@ -99,7 +100,7 @@ def through_sink(path: Path, groups: list[list[Row]]) -> None:
 
 
 def answers(conn: sqlite3.Connection, p: blocks.Plan) -> list[tuple[object, ...]]:
-    """The old path's answer over the buckets of ``p``, as :func:`blocks.rows` gives it."""
+    """The old path's answer over the buckets of ``p``, as :func:`blocks_rows.rows` gives it."""
     cells: dict[tuple[int, int], dict[int, tuple[object, int]]] = {}
     for i, ch, w, v, t in store.bucketed(conn, "L", p.texts()):
         cells.setdefault((ch, i), {})[w] = (v, to_epoch(t))
@@ -147,12 +148,12 @@ def test_sqlite_blocks_answer_as_the_rows_do(seed: int, n: int, channels: int) -
             for _ in range(4):
                 p = random_plan(rng, span)
                 want = answers(reference, p)
-                assert blocks.rows(store.of_file(reference), "L", p) == want
+                assert blocks_rows.rows(store.of_file(reference), "L", p) == want
                 for conn in conns:
                     db = store.of_file(conn)
                     assert db.has_blocks
                     assert (
-                        blocks.rows(db, "L", p, use_blocks=True if conn is conns[0] else None)
+                        blocks_rows.rows(db, "L", p, use_blocks=True if conn is conns[0] else None)
                         == want
                     )
             fill(conns[1])
@@ -160,7 +161,7 @@ def test_sqlite_blocks_answer_as_the_rows_do(seed: int, n: int, channels: int) -
                 p = random_plan(rng, span)
                 want = answers(reference, p)
                 for conn in conns:
-                    assert blocks.rows(store.of_file(conn), "L", p, use_blocks=True) == want
+                    assert blocks_rows.rows(store.of_file(conn), "L", p, use_blocks=True) == want
         finally:
             for conn in conns:
                 conn.close()
@@ -188,15 +189,15 @@ def test_the_filler_goes_a_day_at_a_time_newest_first(tmp_path: Path) -> None:
     # the batch that made the tables counts as stored before (its day is filled too)
     assert blocks.usable(db, "L", to_epoch("2026-03-21T00:00:00"))
     assert not blocks.usable(db, "L", to_epoch("2026-03-20T00:00:00"))
-    assert blocks.rows(db, "L", year) == answers(reference, year)  # from the rows
+    assert blocks_rows.rows(db, "L", year) == answers(reference, year)  # from the rows
     assert fill(conn, 1) == 1 and blocks.usable(db, "L", to_epoch("2026-03-20T00:00:00"))
     assert not blocks.usable(db, "L", last_day.edges[0])
     assert fill(conn, 1) == 1 and blocks.usable(db, "L", to_epoch("2026-03-10T00:00:00"))
     assert not blocks.usable(db, "L", to_epoch("2026-03-09T23:59:59"))
-    assert blocks.rows(db, "L", last_day) == answers(reference, last_day)
+    assert blocks_rows.rows(db, "L", last_day) == answers(reference, last_day)
     assert fill(conn) == 9  # the other nine days of rows (the gap is skipped)
     assert blocks.usable(db, "L", 0) and not fill(conn)
-    assert blocks.rows(db, "L", year, use_blocks=True) == answers(reference, year)
+    assert blocks_rows.rows(db, "L", year, use_blocks=True) == answers(reference, year)
 
 
 def test_the_plan_cuts_on_the_block_grid_and_keeps_the_budget() -> None:
@@ -291,14 +292,14 @@ def test_postgres_answers_as_sqlite_does(pg_dsn: str, seed: int) -> None:
         for _ in range(6):
             p = random_plan(rng, span)
             want = answers(reference, p)
-            assert blocks.rows(db, "L", p) == want
-            assert blocks.rows(db, "L", p, use_blocks=False) == want
+            assert blocks_rows.rows(db, "L", p) == want
+            assert blocks_rows.rows(db, "L", p, use_blocks=False) == want
         with psycopg.connect(pg_dsn, autocommit=True) as conn:
             while blocks_fill.fill_step_postgres(conn):
                 pass
         for _ in range(6):
             p = random_plan(rng, span)
-            assert blocks.rows(db, "L", p, use_blocks=True) == answers(reference, p)
+            assert blocks_rows.rows(db, "L", p, use_blocks=True) == answers(reference, p)
     finally:
         readings.close(db)
         readings.shutdown()

@@ -22,6 +22,7 @@ import sqlite3
 from collections.abc import Iterator
 from datetime import datetime, timedelta
 
+import blocks_rows
 import psycopg
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -72,7 +73,7 @@ def stored(conn: sqlite3.Connection) -> list[Reading]:
 
 
 def answers(conn: sqlite3.Connection, logger: str, p: blocks.Plan) -> list[tuple[object, ...]]:
-    """The old path's answer over the buckets of ``p``, as :func:`blocks.rows` gives it."""
+    """The old path's answer over the buckets of ``p``, as :func:`blocks_rows.rows` gives it."""
     cells: dict[tuple[int, int], dict[int, tuple[object, int]]] = {}
     for i, ch, w, v, t in store.bucketed(conn, logger, p.texts()):
         cells.setdefault((ch, i), {})[w] = (v, to_epoch(t))
@@ -155,8 +156,8 @@ def test_postgres_blocks_and_rows_answer_as_the_readings_do(
             p = random_plan(rng, span)
             for logger in LOGGERS:
                 expected = answers(ref, logger, p)
-                assert blocks.rows(db, logger, p) == expected
-                assert blocks.rows(db, logger, p, use_blocks=False) == expected
+                assert blocks_rows.rows(db, logger, p) == expected
+                assert blocks_rows.rows(db, logger, p, use_blocks=False) == expected
     finally:
         readings.close(db)
         readings.shutdown()

@@ -3,8 +3,10 @@ the faster path is compared with, on random data: ``test_web_series_same.py``).
 
 Verbatim copies of the old ``store.channels`` and ``store.counts``, ``series.load`` with its
 downsampling, and ``blocks.rows`` (the per-block extremes merged bucket by bucket), over
-today's unchanged pieces (``blocks.plan``, ``blocks.usable``, the statements of the ends and
-the rows' path); :func:`body` is what the handler put together.
+today's unchanged pieces (``blocks.plan``, ``blocks.usable``, the statements of the ends);
+:func:`body` is what the handler put together. The rows' path (``_by_rows`` and its
+PostgreSQL statement) is the copy of the fifth round's, frozen here in the sixth when the
+live one changed its statements and the shape of its rows.
 """
 
 # ruff: noqa
@@ -19,7 +21,7 @@ from statistics import median
 from typing import Any
 
 from sondalog.web import blocks as _blocks
-from sondalog.web.blocks import TABLE, Plan, Row, _by_rows, _span, _pair, SIZES, usable
+from sondalog.web.blocks import TABLE, Plan, Row, _span, _pair, SIZES, usable
 from sondalog.web.series import Series, break_gaps
 from sondalog.web.store import RECENT_ROWS, Channel, Db, _file_rows, decimals, format_decimals, raw
 from sondalog.web.times import shift, to_epoch
@@ -347,3 +349,78 @@ def body(
         "bucket_s": width,
         "series": [s.as_json() for s in got],
     }
+
+
+# The rows' path as it was at the end of the fifth round (verbatim).
+
+
+def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:
+    """The buckets of ``p`` from the rows: on PostgreSQL one statement over the range's
+    rows (:func:`_by_rows_pg`); on SQLite one key range per bucket, one statement."""
+    if db.dialect.postgres:
+        return _by_rows_pg(db, logger, p)
+    (smin, smax), _ = _span(db, (), 0, 1)
+    texts = p.texts()
+    out: list[Row] = []
+    # the bucket a parameter: one text, compiled once (a text a bucket was compiled each
+    # time, past the connection's cache of statements: most of a week's time)
+    sql = db.dialect.sql(_pair(False, smin, smax, "channel", "?"))
+    for i in range(len(texts) - 1):
+        out += db.conn.execute(sql, [i, *[logger, texts[i], texts[i + 1]] * 2])
+    out.sort(key=lambda r: (r[1], r[0]))
+    return out
+
+
+def _extreme(which: str) -> str:
+    """PostgreSQL: a group's smallest (``min``) or largest ``v`` and its time ``t`` as an
+    array ``[v, t]`` (``[v, -t]`` for the largest) of the reading that has it: arrays
+    compare element by element, so on a tie the earliest time; NULL values left out."""
+    t = "t" if which == "min" else "-t"
+    return f"{which}(ARRAY[v, {t}]) FILTER (WHERE v IS NOT NULL)"
+
+
+#: PostgreSQL: ``k, channel, vmin, tmin, vmax, tmax`` per bucket ``k`` and channel of one
+#: logger's record rows in ``[lo, hi)`` (``{table}``, ``{k}`` a row's bucket, ``{t}`` its
+#: time; ``{each}``: its readings, ``channel, v``). The rule of :func:`_pick` by aggregates
+#: the server computes in one pass (a hash of the groups): the pair of the extreme's value
+#: and time; every value NULL: NULL and the latest time. The bucket and the time are
+#: computed once a record row (``OFFSET 0`` keeps them there), not once a reading.
+_BUCKETS_PG = (
+    f"SELECT k, channel, ({_extreme('min')})[1], coalesce(({_extreme('min')})[2]::bigint, "
+    f"max(t)), ({_extreme('max')})[1], coalesce(-({_extreme('max')})[2]::bigint, max(t)) "
+    "FROM (SELECT k, t, {each} FROM (SELECT {k} AS k, {t} AS t, channel, value FROM {table} "
+    "WHERE logger = ? AND time >= ? AND time < ? OFFSET 0) r) u "
+    "WHERE channel > 0 GROUP BY k, channel ORDER BY 2, 1"
+)
+
+
+def _bucket_of(p: Plan) -> tuple[str, list[object]]:
+    """PostgreSQL: the bucket of ``p`` of a row (its whole second ``s``, as the ``time``
+    comparisons of the rows' path count it) and the expression's parameters: equal buckets
+    of ``p.width`` from ``edges[0]``, or blocks ``[a, b)`` ``n / m`` to a bucket and the
+    ends to the first and last (as :func:`rows` puts the blocks)."""
+    s = "floor(extract(epoch FROM time))::bigint"
+    if not p.size:
+        return f"({s} - ?::bigint) / ?::bigint", [p.edges[0], p.width]
+    return (
+        f"CASE WHEN {s} < ?::bigint THEN 0 WHEN {s} >= ?::bigint THEN ?::bigint "
+        f"ELSE ({s} - ?::bigint) / ?::bigint * ?::bigint / ?::bigint END",
+        [p.a, p.b, p.m - 1, p.a, p.size, p.m, p.n],
+    )
+
+
+def _by_rows_pg(db: Db, logger: str, p: Plan) -> list[Row]:
+    """The buckets of ``p`` from the rows in one statement: each reading of the range is
+    read once (a week of 12 channels: 121,000) with its record row's bucket (one range
+    query a bucket, each sorting its readings, took about twice as long)."""
+    d = db.dialect
+    k, args = _bucket_of(p)
+    v2 = d.keys != "readings"
+    sql = _BUCKETS_PG.format(
+        k=k,
+        t=d.epoch("time"),
+        table=d.keys,
+        each="unnest(channel) AS channel, unnest(value) AS v" if v2 else "channel, value AS v",
+    )
+    texts = p.texts()
+    return list(db.conn.execute(d.sql(sql), [*args, logger, texts[0], texts[-1]]).fetchall())

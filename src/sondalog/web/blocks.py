@@ -24,7 +24,7 @@ import math
 import operator
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
-from itertools import groupby
+from itertools import groupby, repeat
 from operator import itemgetter
 from typing import Any
 
@@ -35,8 +35,9 @@ from sondalog.collect.schema import EXTREMES_TODO as TODO
 from .db import Db
 from .times import from_epoch, to_epoch
 
-__all__ = ["SIZES", "Plan", "by_channel", "pieces", "plan", "rows"]
+__all__ = ["SIZES", "Bucket", "Plan", "by_channel", "pieces", "plan"]
 
+#: A bucket of the rows' path: ``(channel, bucket, vmin, tmin, vmax, tmax)``.
 Row = tuple[int, int, float | None, int, float | None, int]
 _RAW = "channel, time, value"
 
@@ -167,22 +168,15 @@ def _ends(db: Db, p: Plan) -> tuple[str, list[object]]:
     return " UNION ALL ".join(f"SELECT * FROM ({x}) u{i}" for i, x in enumerate(parts)), args
 
 
-def rows(db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None) -> list[Row]:
-    """``(bucket, channel, vmin, tmin, vmax, tmax)`` of the buckets of ``p`` by channel and
-    bucket: the channel's smallest and largest value in the bucket, each with the earliest
-    time (seconds) of a reading that has it (every value NULL: NULL and the latest time);
-    from the blocks where they are complete (``use_blocks`` None) or when told, else from
-    the rows (the same answer). :func:`by_channel` as one list."""
-    per = {ch: list(got) for ch, got in by_channel(db, logger, p, use_blocks=use_blocks)}
-    return [(k, ch, a, b, c, d) for ch in sorted(per) for k, a, b, c, d in per[ch]]
-
-
 def by_channel(
     db: Db, logger: str, p: Plan, *, use_blocks: bool | None = None
 ) -> Iterator[tuple[int, Iterator[Bucket]]]:
-    """Per channel (once each, in no particular order) its buckets ``(bucket, vmin, tmin,
-    vmax, tmax)`` in order, as :func:`rows` tells them; a channel's buckets are to be read
-    before the next channel is asked for.
+    """Per channel (once each, in no particular order) its buckets in order (a
+    :data:`Bucket` each: the channel's smallest and largest value in the bucket, each with
+    the earliest time, in seconds, of a reading that has it; every value NULL: NULL and the
+    latest time), from the blocks where they are complete (``use_blocks`` None) or when
+    told, else from the rows (the same answer); a channel's buckets are to be read before
+    the next channel is asked for.
 
     From the blocks: one statement reads the whole blocks of the range (a year: 1,460 a
     channel) with each one's bucket, by channel and time, and a channel's blocks of one
@@ -192,8 +186,7 @@ def by_channel(
     CPU)."""
     blocks = usable(db, logger, p.edges[0]) if use_blocks is None else use_blocks
     if not (blocks and p.size):
-        for ch, group in groupby(_by_rows(db, logger, p), itemgetter(1)):
-            yield ch, ((k, a, b, c, d) for k, _, a, b, c, d in group)
+        yield from groupby(_by_rows(db, logger, p), _first)
         return
     ends: dict[int, list[Block | None]] = {}
     sql, args = _ends(db, p)
@@ -209,12 +202,15 @@ def by_channel(
     where = "logger = ? AND size = ? AND start >= ? AND start < ?"
     args = [p.a, p.size, p.m, p.n, logger, p.size, p.a, p.b]
     if db.dialect.postgres:
-        # the key's order, grouped by a hash (the blocks' arrays in the order they come; a
-        # sort by channel, or one an aggregate, took the server twice as long), which
-        # each channel's starts prove (else they are sorted here)
-        arrays = ", ".join(f"array_agg({c})" for c in ("start", "k", *_EXTREMES))
+        # grouped by a hash, the blocks' arrays in the order the server reads them (its
+        # heap's: a sort by channel, by the key, or one an aggregate took the server two
+        # to three times as long as the whole statement without); each channel's blocks
+        # are sorted here by their starts unless these show them in order already
+        # no array of the starts (each array took the server about 3 ms): a block's tmin
+        # lies in it, so the tmins of a channel's blocks are in the order of their starts
+        arrays = ", ".join(f"array_agg({c})" for c in ("k", *_EXTREMES))
         sql = (
-            f"SELECT channel, {arrays} FROM (SELECT channel, start, {k} AS k, "
+            f"SELECT channel, {arrays} FROM (SELECT channel, {k} AS k, "
             f"{', '.join(_EXTREMES)} FROM {TABLE} "
             f"WHERE {where} {_KEY_ORDER}) b GROUP BY channel"
         )
@@ -222,9 +218,10 @@ def by_channel(
             got = cur.execute(db.dialect.sql(sql), args).fetchall()
         for ch, *columns in got:
             head, tail = ends.pop(ch, (None, None))
-            blocks_of: Iterable[Block] = zip(*columns, strict=True)
-            if not all(map(operator.lt, columns[0], columns[0][1:])):
-                blocks_of = sorted(blocks_of, key=_first)
+            tmins = columns[2]
+            blocks_of: Iterable[Block] = zip(repeat(ch), *columns)  # (channel, k, ...)
+            if not all(map(operator.lt, tmins, tmins[1:])):
+                blocks_of = sorted(blocks_of, key=_tmin)
             yield ch, _merged(blocks_of, head, tail)
     else:
         sql = f"SELECT channel, {k}, {', '.join(_EXTREMES)} FROM {TABLE} WHERE {where}"
@@ -237,10 +234,14 @@ def by_channel(
 
 _EXTREMES = ("vmin", "tmin", "vmax", "tmax")
 _first = itemgetter(0)
-#: The blocks' order the server's arrays are expected in (``ORDER BY`` the key, a tests' knob).
-_KEY_ORDER = "ORDER BY start, channel"
-#: One bucket's extremes: ``(bucket, vmin, tmin, vmax, tmax)``.
-Bucket = tuple[int, float | None, int, float | None, int]
+_tmin = itemgetter(3)
+#: The order the server is asked to read the blocks in: none (a tests' knob: the answer is
+#: the same in any order).
+_KEY_ORDER = ""
+#: One bucket's extremes after a column the reader does not look at (the channel, or
+#: nothing): ``(_, bucket, vmin, tmin, vmax, tmax)``; the shape of a :data:`Block` and of
+#: the rows' path's rows, so that a bucket of one block or one row is passed on as it is.
+Bucket = tuple[Any, int, float | None, int, float | None, int]
 #: A block's (or an end's) extremes with its bucket, after a column not read here (what
 #: the statement gives first): ``(_, bucket, vmin, tmin, vmax, tmax)``.
 Block = tuple[Any, int, float | None, int, float | None, int]
@@ -249,19 +250,22 @@ Block = tuple[Any, int, float | None, int, float | None, int]
 def _merged(got: Iterable[Block], head: Block | None, tail: Block | None) -> Iterator[Bucket]:
     """One channel's buckets of its blocks ``got`` (in time order), with ``head`` (the first
     bucket's end) before them and ``tail`` (the last's) after: the blocks of one bucket
-    merged by the rule of :func:`rows` (in time order, so on a tie the one before stays,
-    and every value NULL takes the later time)."""
+    merged by the rule of :func:`by_channel` (in time order, so on a tie the one before
+    stays, and every value NULL takes the later time). A bucket of one block is that block
+    (no new tuple)."""
     it = itertools.chain(got, () if tail is None else (tail,))
     if head is None:
         head = next(it, None)
         if head is None:
             return
-    _, ck, cmin, ctmin, cmax, ctmax = head
-    for _, k, vmin, tmin, vmax, tmax in it:
-        if k != ck:
-            yield ck, cmin, ctmin, cmax, ctmax
-            ck, cmin, ctmin, cmax, ctmax = k, vmin, tmin, vmax, tmax
+    cur = head
+    for block in it:
+        if block[1] != cur[1]:
+            yield cur
+            cur = block
             continue
+        _, ck, cmin, ctmin, cmax, ctmax = cur
+        _, _, vmin, tmin, vmax, tmax = block
         if vmin is not None:
             if cmin is None or vmin < cmin:
                 cmin, ctmin = vmin, tmin
@@ -272,7 +276,8 @@ def _merged(got: Iterable[Block], head: Block | None, tail: Block | None) -> Ite
                 cmax, ctmax = vmax, tmax
         elif cmax is None:
             ctmax = tmax
-    yield ck, cmin, ctmin, cmax, ctmax
+        cur = (None, ck, cmin, ctmin, cmax, ctmax)
+    yield cur
 
 
 def _markers(sql: str) -> Iterator[bool]:
@@ -283,20 +288,40 @@ def _markers(sql: str) -> Iterator[bool]:
 
 
 def _by_rows(db: Db, logger: str, p: Plan) -> list[Row]:
-    """The buckets of ``p`` from the rows: on PostgreSQL one statement over the range's
+    """The buckets of ``p`` from the rows (``channel, k, vmin, tmin, vmax, tmax`` by
+    channel and bucket): on PostgreSQL one statement over the range's
     rows (:func:`_by_rows_pg`); on SQLite one key range per bucket, one statement."""
     if db.dialect.postgres:
         return _by_rows_pg(db, logger, p)
-    (smin, smax), _ = _span(db, (), 0, 1)
     texts = p.texts()
     out: list[Row] = []
+    execute = db.conn.execute
     # the bucket a parameter: one text, compiled once (a text a bucket was compiled each
     # time, past the connection's cache of statements: most of a week's time)
-    sql = db.dialect.sql(_pair(False, smin, smax, "channel", "?"))
     for i in range(len(texts) - 1):
-        out += db.conn.execute(sql, [i, *[logger, texts[i], texts[i + 1]] * 2])
-    out.sort(key=lambda r: (r[1], r[0]))
+        out += execute(_BUCKET_SQLITE, [i, *[logger, texts[i], texts[i + 1]] * 2])
+    out.sort(key=_first)  # by channel; each channel's buckets stay in order (a stable sort)
     return out
+
+
+def _extreme_sqlite(which: str) -> str:
+    """SQLite: per channel of one bucket's rows its smallest (``min``) or largest value
+    and, as a bare column beside the lone aggregate, the time of the row that has it (as
+    :func:`_pick` says; the text time, its seconds taken of the one row it ends up as)."""
+    return (
+        f"SELECT channel, {which}(value) AS v, time AS t FROM readings WHERE logger = ? "
+        "AND time >= ? AND time < ? AND channel > 0 GROUP BY channel"
+    )
+
+
+#: SQLite: ``channel, k, vmin, tmin, vmax, tmax`` of bucket ``k`` (the first parameter) of
+#: one logger's rows in ``[lo, hi)``: :func:`_pair` over the rows, with ``unixepoch`` worked
+#: out for the two rows chosen of each channel, not for every row read (twice).
+_BUCKET_SQLITE = (
+    "SELECT a.channel, ? AS k, a.v, unixepoch(a.t), b.v, unixepoch(b.t) "
+    f"FROM ({_extreme_sqlite('min')}) a JOIN ({_extreme_sqlite('max')}) b "
+    "ON a.channel = b.channel"
+)
 
 
 def _extreme(which: str) -> str:
@@ -307,18 +332,18 @@ def _extreme(which: str) -> str:
     return f"{which}(ARRAY[v, {t}]) FILTER (WHERE v IS NOT NULL)"
 
 
-#: PostgreSQL: ``k, channel, vmin, tmin, vmax, tmax`` per bucket ``k`` and channel of one
+#: PostgreSQL: ``channel, k, vmin, tmin, vmax, tmax`` per bucket ``k`` and channel of one
 #: logger's record rows in ``[lo, hi)`` (``{table}``, ``{k}`` a row's bucket, ``{t}`` its
 #: time; ``{each}``: its readings, ``channel, v``). The rule of :func:`_pick` by aggregates
 #: the server computes in one pass (a hash of the groups): the pair of the extreme's value
 #: and time; every value NULL: NULL and the latest time. The bucket and the time are
 #: computed once a record row (``OFFSET 0`` keeps them there), not once a reading.
 _BUCKETS_PG = (
-    f"SELECT k, channel, ({_extreme('min')})[1], coalesce(({_extreme('min')})[2]::bigint, "
+    f"SELECT channel, k, ({_extreme('min')})[1], coalesce(({_extreme('min')})[2]::bigint, "
     f"max(t)), ({_extreme('max')})[1], coalesce(-({_extreme('max')})[2]::bigint, max(t)) "
     "FROM (SELECT k, t, {each} FROM (SELECT {k} AS k, {t} AS t, channel, value FROM {table} "
     "WHERE logger = ? AND time >= ? AND time < ? OFFSET 0) r) u "
-    "WHERE channel > 0 GROUP BY k, channel ORDER BY 2, 1"
+    "WHERE channel > 0 GROUP BY k, channel ORDER BY 1, 2"
 )
 
 
@@ -326,7 +351,7 @@ def _bucket_of(p: Plan) -> tuple[str, list[object]]:
     """PostgreSQL: the bucket of ``p`` of a row (its whole second ``s``, as the ``time``
     comparisons of the rows' path count it) and the expression's parameters: equal buckets
     of ``p.width`` from ``edges[0]``, or blocks ``[a, b)`` ``n / m`` to a bucket and the
-    ends to the first and last (as :func:`rows` puts the blocks)."""
+    ends to the first and last (as :func:`by_channel` puts the blocks)."""
     s = "floor(extract(epoch FROM time))::bigint"
     if not p.size:
         return f"({s} - ?::bigint) / ?::bigint", [p.edges[0], p.width]

@@ -181,7 +181,7 @@ def _points(
     within 2 per bucket."""
     jumps: list[int] = []
     last = 1 << 62  # the first bucket is no jump
-    for k, vmin, tmin, vmax, tmax in got:
+    for _, k, vmin, tmin, vmax, tmax in got:
         # a bucket's points: its smallest and largest value at the times of readings that
         # have them, in time order (so every point lies in the range, where a reading
         # was); bars: the largest only

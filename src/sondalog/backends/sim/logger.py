@@ -85,6 +85,8 @@ class PulseSource:
         events, burst, left = self._events, self.burst, bisect.bisect_left
         if left(events, min(starts)) == left(events, max(ends)):  # (no pulse in any window)
             return [0] * len(ends)
+        if starts[1:] == ends[:-1] and all(map(operator.le, ends, ends[1:])):
+            return _placed(events, starts[0], ends, burst)  # (sampling windows)
         at_ends = _before_each(events, ends)
         if starts[1:] == ends[:-1]:  # (windows one after the other: each start an end before)
             at_starts = [left(events, starts[0]), *at_ends[:-1]]
@@ -102,6 +104,19 @@ class PulseSource:
         while last < until:
             last += self._rng.expovariate(self.burst_rate)
             self._events.append(last)
+
+
+def _placed(events: list[float], start: float, ends: list[float], burst: int) -> list[int]:
+    """``burst`` times the events in each window of ``[start, ends[0])``, ``[ends[0],
+    ends[1])`` ... (ascending ``ends``: windows one after the other, the first empty if
+    ``start`` is not before its end): each event of the span counted once in its window
+    (``bisect_right(ends, event)``), not two searches a window (a day of 1-minute windows
+    holds a few dozen events)."""
+    counts = [0] * len(ends)
+    left, right = bisect.bisect_left, bisect.bisect_right
+    for event in events[left(events, min(start, ends[0])) : left(events, ends[-1])]:
+        counts[right(ends, event)] += burst
+    return counts
 
 
 def _before_each(events: list[float], ends: list[float]) -> list[int]:

@@ -12,6 +12,7 @@ import math
 from hypothesis import example, given
 from hypothesis import strategies as st
 
+from sondalog.backends.sim import logger
 from sondalog.backends.sim.logger import Analog, SimHardware, Thermometer
 
 ROM = 0x2800000000000A28
@@ -59,6 +60,7 @@ def _hardware(values: list[float]) -> SimHardware:
 @example([0.5, 1.2, 2.4], (1.0, 0.0))  # (within every range)
 @example([20.5, 21.0], (1.0, 0.0))
 @example([20.5, math.nan], (1.0, 0.0))  # (a NaN after a value: min() and max() miss it)
+@example([0.5, math.nan, 1.0], (1.0, 0.0))  # (the same within an ADC's range)
 @example([1.0, 125.0], (1.0, 0.0))
 def test_columns_are_the_reads_instant_by_instant(
     values: list[float], calibration: tuple[float, float]
@@ -85,3 +87,17 @@ def test_columns_are_the_reads_instant_by_instant(
     supply = [sim.supply(t) for t in times]
     expected = [None if r is None else (r * mult + add) * 11.0 for r in supply]
     assert _same(sim.supply_column(times, mult, add, 11.0), expected)
+
+
+@given(
+    st.one_of(
+        st.floats(-(2.0**51), 2.0**51, exclude_max=True, exclude_min=True),
+        st.integers(-(2**20), 2**20).map(lambda n: n / 2),  # (the ties: every .5)
+        st.integers(-(2**50), 2**50).map(float),
+    )
+)
+def test_adding_and_taking_half_even_is_round(y: float) -> None:
+    """The columns' rounding (``logger._HALF_EVEN``): ``y + M - M`` is ``round(y)`` as a
+    float, ties to the even, a -0.0 and a value rounded to zero alike (+0.0)."""
+    m = logger._HALF_EVEN
+    assert repr(y + m - m) == repr(float(round(y)))

@@ -7,7 +7,8 @@ types (analog, switched analog, DS18B20, supply, pulses, events, 2-D, GSM), peri
 switches with switch-on delays (some as long as the period), manual outputs, averaging,
 record conditions, 1-D, 2-D, second and missing tables, calibrations of the device, the
 input and the channel, a message on a threshold and a message of the record; on-demand
-reads, manual outputs and the clock set between random clock steps; every signal model the
+reads, manual outputs, the clock set and a kill (the logger started again from its state
+file, issue 24 sixth round) between random clock steps; every signal model the
 simulation reads as a column (shifted to the start as a site file's, clamped). The two must
 agree on every byte: the record memory, every answer, and every sending of the message
 outbox; the record large, or small enough to wrap (cyclic) or fill up (linear), its oldest
@@ -21,7 +22,9 @@ rows at once: not setting the wrapped flag, or filling a linear record past its 
 
 from __future__ import annotations
 
+import tempfile
 from datetime import timedelta
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -30,11 +33,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_special_xmodem import pump
 
-from sondalog.ala1 import series
+from sondalog.ala1 import Engine, Identity, Version, series
 from sondalog.ala1.hardware import rom_code
 from sondalog.ala1.measure import Measurer
 from sondalog.backends.sim.logger import Analog, PulseSource, SimHardware, Thermometer
 from sondalog.backends.sim.signals import Clamp, RandomWalk, Schedule, constant, ramp, shifted, sine
+from sondalog.backends.store.ala1_nv import SqliteNvStore
 from sondalog.protocol.tables import build_files
 from sondalog.protocol.xmodem import XmodemReceiver
 
@@ -119,6 +123,7 @@ step = st.one_of(
     st.tuples(st.just("read"), st.integers(1, 6)),
     st.tuples(st.just("output"), st.sampled_from(["0", "1", "NO"])),
     st.tuples(st.just("date"), st.integers(-900, 900)),  # the clock set (§6.2)
+    st.tuples(st.just("reopen"), st.just(0)),  # killed, started again from its state file
 )
 setup = st.fixed_dictionaries(
     {
@@ -197,7 +202,20 @@ def configure(m: Module, case: dict[str, Any]) -> None:
 def run(case: dict[str, Any], fast: bool, monkeypatch: pytest.MonkeyPatch) -> list[object]:
     """Everything the logger says and keeps: answers, sendings, the record, final reads."""
     monkeypatch.setattr(Measurer, "fast", fast)
-    m = Module(hardware=world())
+    with tempfile.TemporaryDirectory() as directory:
+        return _run(case, Path(directory) / "ala1.sqlite")
+
+
+def _unsynced(store: SqliteNvStore) -> SqliteNvStore:
+    """No fsync of each command's commit (a kill of the process loses nothing written)."""
+    store.database.conn.execute("PRAGMA synchronous=OFF")
+    return store
+
+
+def _run(case: dict[str, Any], path: Path) -> list[object]:
+    hardware = world()
+    m = Module(db=path, hardware=hardware)
+    _unsynced(m.store)
     configure(m, case)
     seen: list[object] = []
 
@@ -213,6 +231,15 @@ def run(case: dict[str, Any], fast: bool, monkeypatch: pytest.MonkeyPatch) -> li
             seen.append(m.ask(f"read channel {min(int(arg), len(case['channels']))} value"))
         elif kind == "output":
             seen.append(m.ask(f"write output 3 value {arg} write com close"))
+        elif kind == "reopen":  # (a kill: the store writes at once, nothing waits)
+            # the process made again: its simulated outputs off as at power-up (a new engine
+            # takes them as off and tells the hardware only of changes; see decisions.md)
+            hardware.outputs.clear()
+            killed = m.store
+            m.store = _unsynced(SqliteNvStore(path))
+            m.engine = Engine(Identity(Version.V2_10), m.store, m.now, hardware)
+            m.line = m.engine.open_line()
+            killed.close()
         else:
             moment = m.engine.state.module_time(m.now) + timedelta(seconds=int(arg))
             seen.append(m.ask(f"write date {moment:%Y%m%d%H%M%S} write com close"))
@@ -232,6 +259,7 @@ def run(case: dict[str, Any], fast: bool, monkeypatch: pytest.MonkeyPatch) -> li
     seen.append((pump(m, got, "read special file record xmodem"), got.data))
     seen.append(record.rows())
     seen.append(dict(m.engine.state.outputs.applied))
+    m.store.close()
     return seen
 
 

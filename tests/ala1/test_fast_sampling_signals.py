@@ -30,6 +30,8 @@ def models(seed: int) -> list[Signal]:
     return [
         constant(4.5),
         sine(12.4, 0.3, 7200.0, -21600.0, T0),
+        sine(12.4, 0.3, 86400.0, 0.0, 0.0),  # (a site file's: origin and phase +0.0)
+        sine(0.0, 1.0, 7200.0, -0.0, -0.0),  # (-0.0 is subtracted: t - -0.0 is not t at -0.0)
         ramp(300.0, -0.01, T0, Clamp(290.0, 299.0)),
         ramp(1.0, 0.5, T0, lambda v: v),
         RandomWalk(1.1, 0.05, 60.0, seed, T0, Clamp(0.2, 2.0)),
@@ -41,7 +43,7 @@ def models(seed: int) -> list[Signal]:
 @given(
     seed=st.integers(0, 1000),
     offsets=st.lists(st.floats(-3000.0, 10**6, allow_nan=False), max_size=60),
-    start=st.sampled_from([None, 0.0, T0 - 12345.5]),
+    start=st.sampled_from([None, 0.0, T0 - 12345.5, T0]),
 )
 def test_a_column_is_the_signal_time_by_time(
     seed: int, offsets: list[float], start: float | None

@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 from record_reference import ListRecordMemory
 from test_record_pages import STAMPS, _observe
 
-from sondalog.ala1 import record_page
+from sondalog.ala1 import record, record_page
+from sondalog.ala1.moduleclock import stamps
 from sondalog.ala1.record import PAGE, RecordChanges, RecordMemory, load_record
 from sondalog.backends.store.ala1_nv import LoggerNvStore, NvDatabase
 
@@ -96,10 +97,28 @@ def _rows_on_disk(store: LoggerNvStore, memory: Any) -> list[str]:
     st.integers(300, 20_000),
     st.booleans(),
     st.sampled_from(["at once", "in turns", "by a writer thread"]),
+    st.sampled_from([0, 1, 2, record.PLAIN_PAGES]),
 )
 def test_a_record_with_its_pages_in_the_store_answers_as_one_in_ram(
     tmp_path: Path,
     tiny_cache: None,
+    ops: list[tuple[str, Any, Any]],
+    preload: int,
+    capacity: int,
+    cyclic: bool,
+    commits: str,
+    plain_pages: int,
+) -> None:
+    saved = record.PLAIN_PAGES  # (pages kept plain until the store has them: few or none too)
+    record.PLAIN_PAGES = plain_pages
+    try:
+        _answers_as_one_in_ram(tmp_path, ops, preload, capacity, cyclic, commits)
+    finally:
+        record.PLAIN_PAGES = saved
+
+
+def _answers_as_one_in_ram(
+    tmp_path: Path,
     ops: list[tuple[str, Any, Any]],
     preload: int,
     capacity: int,
@@ -228,5 +247,33 @@ def test_a_month_of_rows_keeps_only_its_newest_in_ram(tmp_path: Path, tiny_cache
         assert again.rows(len(memory) - 2) == memory.rows(len(memory) - 2)
         point = "20200115"
         assert again.position_at_or_after(point) == memory.position_at_or_after(point)
+    finally:
+        database.close()
+
+
+def test_pages_the_store_is_handed_are_not_compressed(tmp_path: Path) -> None:
+    """With the store as the source, the pages sealed since the last commit keep their rows
+    plain (the store has them at the commit, then RAM lets go of them: compressing them was
+    work for nothing, issue 24 sixth round), up to PLAIN_PAGES; a snapshot's are compressed."""
+    database = NvDatabase(tmp_path / "plain.sqlite")
+    store = database.store("F00001")
+    try:
+        memory = load_record(store)
+        memory.reconfigure(10**7, True)
+        start = 1_577_836_800  # (2020-01-01, a row a minute)
+        minutes = list(range(start, start + 120_000, 60))
+        memory.append_many(stamps(minutes), [f"1,{n}" for n in range(2000)])
+        pages = memory._pages
+        assert len(pages) > 2 and all(page is not None and page.rows for page in pages)
+        assert all(page.data for page in memory.sealed().pages if page is not None)
+        store.commit({}, None, memory.take_changes())
+        assert memory.take_changes() is None
+        assert all(page is None for page in memory._pages)  # (let go: the store has them)
+        assert memory.rows(0, 2) == ["20200101000000.0,1,0", "20200101000100.0,1,1"]
+        more = stamps(list(range(start + 200_000, start + 200_000 + PAGE * 67 * 60, 60)))
+        memory.append_many(more, ["1,x"] * len(more))  # (64 pages plain, then compressed)
+        kept = [page for page in memory._pages if page is not None]
+        assert sum(page.rows is not None for page in kept) == record.PLAIN_PAGES
+        assert all(page.data for page in kept if page.rows is None)  # (beyond: compressed)
     finally:
         database.close()

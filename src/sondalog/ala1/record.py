@@ -34,13 +34,25 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-from sondalog.ala1.record_page import BULK, Page, PageSource, decoded, loaded, read_pages
+from sondalog.ala1.record_page import (
+    BULK,
+    Page,
+    PageSource,
+    decoded,
+    loaded,
+    packed,
+    read_pages,
+)
 from sondalog.ala1.record_page import PAGE as PAGE
 from sondalog.ala1.record_page import Sealed as Sealed
 
 _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 #: The newest rows (at least KEEP) stay plain strings.
 KEEP = 16
+#: Pages not yet let go that a record with a source keeps plain, not compressed (a stretch of
+#: 4,096 rows: the store has them at the end of the run, and they are let go; beyond, a long
+#: run's pages are compressed as before, to bound its memory).
+PLAIN_PAGES = 64
 
 
 class PagedStore(Protocol):
@@ -156,7 +168,7 @@ class RecordMemory:
         go are loaded and sealed again: the store's change, the copy must not)."""
         first = min(self._head // PAGE, len(self._pages))
         pages = tuple(
-            page if page is not None else Page(self._page_rows(n))
+            packed(page) if page is not None else Page(self._page_rows(n))
             for n, page in enumerate(self._pages[first:], first)
         )
         return Sealed(pages, tuple(self._tail), self._head - first * PAGE, None, self.chars)
@@ -195,7 +207,11 @@ class RecordMemory:
         if len(tail) < PAGE + KEEP:
             return
         full = (len(tail) - KEEP) // PAGE
-        self._pages.extend(Page(tail[n * PAGE : (n + 1) * PAGE]) for n in range(full))
+        pages = self._pages
+        # with a source, the pages the store is to be handed stay plain (it has them soon,
+        # and they are let go): up to PLAIN_PAGES of them beyond the pages let go
+        plain = 0 if self._source is None else self._evicted + PLAIN_PAGES - len(pages)
+        pages.extend(Page(tail[n * PAGE : (n + 1) * PAGE], n < plain) for n in range(full))
         del tail[: full * PAGE]
 
     def _row(self, index: int) -> str:

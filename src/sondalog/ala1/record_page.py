@@ -43,15 +43,25 @@ class PageSource(Protocol):
 
 
 class Page:
-    """:data:`PAGE` rows in one compressed text, with where each row ends."""
+    """:data:`PAGE` rows in one compressed text, with where each row ends.
 
-    __slots__ = ("data", "ends")
+    A page made ``plain`` keeps its rows as they are (``data`` empty): a record whose pages
+    the store holds lets go of a page once the store has its rows (``RecordMemory._evict``),
+    so compressing it, and decompressing it to hand its rows to the store, was work for
+    nothing (issue 24, sixth round). :func:`packed` makes a compressed page of one."""
 
-    def __init__(self, rows: list[str]) -> None:
+    __slots__ = ("data", "ends", "rows")
+
+    def __init__(self, rows: list[str], plain: bool = False) -> None:
         ends = list(itertools.accumulate(map(len, rows)))
         self.ends = array("H" if ends[-1] < 65536 else "I", ends)  # 2 bytes a row if they fit
-        text = "".join(rows).encode("utf-8", "surrogatepass")
-        self.data = zlib.compress(text, _LEVEL, wbits=_WBITS)
+        #: The rows of a plain page (None: they are in ``data``).
+        self.rows: list[str] | None = rows if plain else None
+        if plain:
+            self.data = b""
+        else:
+            text = "".join(rows).encode("utf-8", "surrogatepass")
+            self.data = zlib.compress(text, _LEVEL, wbits=_WBITS)
 
     def length(self, index: int) -> int:
         """The length of row ``index`` of the page (without decompressing it)."""
@@ -90,9 +100,19 @@ class Sealed:
         return text + 2 * rows
 
 
-@functools.lru_cache(maxsize=32)
+def packed(page: Page) -> Page:
+    """``page`` compressed (itself if it is)."""
+    return page if page.rows is None else Page(page.rows)
+
+
 def decoded(page: Page) -> list[str]:
     """The rows of ``page`` (the pages read last are kept decoded, for all modules)."""
+    rows = page.rows
+    return _decompressed(page) if rows is None else rows
+
+
+@functools.lru_cache(maxsize=32)
+def _decompressed(page: Page) -> list[str]:
     text = zlib.decompress(page.data, wbits=_WBITS).decode("utf-8", "surrogatepass")
     starts = itertools.chain((0,), page.ends)
     return [text[start:end] for start, end in zip(starts, page.ends, strict=False)]

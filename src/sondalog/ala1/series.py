@@ -353,7 +353,11 @@ def _read(
     else:
         index = [k for k, t in enumerate(times) if t in members]
         hosts = [all_hosts[k] for k in index]
-    windows = [window0 if k == 0 else period for k in index] if src.windowed else []
+    windows: list[int] = []
+    if src.windowed:  # (every window a period, but the first sample's since the last)
+        windows = [period] * len(index)
+        if index and index[0] == 0:
+            windows[0] = window0
     try:
         if src.counts is not None:
             got = Column(src.counts(hosts, windows))

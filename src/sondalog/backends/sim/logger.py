@@ -25,6 +25,14 @@ from sondalog.ala1.hardware import (
 )
 from sondalog.backends.sim.signals import Signal, constant, signal_column
 
+#: ``y + _HALF_EVEN - _HALF_EVEN`` is ``round(y)`` as a float for any finite ``|y| < 2**51``:
+#: the sum falls where floats are the whole numbers (1.5 * 2**52 .. 2**53), so the addition
+#: rounds ``y`` to the nearest, ties to the even (IEEE 754's default; ``_HALF_EVEN`` is even),
+#: and the subtraction is exact. ``round()`` rounds alike to an int, which ``/`` turns into the
+#: same float; here two float operations instead of a call (the simulation's inputs read as
+#: columns, where every value is known finite and within an ADC's or a DS18B20's range).
+_HALF_EVEN = 6755399441055744.0  # 1.5 * 2**52
+
 
 @dataclass
 class Analog:
@@ -77,6 +85,8 @@ class PulseSource:
         events, burst, left = self._events, self.burst, bisect.bisect_left
         if left(events, min(starts)) == left(events, max(ends)):  # (no pulse in any window)
             return [0] * len(ends)
+        if starts[1:] == ends[:-1] and all(map(operator.le, ends, ends[1:])):
+            return _placed(events, starts[0], ends, burst)  # (sampling windows)
         at_ends = _before_each(events, ends)
         if starts[1:] == ends[:-1]:  # (windows one after the other: each start an end before)
             at_starts = [left(events, starts[0]), *at_ends[:-1]]
@@ -94,6 +104,19 @@ class PulseSource:
         while last < until:
             last += self._rng.expovariate(self.burst_rate)
             self._events.append(last)
+
+
+def _placed(events: list[float], start: float, ends: list[float], burst: int) -> list[int]:
+    """``burst`` times the events in each window of ``[start, ends[0])``, ``[ends[0],
+    ends[1])`` ... (ascending ``ends``: windows one after the other, the first empty if
+    ``start`` is not before its end): each event of the span counted once in its window
+    (``bisect_right(ends, event)``), not two searches a window (a day of 1-minute windows
+    holds a few dozen events)."""
+    counts = [0] * len(ends)
+    left, right = bisect.bisect_left, bisect.bisect_right
+    for event in events[left(events, min(start, ends[0])) : left(events, ends[-1])]:
+        counts[right(ends, event)] += burst
+    return counts
 
 
 def _before_each(events: list[float], ends: list[float]) -> list[int]:
@@ -257,11 +280,14 @@ class SimHardware:
             and reference > 0.0
             and min(signals) / reference > 0.0
             and max(signals) / reference < 1.0
-        ):  # every fraction within the range (x / reference grows with x): rounded alone,
-            # and ``* 1.0 + 0.0`` left off (it changes only a -0.0, and none is made here)
+            and math.isfinite(sum(signals))
+        ):  # every fraction within the range (x / reference grows with x), none a NaN:
+            # rounded alone (by :data:`_HALF_EVEN`), and ``* 1.0 + 0.0`` left off (it
+            # changes only a -0.0, and none is made here)
+            m = _HALF_EVEN
             if mult == 1.0 and add == 0.0:
-                return [round(x / reference * levels) / levels for x in signals]
-            return [round(x / reference * levels) / levels * mult + add for x in signals]
+                return [(x / reference * levels + m - m) / levels for x in signals]
+            return [(x / reference * levels + m - m) / levels * mult + add for x in signals]
         # (a NaN raises in round(), as in :meth:`adc`)
         return [
             (
@@ -296,9 +322,10 @@ class SimHardware:
             # 0.0`` left off (it changes only a -0.0, and none is made here)
             if celsius[0] == max(celsius) == min(celsius):  # (a steady temperature)
                 return [round(celsius[0] * 16) / 16 / scale * mult + add] * len(celsius)
+            m = _HALF_EVEN
             if mult == 1.0 and add == 0.0:
-                return [round(c * 16) / 16 / scale for c in celsius]
-            return [round(c * 16) / 16 / scale * mult + add for c in celsius]
+                return [(c * 16 + m - m) / 16 / scale for c in celsius]
+            return [(c * 16 + m - m) / 16 / scale * mult + add for c in celsius]
         distinct = set(celsius)  # (a sensor's temperature repeats: each converted once)
         # min(125.0, max(-55.0, c)) written out: the same float, a NaN too (-55.0)
         if len(distinct) * 2 > len(celsius):
@@ -343,7 +370,8 @@ class SimHardware:
         ):
             # (every fraction within the range, none a NaN: rounded alone, ``* 1.0 +
             # 0.0`` left off: it changes only a -0.0, and none is made here)
-            return [round(x / divider / reference * levels) / levels * then for x in signals]
+            m = _HALF_EVEN
+            return [(x / divider / reference * levels + m - m) / levels * then for x in signals]
         return [
             (
                 (

@@ -116,11 +116,21 @@ class Sine:
     def column(self, times: list[float], shift: float | None = None) -> list[float]:
         mean, amplitude, period, sin = self.mean, self.amplitude, self.period, math.sin
         origin, phase = self.origin, self.phase
+        if _plus_zero(origin) and _plus_zero(phase):  # (x - +0.0 is x, a -0.0 and a NaN too)
+            if shift is None:
+                return [mean + amplitude * sin(_TWO_PI * t / period) for t in times]
+            return [mean + amplitude * sin(_TWO_PI * (t - shift) / period) for t in times]
         if shift is None:
             return [mean + amplitude * sin(_TWO_PI * (t - origin - phase) / period) for t in times]
         return [
             mean + amplitude * sin(_TWO_PI * (t - shift - origin - phase) / period) for t in times
         ]
+
+
+def _plus_zero(x: float) -> bool:
+    """``x`` is +0.0 (subtracting it leaves every float as it is; -0.0 does not: -0.0 -
+    -0.0 is +0.0)."""
+    return x == 0.0 and math.copysign(1.0, x) > 0.0
 
 
 def sine(mean: float, amplitude: float, period: float, phase: float, origin: float) -> Signal:

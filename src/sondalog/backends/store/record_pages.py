@@ -86,6 +86,16 @@ def _json(rows: Sequence[str]) -> str:
 def _runs(rows: Iterable[tuple[int, str]]) -> Iterable[tuple[int, list[str]]]:
     """Rows (sequence number, row) cut into runs of consecutive numbers within one page:
     (the first's number, the rows)."""
+    if isinstance(rows, list) and rows:  # (consecutive numbers, as a record hands them:
+        seqs, texts = zip(*rows, strict=True)  # cut by slices at the pages' starts)
+        first, end = seqs[0], seqs[0] + len(seqs)
+        if seqs == tuple(range(first, end)):
+            at = first
+            while at < end:
+                stop = min(end, (at // PAGE_ROWS + 1) * PAGE_ROWS)
+                yield at, list(texts[at - first : stop - first])
+                at = stop
+            return
     first, run = 0, list[str]()
     for seq, row in rows:
         if run and (seq != first + len(run) or seq % PAGE_ROWS == 0):
@@ -103,8 +113,10 @@ def append_rows(conn: sqlite3.Connection, logger: str, rows: Iterable[tuple[int,
     run goes onto the end of its page when the page ends just before it (one ``UPDATE``);
     otherwise the page is merged in Python (:func:`_merge`)."""
     for first, run in _runs(rows):
-        page, text = first // PAGE_ROWS, _json(run)
-        if conn.execute(_APPEND, (text, len(run), logger, page, first)).rowcount == 0:
+        page = first // PAGE_ROWS
+        starts = first % PAGE_ROWS == 0  # (a page's first row follows no row of its page)
+        appended = () if starts else (_json(run), len(run), logger, page, first)
+        if starts or not conn.execute(_APPEND, appended).rowcount:
             _merge(conn, logger, page, first, run)
 
 

@@ -19,11 +19,9 @@ million); ``readings_extremes`` keeps the same answer per fixed block of time::
     )
     readings_extremes_todo (logger PRIMARY KEY, below INTEGER NOT NULL)
 
-(PostgreSQL: ``double precision``, ``bigint``, and the logger ``COLLATE "C"``,
-:data:`sondalog.collect.schema_pg.LOGGER`, as in ``record_rows``). The rule of
-``tmin``/``tmax`` is SQLite's own for a bare column beside a lone ``min``/``max`` (the
-first row in key order with the value; the last row when all are NULL), which the dashboard
-has always shown.
+(PostgreSQL: ``double precision``, ``bigint``). The rule of ``tmin``/``tmax`` is SQLite's
+own for a bare column beside a lone ``min``/``max`` (the first row in key order with the
+value; the last row when all are NULL), which the dashboard has always shown.
 
 **Kept per batch** (:func:`after_batch_sqlite`, :func:`after_batch_postgres`: one call in
 each sink, in the batch's transaction, after its rows are stored): per logger of the batch
@@ -51,7 +49,6 @@ from typing import Any
 from sondalog.collect.blocks_rule import CONFLICT, MERGE, REPLACE, aggregate, epoch
 from sondalog.collect.model import Reading
 from sondalog.collect.schema import EXTREMES, EXTREMES_SIZES, EXTREMES_TODO
-from sondalog.collect.schema_pg import LOGGER
 
 SIZES = EXTREMES_SIZES
 DAY = SIZES[-1]
@@ -250,7 +247,7 @@ def update_sqlite(conn: sqlite3.Connection, logger: str, lo: str, lo_s: int, hi_
 # -- PostgreSQL -------------------------------------------------------------------------------
 
 POSTGRES_DDL = (
-    f"CREATE TABLE IF NOT EXISTS {TABLE} (logger {LOGGER} NOT NULL, size integer NOT NULL, "
+    f"CREATE TABLE IF NOT EXISTS {TABLE} (logger text NOT NULL, size integer NOT NULL, "
     "start bigint NOT NULL, channel integer NOT NULL, vmin double precision, "
     "tmin bigint NOT NULL, vmax double precision, tmax bigint NOT NULL, "
     "PRIMARY KEY (logger, size, start, channel))",

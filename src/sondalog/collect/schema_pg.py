@@ -21,11 +21,6 @@ with a replay).
 :data:`VERSION`; ``MIGRATIONS[n]`` turns ``n - 1`` into ``n`` (0: no schema yet), and the sink
 runs them in one transaction under an advisory lock. Version 1 to 2 moves the rows with one
 ``INSERT ... SELECT ... GROUP BY`` (``array_agg ... ORDER BY channel``) and drops the old table.
-Version 3 compares the loggers' names byte by byte (:data:`LOGGER`, ``COLLATE "C"``) in
-``record_rows`` and ``readings_extremes``: the same rows, the same answers to every query by a
-logger's name; only an ``ORDER BY logger`` of a user's own query on a database whose collation
-is not byte order (``en_US.UTF-8``: case and punctuation weighed apart) lists the loggers in
-code point order now (the dashboard sorts its list of loggers itself, in Python).
 """
 
 from __future__ import annotations
@@ -34,14 +29,7 @@ from sondalog.collect.schema import RECORD_ARRAYS
 
 #: The PostgreSQL schema version this collector writes (SQLite has its own,
 #: :data:`sondalog.collect.schema.SCHEMA_VERSION`).
-VERSION = 3
-
-#: The type of the loggers' names in ``record_rows`` and ``readings_extremes`` (version 3):
-#: compared byte by byte, which for UTF-8 is the order of the characters' code points, as
-#: Python orders ``str``. The keys' B-trees compare names at every insert and look-up; with
-#: the database's collation that is ``strcoll`` (glibc's rules, even for ``C.UTF-8`` before
-#: PostgreSQL 17): measured 15-40 % of the server's time an upsert of new blocks.
-LOGGER = 'text COLLATE "C"'
+VERSION = 2
 
 HYPERTABLE = "hypertable"
 BRIN = "brin"
@@ -70,9 +58,9 @@ CREATE TABLE IF NOT EXISTS readings (
 )
 """
 
-_TABLE_V2 = """
-CREATE TABLE {table} (
-    logger  {logger} NOT NULL,
+_TABLE = f"""
+CREATE TABLE {TABLE} (
+    logger  text        NOT NULL,
     time    timestamp   NOT NULL,
     counter integer     NOT NULL,
     utc     timestamptz,
@@ -85,9 +73,6 @@ CREATE TABLE {table} (
     PRIMARY KEY (logger, time, counter)
 )
 """
-#: Version 2's table (the migration from version 1 makes it), and the table as made now.
-_TABLE = _TABLE_V2.format(table=TABLE, logger=LOGGER)
-_TABLE_V2 = _TABLE_V2.format(table=TABLE, logger="text")
 
 #: The columns and types of version 1's table, one row a reading. By subscript rather than
 #: ``unnest``: a query computes only the columns it reads (measured: the week's rows of a
@@ -110,10 +95,6 @@ MERGED = (
 )
 _SET = f"(channel, type, value, text, name, unit) = {MERGED}"
 
-_INSTEAD = (
-    "CREATE TRIGGER readings_insert INSTEAD OF INSERT ON readings"
-    " FOR EACH ROW EXECUTE FUNCTION readings_insert()"
-)
 #: One reading inserted into the view: merged into its record row (a stored channel kept).
 _TRIGGER = f"""
 CREATE FUNCTION readings_insert() RETURNS trigger LANGUAGE plpgsql AS $$
@@ -128,7 +109,8 @@ BEGIN
     END IF;
     RETURN NEW;
 END $$;
-{_INSTEAD}
+CREATE TRIGGER readings_insert INSTEAD OF INSERT ON readings
+    FOR EACH ROW EXECUTE FUNCTION readings_insert()
 """
 
 _FILL = f"""
@@ -146,22 +128,11 @@ MIGRATIONS: dict[int, tuple[str, ...]] = {
     1: (DDL_V1,),
     2: (
         "ALTER TABLE readings RENAME TO readings_v1",
-        _TABLE_V2,
+        _TABLE,
         _FILL,
         "DROP TABLE readings_v1",
         _VIEW,
         _TRIGGER,
-    ),
-    # The loggers' names compared byte by byte (:data:`LOGGER`). The view (and its trigger)
-    # depends on the column, so it is made again; a user's own view on ``readings`` makes
-    # the step fail (nothing changed): dropped first, made again after. The key's index is
-    # rebuilt (the rows are not rewritten), the table locked meanwhile.
-    3: (
-        "DROP VIEW readings",
-        f"ALTER TABLE {TABLE} ALTER COLUMN logger TYPE {LOGGER}",
-        f"ALTER TABLE IF EXISTS readings_extremes ALTER COLUMN logger TYPE {LOGGER}",
-        _VIEW,
-        _INSTEAD,
     ),
 }
 #: A database without a schema is created at version 2 at once (nothing to move).

@@ -39,6 +39,7 @@ _fields = operator.attrgetter(
 _key = operator.attrgetter("logger", "time", "counter")
 _cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
 _channel = operator.itemgetter(3)
+_row_key = operator.itemgetter(0, 1, 2)  # a record row's logger, time, counter
 T = TypeVar("T")
 
 
@@ -100,10 +101,10 @@ def pieces(batch: Sequence[Reading], size: int) -> Iterator[list[Row]]:
             while end < len(batch) and _key(batch[end]) == last:
                 end += 1
         rows = group(batch[start:end])
-        keys = [r[:3] for r in rows]
-        if not sent.isdisjoint(keys):
+        known = len(sent)
+        sent.update(map(_row_key, rows))  # a piece's keys are distinct (group): each hashed once
+        if len(sent) != known + len(rows):
             raise Apart
-        sent.update(keys)
         yield rows
         start = end
 

@@ -152,3 +152,71 @@ def test_values_encoded_at_once_are_those_of_each_row(
     with mock.patch.object(pg_rows, "_all_values", lambda rows: None):
         slow = [pg_rows.Encoder().body(rows[i : i + cut]) for i in range(0, len(rows), cut)]
     assert fast == slow
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["A", "B", "A\x00"]),  # "A\x00" is stored as "A": its own head
+            st.lists(st.integers(0, 3), min_size=1, max_size=4, unique=True),  # channels
+            st.integers(0, 3),  # which layout of the channels: types, texts, names, units
+        ),
+        max_size=30,
+    ),
+    st.integers(1, 6),
+    st.integers(1, 40),
+)
+def test_a_loggers_last_layout_remembered_encodes_as_a_fresh_encoder(
+    items: list[tuple[str, list[int], int]], cut: int, limit: int
+) -> None:
+    """The body's memory of each logger's last layout (its arrays compared, not hashed)
+    writes the bytes a fresh encoder writes for each row alone, on random rows whose
+    layouts change from row to row of a logger (types, texts, names, units, channels),
+    loggers interleaved, and memories emptied when full (``LIMIT``)."""
+    t0 = datetime(2026, 1, 1)
+    batch = [
+        Reading(lg, ch, t0 + timedelta(minutes=i), 0, 1 + (ch + k) % 2,
+                None if k == 3 else 1.5, "t" if k == 2 else None, f"n{ch}" if k != 1 else "m",
+                "V" if k else None)
+        for i, (lg, channels, k) in enumerate(items)
+        for ch in sorted(channels)
+    ]  # fmt: skip
+    rows = pg_rows.group(batch)
+    encoder = pg_rows.Encoder()
+    with mock.patch.object(pg_rows.Encoder, "LIMIT", limit):
+        remembered = b"".join(encoder.body(rows[i : i + cut]) for i in range(0, len(rows), cut))
+    alone = b"".join(pg_rows.Encoder().body([row]) for row in rows)
+    assert remembered == alone
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["A", "B"]),
+            st.sampled_from([(1, 2, 3), (3, 1, 2), (2, 2), (1, 2, 3), (1,), (0, 4)]),
+        ),
+        max_size=20,
+    )
+)
+def test_rows_of_the_same_channels_out_of_order_each_merged(
+    items: list[tuple[str, tuple[int, ...]]],
+) -> None:
+    """Row after row of the same channels, in order or not (or one twice): every row comes
+    out in channel order with its first reading of each channel (the channels known in
+    order are remembered from row to row; those out of order must not be)."""
+    t0 = datetime(2026, 1, 1)
+    batch = [
+        Reading(lg, ch, t0 + timedelta(minutes=i), 0, 1, float(10 * i + k))
+        for i, (lg, channels) in enumerate(items)
+        for k, ch in enumerate(channels)
+    ]
+    for row in pg_rows.group(batch):
+        assert list(row[4]) == sorted(set(row[4]))
+    first: dict[tuple[object, ...], Reading] = {}
+    for r in batch:
+        first.setdefault((r.logger, r.time, r.counter, r.channel), r)
+    assert readings_of(pg_rows.group(batch)) == sorted(
+        first.values(), key=lambda r: (r.time, r.channel)
+    )

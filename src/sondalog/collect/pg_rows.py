@@ -39,6 +39,7 @@ _fields = operator.attrgetter(
 _key = operator.attrgetter("logger", "time", "counter")
 _cells = operator.attrgetter("channel", "type", "value", "text", "name", "unit")
 _channel = operator.itemgetter(3)
+_row_key = operator.itemgetter(0, 1, 2)  # a record row's logger, time, counter
 T = TypeVar("T")
 
 
@@ -64,16 +65,19 @@ def group(batch: Iterable[Reading]) -> list[Row]:
     where: dict[tuple[str, datetime, int], int] = {}
     apart: dict[int, list[tuple[Any, ...]]] = {}  # rows whose readings came apart
     ordered = _ORDERED
+    rising: tuple[int, ...] = ()  # the last channels known in order (compared, not hashed)
     for key, run in itertools.groupby(batch, key=_key):
         got = list(run)
-        at = where.setdefault(key, len(out))
-        if at != len(out):
-            apart.setdefault(at, [*_cells_of(out[at])]).extend(map(_fields, got))
+        n = len(out)
+        if where.setdefault(key, n) != n:
+            apart.setdefault(where[key], [*_cells_of(out[where[key]])]).extend(map(_fields, got))
             continue
         ch, ty, va, tx, na, un = zip(*map(_cells, got), strict=False)  # six each: equal
-        if not (ordered.get(ch) or _in_order(ch)):
-            out.append(_merged(list(map(_fields, got))))
-            continue
+        if ch != rising:
+            if not (ordered.get(ch) or _in_order(ch)):
+                out.append(_merged(list(map(_fields, got))))
+                continue
+            rising = ch
         out.append((key[0], key[1], key[2], got[0].utc, ch, ty, va, tx, na, un))
     for at, cells in apart.items():
         out[at] = _merged(cells)
@@ -97,10 +101,10 @@ def pieces(batch: Sequence[Reading], size: int) -> Iterator[list[Row]]:
             while end < len(batch) and _key(batch[end]) == last:
                 end += 1
         rows = group(batch[start:end])
-        keys = [r[:3] for r in rows]
-        if not sent.isdisjoint(keys):
+        known = len(sent)
+        sent.update(map(_row_key, rows))  # a piece's keys are distinct (group): each hashed once
+        if len(sent) != known + len(rows):
             raise Apart
-        sent.update(keys)
         yield rows
         start = end
 
@@ -219,9 +223,14 @@ class Encoder:
 
     def __init__(self) -> None:
         self._arrays: dict[tuple[int, tuple[object, ...]], bytes] = {}
-        self._heads: dict[str, bytes] = {}  # a row's field count and its logger
         #: A row's channels and types, and its texts, names and units, by those arrays.
         self._layouts: dict[tuple[tuple[object, ...], ...], tuple[bytes, bytes]] = {}
+        #: Per logger: its row's head (the field count and the logger), the arrays of its
+        #: last row's layout and their encoding. A logger's rows mostly have one layout, so
+        #: a row's arrays are compared with its logger's last ones (a tuple compares its
+        #: elements by identity first) instead of hashed into :attr:`_layouts` (a tuple's
+        #: hash is not kept: five tuples of every channel, row after row).
+        self._loggers: dict[str, _Last] = {}
 
     def _layout(self, key: tuple[tuple[object, ...], ...]) -> tuple[bytes, bytes]:
         ch, ty, tx, na, un = key
@@ -263,28 +272,23 @@ class Encoder:
         rows = rows if isinstance(rows, list) else list(rows)
         out: list[bytes] = []
         add = out.append
-        heads = self._heads
-        layouts = self._layouts
+        loggers = self._loggers
         times: dict[datetime, bytes] = {}
         values = _all_values(rows)
         at = 0
         for logger, time, counter, utc, ch, ty, va, tx, na, un in rows:
-            head = heads.get(logger)
-            if head is None:
-                if len(heads) >= self.LIMIT:
-                    heads.clear()
-                name = clean(logger)
-                head = heads[logger] = _head(10, len(name)) + name
-            add(head)
+            key = (ch, ty, tx, na, un)
+            last = loggers.get(logger)
+            if last is None or last[1] != key:
+                last = self._last(logger, key)
+            add(last[0])
             stamp = times.get(time)
             if stamp is None:
                 stamp = times[time] = _i8(8, (time - _EPOCH) // _US)
             add(stamp)
             add(_i4(4, counter))
             add(NULL if utc is None else _i8(8, (utc - _EPOCH_UTC) // _US))
-            key = (ch, ty, tx, na, un)
-            arrays = layouts.get(key) or self._layout(key)
-            add(arrays[0])
+            add(last[2])
             if values is None:
                 add(_values(va))
             else:
@@ -292,8 +296,24 @@ class Encoder:
                 add(_F8_HEADS.get(n) or _f8_head(n))
                 add(values[at : at + 12 * n])
                 at += 12 * n
-            add(arrays[1])
+            add(last[3])
         return b"".join(out)
+
+    def _last(self, logger: str, key: tuple[tuple[object, ...], ...]) -> _Last:
+        """``logger``'s row head and the encoded arrays of the layout ``key``, kept as its
+        last (:attr:`_loggers`)."""
+        loggers = self._loggers
+        last = loggers.get(logger)
+        if last is None:
+            if len(loggers) >= self.LIMIT:
+                loggers.clear()
+            name = clean(logger)
+            head = _head(10, len(name)) + name
+        else:
+            head = last[0]
+        arrays = self._layouts.get(key) or self._layout(key)
+        got = loggers[logger] = (head, key, arrays[0], arrays[1])
+        return got
 
 
 def _all_values(rows: Sequence[Row]) -> bytes | None:
@@ -327,4 +347,7 @@ def _f8_head(n: int) -> bytes:
 
 
 _SWAP = sys.byteorder == "little"
+#: A logger's row head, its last layout (the arrays channel, type, text, name, unit) and their
+#: encoding (channel and type; text, name and unit), :attr:`Encoder._loggers`.
+_Last = tuple[bytes, tuple[tuple[object, ...], ...], bytes, bytes]
 _F8_HEADS: dict[int, bytes] = {}

@@ -367,18 +367,30 @@ def format_values(
     :data:`_ROUNDS` rounds to the nearest integer (half to even, as ``round``) in two float
     operations wherever the product is below 2**51 (here below 2**33)."""
     fmt = cfg.format
+    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
+    if fresh or rendered is None:
+        return _by_units_texts(cfg, values)
+    texts = list(map(rendered.get, values))  # type: ignore[arg-type]  # (None: not lately)
+    try:
+        "".join(texts)  # type: ignore[arg-type]  # (a None raises, in one C loop)
+    except TypeError:
+        pass
+    else:
+        return texts  # type: ignore[return-value]
+    missing = [k for k, text in enumerate(texts) if text is None]
+    if len(missing) == len(texts):
+        return _by_units_texts(cfg, values)
+    for k, text in zip(missing, _by_units_texts(cfg, [values[k] for k in missing]), strict=True):
+        texts[k] = text
+    return texts  # type: ignore[return-value]
+
+
+def _by_units_texts(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
+    """:func:`format_values` of values not looked up by the value: by their units of the
+    last decimal where rendering.fixed's common case holds, else by :func:`format_value`."""
+    fmt = cfg.format
     decimals, width = fmt.decimals, fmt.width
     key = width * 16 + decimals
-    if not fresh:
-        rendered = _RENDERED.get(key)
-        if rendered is not None:  # (None for a value not rendered lately, NaN included)
-            texts = list(map(rendered.get, values))  # type: ignore[arg-type]
-            try:
-                "".join(texts)  # type: ignore[arg-type]  # (a None raises, in one C loop)
-            except TypeError:
-                pass
-            else:
-                return texts  # type: ignore[return-value]
     by_units = _BY_UNITS.get(key)
     if by_units is None:
         by_units = _BY_UNITS[key] = {}

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -186,11 +187,18 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
         many_pulses = many.pulses_column
 
         def counts(times: list[float], windows: list[int]) -> list[Value]:
-            starts = [t - window for t, window in zip(times, windows, strict=True)]
+            if len(times) != len(windows):
+                raise ValueError("a window for each time")
+            starts = list(map(operator.sub, times, windows))  # (t - window)
             got = many_pulses(device, address, timer, starts, times)
             caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
-            if not any(got) and min(caps.values(), default=0) >= 0:  # (no pulse: min(0, cap))
+            least = min(caps.values(), default=0)
+            if not any(got) and least >= 0:  # (no pulse: min(0, cap))
                 return [0 * dm + da if timer else 0.0] * len(got)
+            if got and max(got) <= least:  # (no count capped: min(c, cap) is c)
+                if not timer or (dm == 1.0 and da == 0.0):  # (c * 1.0 + 0.0 of an int: float(c))
+                    return list(map(float, got))
+                return [c * dm + da for c in got]
             if timer:  # (min(c, cap) * dm + da)
                 return [
                     (cap if (cap := caps[w]) < c else c) * dm + da

@@ -79,8 +79,8 @@ def affine(values: list[Value], mult: float, add: float, fresh: bool = False) ->
     """``v * mult + add`` of each value (None stays None), a new list (or ``values`` itself
     when it is ``fresh``: made for this call, or only read): the values themselves where
     that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
-    if mult == 1.0 and add == 0.0 and 0.0 not in values:
-        return values if fresh else list(values)
+    if mult == 1.0 and add == 0.0 and all(values):  # (no zero of either sign, nor a None:
+        return values if fresh else list(values)  # each truth tested in C, not compared)
     return [None if v is None else v * mult + add for v in values]
 
 
@@ -343,7 +343,7 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     if first is None and second is None:
 
         def plain(rs: list[Value]) -> list[Value]:  # (channel_plan's plain)
-            if m1 == 1.0 and a1 == 0.0 and 0.0 not in rs:
+            if m1 == 1.0 and a1 == 0.0 and all(rs):  # (no zero, no None: as affine)
                 return affine(rs, mult, add)  # (r * 1.0 + 0.0 is r, but for -0.0)
             if m1 == mult == 1.0 and a1 == add == 0.0 and not has_none(rs):  # (counts: zeros)
                 return [r + 0.0 for r in rs]  # type: ignore[operator]  # (-0.0 to 0.0 alone)

@@ -128,3 +128,30 @@ def test_a_surface_column_over_a_slow_parameter(
     column_p: list[float | None] = [p for p, length in runs for _ in range(length)]
     column_x = [xs[k % len(xs)] for k in range(len(column_p))]
     _agrees(lambda: surface_column(surface)(column_x, column_p), surface, column_x, column_p)
+
+
+@given(
+    ends=st.lists(finite, min_size=2, max_size=2, unique=True).map(sorted),
+    ys=st.lists(st.one_of(finite, special), min_size=2, max_size=2),
+    fractions=st.lists(st.floats(0.0, 1.0), min_size=1, max_size=40),
+    nan_at=st.one_of(st.none(), st.integers(0, 40)),
+    none_at=st.one_of(st.none(), st.integers(0, 40)),
+)
+def test_a_line_over_values_between_its_points(
+    ends: list[float],
+    ys: list[float],
+    fractions: list[float],
+    nan_at: int | None,
+    none_at: int | None,
+) -> None:
+    """A two-point table over values between its points (issue 24, sixth round: the
+    interpolation alone once min and max lie inside), its points themselves, and a NaN
+    anywhere among them (min and max may pass over it: the column raises as Curve)."""
+    x0, x1 = ends
+    curve = Curve((x0, x1), (ys[0], ys[1]))
+    values: list[float | None] = [min(x1, max(x0, x0 + (x1 - x0) * f)) for f in fractions]
+    if nan_at is not None:
+        values.insert(min(nan_at, len(values)), math.nan)
+    if none_at is not None:
+        values.insert(min(none_at, len(values)), None)
+    _agrees(lambda: curve_column(curve)(values), curve, values)

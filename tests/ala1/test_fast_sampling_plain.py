@@ -7,10 +7,10 @@ from __future__ import annotations
 import math
 from decimal import Decimal
 
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.ala1.columns import channel_column, channel_plan
+from sondalog.ala1.columns import affine, channel_column, channel_plan
 from sondalog.ala1.measure import ChannelConfig, Input, Measurer
 from sondalog.ala1.tokens import NumberFormat
 from sondalog.backends.sim.logger import default_hardware
@@ -53,3 +53,20 @@ def test_a_plain_column_is_the_plan_value_by_value(
     many = channel_column(measurer, cfg)
     assert many is not None
     assert _bits(many(rs)) == _bits([calc(r) for r in rs])
+
+
+@given(
+    values=st.lists(readings, max_size=40),
+    mult=st.sampled_from([1.0, 1.0, -1.0, 2.5]),
+    add=st.sampled_from([0.0, 0.0, -0.0, 0.25]),
+    fresh=st.booleans(),
+)
+@example(values=[1.0, -0.0], mult=1.0, add=0.0, fresh=True)
+@example(values=[None, 0.0], mult=1.0, add=0.0, fresh=False)
+def test_affine_is_each_value_times_mult_plus_add(
+    values: list[float | None], mult: float, add: float, fresh: bool
+) -> None:
+    """``affine`` (issue 24, sixth round: the values themselves once ``all`` finds no zero of
+    either sign) gives ``v * mult + add`` of each value bit for bit: a -0.0 becomes 0.0."""
+    expected = [None if v is None else v * mult + add for v in values]
+    assert _bits(affine(list(values), mult, add, fresh)) == _bits(expected)

@@ -141,3 +141,41 @@ def test_texts_rendered_by_units_are_known_in_units(
     for text, value in zip(texts, values, strict=True):
         if text in known:
             assert known[text] == round(Decimal(text.strip()).scaleb(decimals)), (text, value)
+
+
+@given(
+    units=st.lists(st.integers(-(10**7), 10**7), min_size=1, max_size=30),
+    offsets=st.lists(
+        st.one_of(st.floats(-0.5, 0.5), st.sampled_from([0.4999, -0.4999, 0.49995, 0.5])),
+        min_size=1,
+        max_size=30,
+    ),
+    odd=st.lists(
+        st.tuples(st.integers(0, 40), st.sampled_from([math.nan, math.inf, -math.inf, 0.0])),
+        max_size=3,
+    ),
+    width=st.integers(0, 9),
+    decimals=st.integers(0, 6),
+    fresh=st.booleans(),
+)
+def test_a_series_of_numbers_formats_by_its_rounded_units(
+    units: list[int],
+    offsets: list[float],
+    odd: list[tuple[int, float]],
+    width: int,
+    decimals: int,
+    fresh: bool,
+) -> None:
+    """A series of numbers only (issue 24, sixth round: the bounds checked once for the
+    series, each value's units rounded by adding and subtracting 1.5 * 2**52): values near
+    and on halves of the last decimal, a NaN, an infinity or a zero anywhere among them
+    (min and max of a series with a NaN depend on where it is) show as through Decimal."""
+    fmt = NumberFormat(width, decimals)
+    scale = 10.0**decimals
+    values = [(units[k % len(units)] + offset) / scale for k, offset in enumerate(offsets)]
+    for at, value in odd:
+        values.insert(min(at, len(values)), value)
+    expected = [
+        fmt.render(Decimal(repr(v))) if math.isfinite(v) and abs(v) < 1e15 else "" for v in values
+    ]
+    assert format_values(_config(width, decimals), values, fresh=fresh) == expected

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -78,8 +79,8 @@ def affine(values: list[Value], mult: float, add: float, fresh: bool = False) ->
     """``v * mult + add`` of each value (None stays None), a new list (or ``values`` itself
     when it is ``fresh``: made for this call, or only read): the values themselves where
     that is the same float (``* 1.0 + 0.0`` changes only a -0.0, to 0.0)."""
-    if mult == 1.0 and add == 0.0 and 0.0 not in values:
-        return values if fresh else list(values)
+    if mult == 1.0 and add == 0.0 and all(values):  # (no zero of either sign, nor a None:
+        return values if fresh else list(values)  # each truth tested in C, not compared)
     return [None if v is None else v * mult + add for v in values]
 
 
@@ -186,11 +187,18 @@ def source(measurer: Measurer, cfg: ChannelConfig, inp: Input, number: int) -> S
         many_pulses = many.pulses_column
 
         def counts(times: list[float], windows: list[int]) -> list[Value]:
-            starts = [t - window for t, window in zip(times, windows, strict=True)]
+            if len(times) != len(windows):
+                raise ValueError("a window for each time")
+            starts = list(map(operator.sub, times, windows))  # (t - window)
             got = many_pulses(device, address, timer, starts, times)
             caps = {w: floor(limit * w) for w in set(windows)}  # (most windows: one period)
-            if not any(got) and min(caps.values(), default=0) >= 0:  # (no pulse: min(0, cap))
+            least = min(caps.values(), default=0)
+            if not any(got) and least >= 0:  # (no pulse: min(0, cap))
                 return [0 * dm + da if timer else 0.0] * len(got)
+            if got and max(got) <= least:  # (no count capped: min(c, cap) is c)
+                if not timer or (dm == 1.0 and da == 0.0):  # (c * 1.0 + 0.0 of an int: float(c))
+                    return list(map(float, got))
+                return [c * dm + da for c in got]
             if timer:  # (min(c, cap) * dm + da)
                 return [
                     (cap if (cap := caps[w]) < c else c) * dm + da
@@ -335,7 +343,7 @@ def channel_column(measurer: Measurer, cfg: ChannelConfig) -> Many | None:
     if first is None and second is None:
 
         def plain(rs: list[Value]) -> list[Value]:  # (channel_plan's plain)
-            if m1 == 1.0 and a1 == 0.0 and 0.0 not in rs:
+            if m1 == 1.0 and a1 == 0.0 and all(rs):  # (no zero, no None: as affine)
                 return affine(rs, mult, add)  # (r * 1.0 + 0.0 is r, but for -0.0)
             if m1 == mult == 1.0 and a1 == add == 0.0 and not has_none(rs):  # (counts: zeros)
                 return [r + 0.0 for r in rs]  # type: ignore[operator]  # (-0.0 to 0.0 alone)

@@ -204,17 +204,23 @@ def _by_units(
     written when it differs from the recorded one by ``least`` units or more (§6.5.16.2),
     or when ``samples`` samples have passed since the last write (§6.5.16.3)."""
     last = units.pop()
-    since = run.since_write
-    limit = samples if samples > 0 else since + len(texts) + 1  # (never reached)
+    since, n = run.since_write, len(units)
+    # (a text is written when it leaves the band lo < u < hi around the recorded one, or at
+    # the index ``due`` where ``samples`` samples have passed since the last write)
+    lo, hi = last - least, last + least
+    due = samples - since - 1 if samples > 0 else n
     out: list[tuple[int, str]] = []
     for k, u in enumerate(units):
-        since += 1
-        if u - last >= least or last - u >= least or since >= limit:
+        if not lo < u < hi or k >= due:
             out.append((k, texts[k]))
-            last, since = u, 0
+            lo, hi = u - least, u + least
+            if samples > 0:
+                due = k + samples
     if out:
         run.recorded = out[-1][1]
-    run.since_write = since
+        run.since_write = n - 1 - out[-1][0]
+    else:
+        run.since_write = since + n
     return out
 
 
@@ -280,7 +286,7 @@ def _averaged_bulk(
         averages.append(_sum(valid[:need], partial) / n)
         rest = iter(valid[need:])  # (the next averages: zip takes n samples at a time)
         groups = zip(*[rest] * n, strict=False)  # (an incomplete last group is left off)
-        averages += [total / n for total in map(_sum, groups, repeat(0.0))]
+        averages += map(operator.truediv, map(_sum, groups, repeat(0.0)), repeat(n))
         used = need + (len(averages) - 1) * n
         partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
     else:

@@ -38,20 +38,26 @@ def curve_column(curve: Curve) -> CurveColumn:
     if len(xs) == 2:  # a line: no segment to look for, nothing worth remembering
         dy, dx = dys[1], dxs[1]
 
+        def inside(values: list[float]) -> list[float]:
+            # (every value between the two points: the interpolation alone; a NaN goes
+            # the general way, which raises as Curve does)
+            if values and x_first < min(values) and max(values) < x_last:
+                total = sum(values)
+                if total == total:  # (no NaN: no infinity passes the bounds)
+                    return [y_first + dy * (x - x_first) / dx for x in values]
+            return [
+                y_first
+                if x <= x_first
+                else y_first + dy * (x - x_first) / dx
+                if x < x_last
+                else y_last
+                if x >= x_last
+                else _no_segment(x)  # (a NaN, as Curve raises)
+                for x in values
+            ]
+
         def line(values: list[Value]) -> list[Value]:
-            return _over_valid(
-                lambda values: [
-                    y_first
-                    if x <= x_first
-                    else y_first + dy * (x - x_first) / dx
-                    if x < x_last
-                    else y_last
-                    if x >= x_last
-                    else _no_segment(x)  # (a NaN, as Curve raises)
-                    for x in values
-                ],
-                values,
-            )
+            return _over_valid(inside, values)
 
         return line
 
@@ -106,8 +112,9 @@ def surface_column(surface: Surface) -> Callable[[list[Value], list[Value]], lis
             return curves[-1](xs)
         p0, p1 = params[key - 1], params[key]  # (a NaN parameter: IndexError, as in Surface)
         y0s, y1s = curves[key - 1](xs), curves[key](xs)
+        dp = p1 - p0  # (the same float for every pair)
         return [
-            y0 + (y1 - y0) * (p - p0) / (p1 - p0)  # type: ignore[operator]
+            y0 + (y1 - y0) * (p - p0) / dp  # type: ignore[operator]
             for y0, y1, p in zip(y0s, y1s, ps, strict=True)
         ]
 

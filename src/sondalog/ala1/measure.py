@@ -359,25 +359,48 @@ def format_values(
     cfg: ChannelConfig, values: Sequence[float | None], fresh: bool = False
 ) -> list[str]:
     """:func:`format_value` of each of ``values`` (issue 24: a series of samples), the texts
-    rendered lately looked up without a call: by the value, or by its units of the last
-    decimal when the values are ``fresh`` (averages: new floats, seldom new units)."""
+    rendered lately looked up without a call: by the value (unless the values are ``fresh``:
+    averages, new floats), else by its units of the last decimal (new floats, seldom new
+    units) where rendering.fixed's common case holds, else by :func:`format_value`.
+
+    The units are ``round(value * 10**decimals)`` as a float: adding and subtracting
+    :data:`_ROUNDS` rounds to the nearest integer (half to even, as ``round``) in two float
+    operations wherever the product is below 2**51 (here below 2**33)."""
     fmt = cfg.format
     rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
-    if rendered is None:
-        rendered = _RENDERED[fmt.width * 16 + fmt.decimals] = {}
-    get = rendered.get  # (None for a value not rendered lately, None and NaN included)
-    decimals, width = fmt.decimals, fmt.width
-    by_units = _BY_UNITS.get(fmt.width * 16 + fmt.decimals)
-    if by_units is None:
-        by_units = _BY_UNITS[fmt.width * 16 + fmt.decimals] = {}
+    if fresh or rendered is None:
+        return _by_units_texts(cfg, values)
+    texts = list(map(rendered.get, values))  # type: ignore[arg-type]  # (None: not lately)
+    try:
+        "".join(texts)  # type: ignore[arg-type]  # (a None raises, in one C loop)
+    except TypeError:
+        pass
+    else:
+        return texts  # type: ignore[return-value]
+    missing = [k for k, text in enumerate(texts) if text is None]
+    if len(missing) == len(texts):
+        return _by_units_texts(cfg, values)
+    for k, text in zip(missing, _by_units_texts(cfg, [values[k] for k in missing]), strict=True):
+        texts[k] = text
+    return texts  # type: ignore[return-value]
 
-    near, scale = NEAR_BELOW[decimals], SCALES[decimals]
-    pattern, ten = f"%d.%0{decimals}d", 10**decimals
+
+def _by_units_texts(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
+    """:func:`format_values` of values not looked up by the value: by their units of the
+    last decimal where rendering.fixed's common case holds, else by :func:`format_value`."""
+    fmt = cfg.format
+    decimals, width = fmt.decimals, fmt.width
+    key = width * 16 + decimals
+    by_units = _BY_UNITS.get(key)
+    if by_units is None:
+        by_units = _BY_UNITS[key] = {}
     known = KNOWN_UNITS.get(decimals)
     if known is None:
         known = KNOWN_UNITS[decimals] = {}
+    pattern, ten = f"%d.%0{decimals}d", 10**decimals
 
-    def made(units: int) -> str:  # (the text of new units, kept by them)
+    def made(rounded: float) -> str:  # (the text of new units, kept by them)
+        units = int(rounded)
         if decimals:  # (whole part, then the decimals zero-padded: one % operation)
             text: str = pattern % divmod(-units if units < 0 else units, ten)
             text = ("-" + text if units < 0 else text).rjust(width)
@@ -385,66 +408,41 @@ def format_values(
             text = str(units).rjust(width)
         if len(by_units) >= _RENDERED_MAX:
             by_units.clear()
-        by_units[units] = text
+        by_units[rounded] = text
         if len(known) >= KNOWN_UNITS_MAX:
             known.clear()
         known[text] = units  # (a text of the format: ``int`` of its digits is ``units``)
         return text
 
-    def new(value: float | None) -> str:
-        if value is None or not -near < value < near or -1e-4 < value < 1e-4:
-            return format_value(cfg, value)  # ("": no value, a NaN, beyond the limit)
-        scaled = value * scale  # (rendering.fixed's common case written out)
-        if 0.4999 < scaled % 1.0 < 0.5001:
-            return format_value(cfg, value)
-        units = round(scaled)
-        text = by_units.get(units)  # (an average is a new float, seldom new units)
-        if text is None:
-            text = made(units)
-        if len(rendered) >= _RENDERED_MAX:
-            rendered.clear()
-        rendered[value] = text
-        return text
-
+    near, scale, rounds = NEAR_BELOW[decimals], SCALES[decimals], _ROUNDS
     units_text = by_units.get
-    if fresh:  # (new() for a value near zero, a half or beyond the limit, or no value)
-        return [
-            text  # type: ignore[misc]  # (a str wherever it is taken)
-            if value is not None
-            and -near < value < near
-            and not -1e-4 < value < 1e-4
-            and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
-            and (
-                (text := units_text(units := round(scaled))) is not None
-                or (text := made(units)) is not None
-            )
-            else new(value)
-            for value in values
-        ]
-    return [  # (a value not rendered lately: by its units, as above, before a call)
+    try:  # (every value within the bounds, or a NaN: taken as one below; a None raises)
+        within = -near < min(values) and max(values) < near  # type: ignore[operator,type-var]
+    except (TypeError, ValueError):  # (no value, or no values)
+        within = False
+    return [
         text  # type: ignore[misc]  # (a str wherever it is taken)
-        if (text := get(value)) is not None  # type: ignore[arg-type]
-        or (
-            value is not None
-            and -near < value < near
-            and not -1e-4 < value < 1e-4
-            and not 0.4999 < (scaled := value * scale) % 1.0 < 0.5001
-            and (
-                (text := units_text(units := round(scaled))) is not None
-                or (text := made(units)) is not None
-            )
-        )
-        else new(value)
+        if (within or (value is not None and -near < value < near))
+        and not -1e-4 < value < 1e-4  # type: ignore[operator]
+        and -0.4999
+        < (scaled := value * scale) - (units := scaled + rounds - rounds)  # type: ignore[operator]
+        < 0.4999
+        and ((text := units_text(units)) is not None or (text := made(units)) is not None)
+        else format_value(cfg, value)  # (which keeps the text by the value)
         for value in values
     ]
+
+
+#: 1.5 * 2**52: ``x + _ROUNDS - _ROUNDS`` is ``round(x)`` (half to even) for |x| < 2**51.
+_ROUNDS = 6755399441055744.0
 
 
 #: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the
 #: decimal rendering costs more than the rest of a measurement. -0.0 and 0.0 share an
 #: entry: both render without a sign.
 _RENDERED: dict[int, dict[float, str]] = {}  # by width * 16 + decimals
-#: The same texts by the value in units of the last decimal (far from a half).
-_BY_UNITS: dict[int, dict[int, str]] = {}
+#: The same texts by the value in units of the last decimal (far from a half), as a float.
+_BY_UNITS: dict[int, dict[float, str]] = {}
 _RENDERED_MAX = 8192
 #: Texts in units of their last decimal (None: not a number of the channel's format), by
 #: decimals: the texts rendered by units above, and those the record conditions met

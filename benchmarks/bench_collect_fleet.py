@@ -201,8 +201,15 @@ def measure(
             )
         )
         env = {**os.environ, "PYTHONPATH": str(src)}
+        profile: list[str] = []
+        if args.profile is not None:  # the whole run, warm-up included (cProfile's overhead)
+            args.profile.mkdir(parents=True, exist_ok=True)
+            name = (
+                label.replace(" ", "_").replace(",", "") + f"-{len(list(args.profile.iterdir()))}"
+            )
+            profile = ["-m", "cProfile", "-o", str(args.profile / f"{name}.prof")]
         proc = subprocess.Popen(
-            [sys.executable, "-m", "sondalog", "collect", str(config)],
+            [sys.executable, *profile, "-m", "sondalog", "collect", str(config)],
             env=env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -287,6 +294,13 @@ def main() -> None:
     )
     parser.add_argument(
         "--fleets", type=int, default=None, help="serve processes (default: what files allow)"
+    )
+    parser.add_argument(
+        "--profile",
+        type=Path,
+        default=None,
+        help="run every collector under cProfile, its stats in this directory (LABEL-N.prof; "
+        "the figures then include the profiler's overhead)",
     )
     args = parser.parse_args()
     if args.fleets is None:  # a kept connection is a second file a logger in its process

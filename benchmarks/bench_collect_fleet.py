@@ -18,12 +18,14 @@ Each source reads its logger's configuration every ``--config-every`` contacts (
 about ten times a contact's own work for both ends, which ``bench_config_watch.py`` measures;
 for ten thousand sources docs/collector.md advises ``config_every = 0`` or a large N.
 
-``--keep-open`` measures this tree twice a run: its default path (a connection a contact)
-and with ``keep_open = true`` on every source (the connection kept between contacts,
-docs/collector.md), side by side in the table; the sondalog fleet's servers take several
-connections, as keep_open needs. A kept connection is a file on both sides: a logger process
-then holds two a logger (its listener and the connection), so the fleet is split over
-``--fleets`` processes (default: as many as the open-file limit needs) for every path alike.
+``--keep-open`` measures this tree (and ``--compare``'s) twice a run: its default path (a
+connection a contact) and with ``keep_open = true`` on every source (the connection kept
+between contacts, docs/collector.md), side by side in the table; the sondalog fleet's
+servers take several connections, as keep_open needs. A kept connection is a file on both
+sides: a logger process then holds two a logger (its listener and the connection), so the
+fleet is split over ``--fleets`` processes (default: as many as the open-file limit needs)
+for every path alike. ``--profile DIR`` runs each collector under cProfile (its figures then
+carry the profiler's overhead).
 
 ``--compare OLD_SRC`` runs the same measurement with the collector's code from another tree
 (``git archive BASE src | tar -x -C /tmp/base``), interleaved with this tree's runs against
@@ -287,7 +289,8 @@ def main() -> None:
     parser.add_argument(
         "--keep-open",
         action="store_true",
-        help="also measure this tree with keep_open = true on every source (both reported)",
+        help="also measure this tree (and --compare's) with keep_open = true on every source "
+        "(both paths reported)",
     )
     parser.add_argument(
         "--config-every", type=int, default=0, help="config_every of each source (0: never)"
@@ -315,6 +318,8 @@ def main() -> None:
         trees.append(("this tree, keep_open", HERE, True))
     if args.compare:
         trees.append(("compare", args.compare, False))
+        if args.keep_open:  # the other tree's kept connections too, in the same minutes
+            trees.append(("compare, keep_open", args.compare, True))
     with tempfile.TemporaryDirectory() as tmp:
         fleets, ports, started = [], [], 0.0
         for n in range(args.fleets):

@@ -180,6 +180,22 @@ def lags(db: sqlite3.Connection, offset: float) -> tuple[float, int]:
     return worst, never
 
 
+def config_text(ports: list[int], interval: float, config_every: int, keep_open: bool) -> str:
+    """The collector's file: a source a logger port, the store beside it, no dashboard."""
+    return (
+        '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
+        # the [collect] default: a key a source would not fit 10,000 in the 1 MiB
+        + ("[collect]\nkeep_open = true\n" if keep_open else "")
+        + "".join(
+            # compact (retry = 5 is the default): 10,000 sources within the 1 MiB a
+            # configuration file may have
+            f'\n[[source]]\nname="s{i:05d}"\nurl="tcp://127.0.0.1:{port}"\n'
+            f"interval={interval:g}\nretry_max=30\nconfig_every={config_every}\n"
+            for i, port in enumerate(ports)
+        )
+    )
+
+
 def measure(
     label: str,
     src: Path,
@@ -190,18 +206,7 @@ def measure(
 ) -> Run:
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "collector.toml"
-        config.write_text(
-            '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
-            # the [collect] default: a key a source would not fit 10,000 in the 1 MiB
-            + ("[collect]\nkeep_open = true\n" if keep_open else "")
-            + "".join(
-                # compact (retry = 5 is the default): 10,000 sources within the 1 MiB a
-                # configuration file may have
-                f'\n[[source]]\nname="s{i:05d}"\nurl="tcp://127.0.0.1:{port}"\n'
-                f"interval={args.interval:g}\nretry_max=30\nconfig_every={args.config_every}\n"
-                for i, port in enumerate(ports)
-            )
-        )
+        config.write_text(config_text(ports, args.interval, args.config_every, keep_open))
         env = {**os.environ, "PYTHONPATH": str(src)}
         profile: list[str] = []
         if args.profile is not None:  # the whole run, warm-up included (cProfile's overhead)

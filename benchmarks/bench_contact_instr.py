@@ -31,7 +31,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_collect_fleet import start
+from bench_collect_fleet import config_text, start
 from bench_fleet import configure
 
 HERE = Path(__file__).resolve().parent.parent / "src"
@@ -76,15 +76,7 @@ def measure(
     """(instructions, contacts) of one collector run to ``count`` contacts."""
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "collector.toml"
-        config.write_text(
-            '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
-            + ("[collect]\nkeep_open = true\n" if keep else "")
-            + "".join(
-                f'\n[[source]]\nname="s{i:05d}"\nurl="tcp://127.0.0.1:{port}"\n'
-                f"interval={args.interval:g}\nconfig_every=0\n"
-                for i, port in enumerate(ports)
-            )
-        )
+        config.write_text(config_text(ports, args.interval, 0, keep))
         out = Path(tmp) / "callgrind.out"
         done = subprocess.run(
             [

@@ -269,10 +269,9 @@ class Download:
 
     def prefetched_step(self) -> tuple[Chunk, bool] | None:
         """The next step of :meth:`chunks` when its chunk was read with the identification
-        (:meth:`contact`, :func:`~sondalog.client.visit.visit`), taken without an async
-        generator (a collector's usual contact ends with it): the chunk, to hand on when it
-        has rows or a gap, and whether more chunks follow (:meth:`chunks` then goes on).
-        None when no chunk was read ahead for this step (:meth:`chunks` reads it)."""
+        (:meth:`contact`, :func:`~sondalog.client.visit.visit`), without an async generator:
+        the chunk (handed on when it has rows or a gap) and whether more follow (then
+        :meth:`chunks`); None when no chunk was read ahead for this step."""
         prefetched = self._prefetched
         if prefetched is None:
             return None

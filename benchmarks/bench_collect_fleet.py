@@ -18,12 +18,14 @@ Each source reads its logger's configuration every ``--config-every`` contacts (
 about ten times a contact's own work for both ends, which ``bench_config_watch.py`` measures;
 for ten thousand sources docs/collector.md advises ``config_every = 0`` or a large N.
 
-``--keep-open`` measures this tree twice a run: its default path (a connection a contact)
-and with ``keep_open = true`` on every source (the connection kept between contacts,
-docs/collector.md), side by side in the table; the sondalog fleet's servers take several
-connections, as keep_open needs. A kept connection is a file on both sides: a logger process
-then holds two a logger (its listener and the connection), so the fleet is split over
-``--fleets`` processes (default: as many as the open-file limit needs) for every path alike.
+``--keep-open`` measures this tree (and ``--compare``'s) twice a run: its default path (a
+connection a contact) and with ``keep_open = true`` on every source (the connection kept
+between contacts, docs/collector.md), side by side in the table; the sondalog fleet's
+servers take several connections, as keep_open needs. A kept connection is a file on both
+sides: a logger process then holds two a logger (its listener and the connection), so the
+fleet is split over ``--fleets`` processes (default: as many as the open-file limit needs)
+for every path alike. ``--profile DIR`` runs each collector under cProfile (its figures then
+carry the profiler's overhead).
 
 ``--compare OLD_SRC`` runs the same measurement with the collector's code from another tree
 (``git archive BASE src | tar -x -C /tmp/base``), interleaved with this tree's runs against
@@ -178,6 +180,22 @@ def lags(db: sqlite3.Connection, offset: float) -> tuple[float, int]:
     return worst, never
 
 
+def config_text(ports: list[int], interval: float, config_every: int, keep_open: bool) -> str:
+    """The collector's file: a source a logger port, the store beside it, no dashboard."""
+    return (
+        '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
+        # the [collect] default: a key a source would not fit 10,000 in the 1 MiB
+        + ("[collect]\nkeep_open = true\n" if keep_open else "")
+        + "".join(
+            # compact (retry = 5 is the default): 10,000 sources within the 1 MiB a
+            # configuration file may have
+            f'\n[[source]]\nname="s{i:05d}"\nurl="tcp://127.0.0.1:{port}"\n'
+            f"interval={interval:g}\nretry_max=30\nconfig_every={config_every}\n"
+            for i, port in enumerate(ports)
+        )
+    )
+
+
 def measure(
     label: str,
     src: Path,
@@ -188,21 +206,17 @@ def measure(
 ) -> Run:
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "collector.toml"
-        config.write_text(
-            '[sqlite]\npath = "store.sqlite"\n[web]\nenabled = false\n'
-            # the [collect] default: a key a source would not fit 10,000 in the 1 MiB
-            + ("[collect]\nkeep_open = true\n" if keep_open else "")
-            + "".join(
-                # compact (retry = 5 is the default): 10,000 sources within the 1 MiB a
-                # configuration file may have
-                f'\n[[source]]\nname="s{i:05d}"\nurl="tcp://127.0.0.1:{port}"\n'
-                f"interval={args.interval:g}\nretry_max=30\nconfig_every={args.config_every}\n"
-                for i, port in enumerate(ports)
-            )
-        )
+        config.write_text(config_text(ports, args.interval, args.config_every, keep_open))
         env = {**os.environ, "PYTHONPATH": str(src)}
+        profile: list[str] = []
+        if args.profile is not None:  # the whole run, warm-up included (cProfile's overhead)
+            args.profile.mkdir(parents=True, exist_ok=True)
+            name = (
+                label.replace(" ", "_").replace(",", "") + f"-{len(list(args.profile.iterdir()))}"
+            )
+            profile = ["-m", "cProfile", "-o", str(args.profile / f"{name}.prof")]
         proc = subprocess.Popen(
-            [sys.executable, "-m", "sondalog", "collect", str(config)],
+            [sys.executable, *profile, "-m", "sondalog", "collect", str(config)],
             env=env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -280,13 +294,21 @@ def main() -> None:
     parser.add_argument(
         "--keep-open",
         action="store_true",
-        help="also measure this tree with keep_open = true on every source (both reported)",
+        help="also measure this tree (and --compare's) with keep_open = true on every source "
+        "(both paths reported)",
     )
     parser.add_argument(
         "--config-every", type=int, default=0, help="config_every of each source (0: never)"
     )
     parser.add_argument(
         "--fleets", type=int, default=None, help="serve processes (default: what files allow)"
+    )
+    parser.add_argument(
+        "--profile",
+        type=Path,
+        default=None,
+        help="run every collector under cProfile, its stats in this directory (LABEL-N.prof; "
+        "the figures then include the profiler's overhead)",
     )
     args = parser.parse_args()
     if args.fleets is None:  # a kept connection is a second file a logger in its process
@@ -301,6 +323,8 @@ def main() -> None:
         trees.append(("this tree, keep_open", HERE, True))
     if args.compare:
         trees.append(("compare", args.compare, False))
+        if args.keep_open:  # the other tree's kept connections too, in the same minutes
+            trees.append(("compare, keep_open", args.compare, True))
     with tempfile.TemporaryDirectory() as tmp:
         fleets, ports, started = [], [], 0.0
         for n in range(args.fleets):

@@ -1,12 +1,18 @@
 """``sondalog collect FILE.toml``: run the collector until stopped (parsing only; the work is
 in :mod:`sondalog.collect.runner`).
 
+SIGHUP reads the file again and takes its sources (:mod:`sondalog.collect.reload`); a file
+that does not load is logged and the running configuration kept.
+
 Exit status: 0 stopped by SIGINT/SIGTERM (or ``--once`` done), 1 ``--once`` and a source
 failed, 2 a configuration error (``FILE:LINE: field: message``) or a store that cannot be used.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import signal
 from pathlib import Path
 
 import click
@@ -14,6 +20,7 @@ import click
 from sondalog.app.collector import WebUnavailable, run_collector
 from sondalog.cli.common import Refused
 from sondalog.collect.config import load_config
+from sondalog.collect.reload import reloading
 from sondalog.collect.runner import Collector
 from sondalog.collect.sinks import build_sinks
 from sondalog.collect.store_sqlite import SqliteStore, StoreError
@@ -34,7 +41,8 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     """Collect readings from loggers and buses into SQLite (and PostgreSQL, MQTT).
 
     Runs until SIGINT or SIGTERM, serving the dashboard (default http://127.0.0.1:8080/,
-    the [web] table). The configuration is described in docs/collector.md.
+    the [web] table); SIGHUP reads the file again and takes its [[source]] list. The
+    configuration is described in docs/collector.md.
     """
     try:
         config = load_config(config_file)
@@ -54,7 +62,7 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
     except StoreError as exc:
         raise Refused(str(exc)) from None
     try:
-        run_loop(_run(collector, once))  # uvloop when installed (sondalog[fast])
+        run_loop(_run(collector, config_file, once))  # uvloop when installed (sondalog[fast])
     except WebUnavailable as exc:
         collector.store.close_sync()
         raise Refused(f"{config_file}: web.listen: {exc}") from None
@@ -62,10 +70,21 @@ def collect(config_file: Path, once: bool, check: bool) -> None:
         raise click.ClickException(f"sources failed: {', '.join(sorted(collector.failing))}")
 
 
-async def _run(collector: Collector, once: bool) -> None:
+async def _run(collector: Collector, config_file: Path, once: bool) -> None:
     stop = stop_on_signals()
 
     def listening(host: str, port: int) -> None:
         click.echo(f"dashboard on http://{host}:{port}/", err=True)
 
-    await run_collector(collector, stop, once=once, on_web=listening)
+    wake = asyncio.Event()
+    reloads = None
+    if not once:
+        asyncio.get_running_loop().add_signal_handler(signal.SIGHUP, wake.set)
+        reloads = asyncio.create_task(reloading(collector, config_file, wake), name="reload")
+    try:
+        await run_collector(collector, stop, once=once, on_web=listening)
+    finally:
+        if reloads is not None:
+            reloads.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await reloads

@@ -47,11 +47,6 @@ SPREAD = 5.0
 START_RATE = 100.0
 
 
-def _cancelling() -> bool:
-    task = asyncio.current_task()
-    return task is not None and task.cancelling() > 0
-
-
 def describe(exc: BaseException) -> str:
     """``ConnectionRefusedError: [Errno 111] ...``: the error's type and message."""
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
@@ -295,6 +290,7 @@ class Collector:
     async def _contacts(self, source: Source, delay: float, once: bool) -> None:
         cfg = source.config
         loop = asyncio.get_running_loop()
+        task = asyncio.current_task()  # its own: asked once, not at every contact
         await asyncio.sleep(delay)
         failures = 0
         while True:
@@ -340,8 +336,8 @@ class Collector:
             self.contacts += 1
             if once:
                 return
-            if _cancelling():  # a cancel that a finished wait swallowed (asyncio.wait_for, 3.11)
-                raise asyncio.CancelledError
+            if task is not None and task.cancelling() > 0:  # a cancel that a finished wait
+                raise asyncio.CancelledError  # swallowed (asyncio.wait_for, 3.11)
             await asyncio.sleep(wait)
 
     async def _replay(self) -> None:

@@ -204,7 +204,7 @@ class SqliteStore:
         return True
 
     def _pend(self, name: str, state: dict[str, Any]) -> None:
-        if state.keys() - _COLUMNS:
+        if not _COLUMNS.issuperset(state):
             self._update(name, state)  # raises ValueError
         self._states.setdefault(name, {}).update(state)
         known = self._known.get(name)

@@ -255,41 +255,21 @@ class Download:
     async def chunks(self) -> AsyncIterator[Chunk]:
         """Verified chunks until the logger has no more rows; ``after`` follows each chunk."""
         while True:
-            step = self.prefetched_step()
-            if step is None:  # not read with the identification (or not this chunk)
-                self._prefetched = None
-                wanted = self.rows_per_chunk
+            wanted = self.rows_per_chunk
+            prefetched, self._prefetched = self._prefetched, None
+            if prefetched is not None and prefetched[0] == self._command(wanted):
+                _, response, elapsed = prefetched  # read by contact() with the identification
+                chunk, sent = self._parse(response, wanted, 0)
+                self._adapt(chunk, elapsed)
+            else:
                 chunk, sent = await self._chunk(wanted)
-                step = self._advance(chunk, sent, wanted)
-            chunk, more = step
+            self.include_after = False
+            if chunk.rows:
+                self.after = chunk.cursor
             if chunk.rows or chunk.gap:
                 yield chunk
-            if not more:
+            if sent < wanted:
                 return
-
-    def prefetched_step(self) -> tuple[Chunk, bool] | None:
-        """The next step of :meth:`chunks` when its chunk was read with the identification
-        (:meth:`contact`, :func:`~sondalog.client.visit.visit`), without an async generator:
-        the chunk (handed on when it has rows or a gap) and whether more follow (then
-        :meth:`chunks`); None when no chunk was read ahead for this step."""
-        prefetched = self._prefetched
-        if prefetched is None:
-            return None
-        wanted = self.rows_per_chunk
-        if prefetched[0] != self._command(wanted):
-            return None
-        self._prefetched = None
-        _, response, elapsed = prefetched
-        chunk, sent = self._parse(response, wanted, 0)
-        self._adapt(chunk, elapsed)
-        return self._advance(chunk, sent, wanted)
-
-    def _advance(self, chunk: Chunk, sent: int, wanted: int) -> tuple[Chunk, bool]:
-        """After ``chunk``: the cursor follows its rows; more chunks follow a full one."""
-        self.include_after = False
-        if chunk.rows:
-            self.after = chunk.cursor
-        return chunk, sent >= wanted
 
     async def _chunk(self, wanted: int) -> tuple[Chunk, int]:
         """One verified chunk and the number of rows the logger sent for it."""

@@ -18,7 +18,7 @@ from datetime import datetime
 from typing import Any
 
 from sondalog.client import Ala1Client, BusMaster
-from sondalog.client.download import Chunk, ClockReading, Download
+from sondalog.client.download import ClockReading, Download
 from sondalog.client.endpoints import Endpoint, parse_url
 from sondalog.client.records import UTC
 from sondalog.client.visit import Known, Visit, keep, visit
@@ -128,9 +128,7 @@ class LoggerSource:
             configured = await self.watch.check(client)
             rows = readings = 0
             first = last = None
-
-            async def take(chunk: Chunk) -> None:
-                nonlocal state, rows, readings, first, last
+            async for chunk in download.chunks():
                 if chunk.gap is not None:
                     log.warning("%s: %s", cfg.name, chunk.gap.describe())
                     store.event(cfg.name, "gap", chunk.gap.describe())
@@ -143,15 +141,6 @@ class LoggerSource:
                 readings += len(batch)
                 first = first or (chunk.rows[0].key if chunk.rows else None)
                 last = chunk.cursor or last
-
-            # the usual contact's only chunk came with the identification: taken without
-            # the async generator of Download.chunks (created, hooked and finalized)
-            step = download.prefetched_step()
-            if step is not None and (step[0].rows or step[0].gap):
-                await take(step[0])
-            if step is None or step[1]:
-                async for chunk in download.chunks():
-                    await take(chunk)
         finally:
             if state:  # no chunk took it (nothing new, or the download failed)
                 store.set_state(cfg.name, **state)

@@ -32,12 +32,12 @@ import itertools
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
 
 from sondalog.ala1.record_page import (
     BULK,
     Page,
     PageSource,
+    RecordStore,
     decoded,
     loaded,
     packed,
@@ -49,28 +49,14 @@ from sondalog.ala1.record_page import Sealed as Sealed
 _COUNTERS = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 #: The newest rows (at least KEEP) stay plain strings.
 KEEP = 16
-#: Pages not yet let go that a record with a source keeps plain, not compressed (a stretch of
-#: 4,096 rows: the store has them at the end of the run, and they are let go; beyond, a long
-#: run's pages are compressed as before, to bound its memory).
+#: Pages not yet let go that a record with a source keeps plain (the store has them at the end
+#: of the run, and they are let go; beyond, a long run's pages are compressed, as before).
 PLAIN_PAGES = 64
 
 
-class PagedStore(Protocol):
-    """A store that is a :class:`PageSource` for the records it loads (the engine then
-    keeps only the newest rows in RAM)."""
-
-    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
-        """As ``NvStore.load_record``; the pages may be ``None`` (in the source)."""
-        ...
-
-
-class RecordStore(Protocol):
-    def load_record(self) -> tuple[list[str] | Sealed, int, bool, bool]: ...
-
-
 def load_record(store: RecordStore) -> RecordMemory:
-    """The record ``store`` holds (a :class:`PagedStore`: its newest rows in RAM), cyclic
-    and of no size until the parameters are applied."""
+    """The record ``store`` holds (a ``record_page.PagedStore``: its newest rows in RAM),
+    cyclic and of no size until the parameters are applied."""
     # (what isinstance of the runtime protocol checks, without its cost: 60 µs a logger)
     paged = getattr(store, "load_paged_record", None)
     loaded: tuple[list[str] | Sealed, int, bool, bool] = (
@@ -207,11 +193,9 @@ class RecordMemory:
         if len(tail) < PAGE + KEEP:
             return
         full = (len(tail) - KEEP) // PAGE
-        pages = self._pages
-        # with a source, the pages the store is to be handed stay plain (it has them soon,
-        # and they are let go): up to PLAIN_PAGES of them beyond the pages let go
-        plain = 0 if self._source is None else self._evicted + PLAIN_PAGES - len(pages)
-        pages.extend(Page(tail[n * PAGE : (n + 1) * PAGE], n < plain) for n in range(full))
+        # with a source, up to PLAIN_PAGES pages beyond those let go stay plain
+        plain = 0 if self._source is None else self._evicted + PLAIN_PAGES - len(self._pages)
+        self._pages.extend(Page(tail[n * PAGE : (n + 1) * PAGE], n < plain) for n in range(full))
         del tail[: full * PAGE]
 
     def _row(self, index: int) -> str:

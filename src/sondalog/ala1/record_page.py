@@ -42,6 +42,19 @@ class PageSource(Protocol):
         ...
 
 
+class PagedStore(Protocol):
+    """A store that is a :class:`PageSource` for the records it loads (the engine then
+    keeps only the newest rows in RAM)."""
+
+    def load_paged_record(self) -> tuple[Sealed, int, bool, bool]:
+        """As ``NvStore.load_record``; the pages may be ``None`` (in the source)."""
+        ...
+
+
+class RecordStore(Protocol):
+    def load_record(self) -> tuple[list[str] | Sealed, int, bool, bool]: ...
+
+
 class Page:
     """:data:`PAGE` rows in one compressed text, with where each row ends.
 

@@ -125,6 +125,53 @@ def test_sighup_takes_the_new_source_list_and_keeps_it_on_a_bad_file(tmp_path: P
         assert proc.returncode == 0, collect_log(config)
 
 
+def _state(store: Path, source: str) -> str | None:
+    with (
+        contextlib.suppress(sqlite3.OperationalError),
+        contextlib.closing(sqlite3.connect(store, timeout=5)) as db,
+    ):
+        row = db.execute("SELECT state FROM sources WHERE name = ?", (source,)).fetchone()
+        return None if row is None else str(row[0])
+    return None
+
+
+def test_a_source_removed_mid_contact_is_not_left_contacting_and_a_stop_then_is_prompt(
+    tmp_path: Path,
+) -> None:
+    """A logger that stops answering holds its contact (``contacting`` after a second);
+    removed by a reload then, its state goes back to what it was, not ``contacting`` for
+    good; SIGHUP and SIGTERM at once in that state: the process ends, cleanly and soon."""
+    store = tmp_path / "store.sqlite"
+    config = tmp_path / "collector.toml"
+    head = '[sqlite]\npath = "store.sqlite"\n\n[web]\nenabled = false\n\n'
+    with serving(tmp_path, name="a") as a, serving(tmp_path, name="b") as b:
+        both = head + _source("a", a.url, 0.3, "timeout = 8") + _source("b", b.url, 0.3)
+        only_b = head + _source("b", b.url, 0.3)
+        config.write_text(both)
+        with collecting(config) as proc:
+            for round_ in range(2):
+                wait_for(lambda: _state(store, "a") == "ok", 30, config, "a's good contact")
+                a.proc.send_signal(signal.SIGSTOP)  # a's next contact waits (timeout 8 s)
+                try:
+                    wait_for(lambda: _state(store, "a") == "contacting", 15, config, "marked")
+                    config.write_text(only_b)
+                    proc.send_signal(signal.SIGHUP)
+                    if round_ == 1:  # a stop while the reload waits for a's contact
+                        proc.send_signal(signal.SIGTERM)
+                        proc.wait(timeout=20)
+                        break
+                    wait_for(lambda: _state(store, "a") == "ok", 15, config, "a's state back")
+                    seen = _count(store, "b")
+                    going = lambda n=seen: _count(store, "b") > n + 2  # noqa: E731
+                    wait_for(going, 15, config, "b going on")
+                finally:
+                    a.proc.send_signal(signal.SIGCONT)
+                config.write_text(both)
+                proc.send_signal(signal.SIGHUP)
+        assert proc.returncode == 0, collect_log(config)
+        assert _state(store, "a") == "ok"
+
+
 class _Slow:
     """A collector whose reload takes a few turns of the loop, and says if two overlap."""
 

@@ -11,7 +11,6 @@ failed, 2 a configuration error (``FILE:LINE: field: message``) or a store that 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import signal
 from pathlib import Path
 
@@ -27,6 +26,9 @@ from sondalog.collect.store_sqlite import SqliteStore, StoreError
 from sondalog.config import ConfigError
 from sondalog.io.loop import run as run_loop
 from sondalog.io.loop import stop_on_signals
+
+#: Seconds a stop waits for a reload under way (it waits for a stopped source's contact).
+RELOAD_STOP = 10.0
 
 
 @click.command()
@@ -84,7 +86,6 @@ async def _run(collector: Collector, config_file: Path, once: bool) -> None:
     try:
         await run_collector(collector, stop, once=once, on_web=listening)
     finally:
-        if reloads is not None:
+        if reloads is not None:  # (bounded: a reload waits for a contact under way)
             reloads.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await reloads
+            await asyncio.wait({reloads}, timeout=RELOAD_STOP)

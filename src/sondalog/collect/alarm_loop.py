@@ -375,7 +375,10 @@ class AlarmLoop:
         try:
             await asyncio.shield(send)
         except asyncio.CancelledError:
-            done, _ = await asyncio.wait({send}, timeout=DRAIN)
+            try:
+                done, _ = await asyncio.wait({send}, timeout=DRAIN)
+            except asyncio.CancelledError:  # cancelled again: no more waiting
+                done = set()
             if not done:
                 send.cancel()
             elif not send.cancelled() and send.exception() is None:

@@ -7,7 +7,8 @@ sources start, removed ones stop (their kept connections close), changed ones st
 with their new settings. A file that does not load (``FILE:LINE: field: message``) or a
 collector that takes no new list (``[cluster]``) is one error line in the log, and the
 collector goes on with what it runs. What a reload does not take (the store, the buffer, the
-sinks, the dashboard, the alarms, the cluster) is named in a warning when the file changed it.
+sinks, the dashboard, the alarms) is named in a warning when the file changed it; a collector of
+a ``[cluster]``, or a file that adds one, is refused as a whole.
 
 Wakes that come during a reload are one more reload after it, never two at once.
 """
@@ -32,7 +33,6 @@ _KEPT = {
     "sinks": "the sinks' tables",
     "web": "[web]",
     "alarms": "[[alarm]] and [[notify]]",
-    "cluster": "[cluster]",
 }
 
 
@@ -49,6 +49,9 @@ async def reload_file(collector: Collector, path: Path) -> bool:
         config = load_config(path)
     except ConfigError as exc:
         log.error("reload refused, the running configuration is kept: %s", exc)
+        return False
+    except Exception as exc:  # a reader's bug must not end the reloads (nor the stop)
+        log.error("reload of %s failed, the running configuration is kept: %r", path, exc)
         return False
     try:
         changes = untaken(collector.config, config)

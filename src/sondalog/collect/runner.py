@@ -99,6 +99,10 @@ class Collector:
         self._tasks: dict[str, asyncio.Task[None]] = {}
         self._once = False
         self._changed: asyncio.Future[None] | None = None  # set when reload changes them
+        #: Tasks of sources a reload stopped, until they end (the stop waits for them too).
+        self._retired: set[asyncio.Task[None]] = set()
+        #: A contact marked ``contacting``: the state before, put back if it is cancelled.
+        self._was: dict[str, object] = {}
         self.contacts = 0
         #: Sources whose last contact failed.
         self.failing: set[str] = set()
@@ -156,7 +160,7 @@ class Collector:
             else:
                 await self._until(stop, cluster)
         finally:
-            tasks = [*self._tasks.values(), *cluster, *background]
+            tasks = [*self._tasks.values(), *self._retired, *cluster, *background]
             self._tasks.clear()
             for task in tasks:
                 task.cancel()
@@ -220,18 +224,21 @@ class Collector:
         old = {s.config.name: s for s in self.sources}
         new = {c.name: c for c in config.sources}
         stopped = [n for n, s in old.items() if new.get(n) != s.config]
-        for name in stopped:  # its task's end closes its kept connection
-            task = self._tasks.pop(name, None)
-            if task is not None:
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError, Exception):
-                    await task
+        starting = [c for c in config.sources if c.name not in old or c.name in stopped]
+        for source_config in starting:  # the store first: if it fails, nothing has changed
+            self.store.add_source(source_config.name, source_config.url, source_config.kind)
+        tasks = [t for n in stopped if (t := self._tasks.pop(n, None)) is not None]
+        for task in tasks:  # its task's end closes its kept connection
+            task.cancel()
+            self._retired.add(task)
+            task.add_done_callback(self._retired.discard)
+        if tasks:  # (a contact under way ends first: at most its timeout; a cancel of the
+            await asyncio.wait(tasks)  # reload itself is not swallowed here)
         self.config = dataclasses.replace(self.config, sources=config.sources)
         sources = []
         for source_config in config.sources:
             source = old.get(source_config.name)
             if source is None or source_config.name in stopped:
-                self.store.add_source(source_config.name, source_config.url, source_config.kind)
                 source = make_source(source_config, self.store, self.kept)
                 if self._changed is not None:  # running (else run starts it)
                     self._start(source, 0.0)
@@ -279,6 +286,7 @@ class Collector:
             self.alarms.sink(sink.name, up, self.buffer.count(sink.name))
 
     def _contacting(self, name: str) -> None:
+        self._was[name] = (self.store.source(name) or {}).get("state")
         self.store.set_state(name, state="contacting")
 
     async def _loop(self, source: Source, delay: float, once: bool) -> None:
@@ -304,9 +312,12 @@ class Collector:
                 summary = await source.poll(self.deliver)
             except asyncio.CancelledError:
                 marking.cancel()
+                if cfg.name in self._was:  # stopped mid-contact: not left "contacting"
+                    self.store.set_state(cfg.name, state=self._was.pop(cfg.name))
                 raise
             except Exception as exc:  # a failing source must never stop the collector
                 marking.cancel()
+                self._was.pop(cfg.name, None)
                 failures += 1
                 wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
                 text = f"{describe(exc)}; retry in {wait:g} s"
@@ -319,6 +330,7 @@ class Collector:
                     self.alarms.contact(cfg.name, ok=False, error=describe(exc))
             else:
                 marking.cancel()
+                self._was.pop(cfg.name, None)
                 failures = 0
                 self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))

@@ -12,7 +12,7 @@ import math
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from sondalog.backends.sim import logger
+from sondalog.ala1.rendering import HALF_EVEN
 from sondalog.backends.sim.logger import Analog, SimHardware, Thermometer
 
 ROM = 0x2800000000000A28
@@ -97,7 +97,8 @@ def test_columns_are_the_reads_instant_by_instant(
     )
 )
 def test_adding_and_taking_half_even_is_round(y: float) -> None:
-    """The columns' rounding (``logger._HALF_EVEN``): ``y + M - M`` is ``round(y)`` as a
-    float, ties to the even, a -0.0 and a value rounded to zero alike (+0.0)."""
-    m = logger._HALF_EVEN
+    """The columns' and format_values' rounding (``rendering.HALF_EVEN``): ``y + M - M`` is
+    ``round(y)`` as a float, ties to the even, a -0.0 and a value rounded to zero alike
+    (+0.0)."""
+    m = HALF_EVEN
     assert repr(y + m - m) == repr(float(round(y)))

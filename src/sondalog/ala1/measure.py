@@ -17,7 +17,7 @@ from typing import Protocol
 
 from sondalog.ala1.hardware import SUPPLY_DIVIDER, Hardware
 from sondalog.ala1.model import View
-from sondalog.ala1.rendering import NEAR_BELOW, SCALES, fixed, render
+from sondalog.ala1.rendering import HALF_EVEN, NEAR_BELOW, SCALES, fixed, render
 from sondalog.ala1.tokens import NUMBER_LIMIT, NumberFormat, period_seconds
 from sondalog.protocol.tables import Curve, Surface, TableError, TableSet
 
@@ -364,7 +364,7 @@ def format_values(
     units) where rendering.fixed's common case holds, else by :func:`format_value`.
 
     The units are ``round(value * 10**decimals)`` as a float: adding and subtracting
-    :data:`_ROUNDS` rounds to the nearest integer (half to even, as ``round``) in two float
+    :data:`HALF_EVEN` rounds to the nearest integer (half to even, as ``round``) in two float
     operations wherever the product is below 2**51 (here below 2**33)."""
     fmt = cfg.format
     rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
@@ -414,7 +414,7 @@ def _by_units_texts(cfg: ChannelConfig, values: Sequence[float | None]) -> list[
         known[text] = units  # (a text of the format: ``int`` of its digits is ``units``)
         return text
 
-    near, scale, rounds = NEAR_BELOW[decimals], SCALES[decimals], _ROUNDS
+    near, scale, rounds = NEAR_BELOW[decimals], SCALES[decimals], HALF_EVEN
     units_text = by_units.get
     try:  # (every value within the bounds, or a NaN: taken as one below; a None raises)
         within = -near < min(values) and max(values) < near  # type: ignore[operator,type-var]
@@ -431,10 +431,6 @@ def _by_units_texts(cfg: ChannelConfig, values: Sequence[float | None]) -> list[
         else format_value(cfg, value)  # (which keeps the text by the value)
         for value in values
     ]
-
-
-#: 1.5 * 2**52: ``x + _ROUNDS - _ROUNDS`` is ``round(x)`` (half to even) for |x| < 2**51.
-_ROUNDS = 6755399441055744.0
 
 
 #: Values rendered lately (issue 11): readings repeat (an ADC has 4096 levels), and the

@@ -9,6 +9,14 @@ sample). tests/ala1/test_fast_sampling_render.py holds both to the Decimal rende
 
 from __future__ import annotations
 
+#: ``y + HALF_EVEN - HALF_EVEN`` is ``round(y)`` as a float for any finite ``|y| < 2**51``:
+#: the sum falls where floats are the whole numbers (1.5 * 2**52 .. 2**53), so the addition
+#: rounds ``y`` to the nearest, ties to the even (IEEE 754's default; ``HALF_EVEN`` is even),
+#: and the subtraction is exact. ``round()`` rounds alike to an int, which ``/`` turns into the
+#: same float; here two float operations instead of a call (issue 24: a series' units in
+#: :func:`~sondalog.ala1.measure.format_values`, the simulated inputs' columns).
+HALF_EVEN = 6755399441055744.0  # 1.5 * 2**52
+
 
 def fixed(value: float, decimals: int) -> str | None:
     """:func:`render` of ``repr(value)`` by ``format`` (issue 24: averages rarely repeat), or

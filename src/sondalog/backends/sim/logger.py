@@ -23,15 +23,8 @@ from sondalog.ala1.hardware import (
     normalise,
     pin_of,
 )
+from sondalog.ala1.rendering import HALF_EVEN
 from sondalog.backends.sim.signals import Signal, constant, signal_column
-
-#: ``y + _HALF_EVEN - _HALF_EVEN`` is ``round(y)`` as a float for any finite ``|y| < 2**51``:
-#: the sum falls where floats are the whole numbers (1.5 * 2**52 .. 2**53), so the addition
-#: rounds ``y`` to the nearest, ties to the even (IEEE 754's default; ``_HALF_EVEN`` is even),
-#: and the subtraction is exact. ``round()`` rounds alike to an int, which ``/`` turns into the
-#: same float; here two float operations instead of a call (the simulation's inputs read as
-#: columns, where every value is known finite and within an ADC's or a DS18B20's range).
-_HALF_EVEN = 6755399441055744.0  # 1.5 * 2**52
 
 
 @dataclass
@@ -282,9 +275,9 @@ class SimHardware:
             and max(signals) / reference < 1.0
             and math.isfinite(sum(signals))
         ):  # every fraction within the range (x / reference grows with x), none a NaN:
-            # rounded alone (by :data:`_HALF_EVEN`), and ``* 1.0 + 0.0`` left off (it
+            # rounded alone (by :data:`HALF_EVEN`), and ``* 1.0 + 0.0`` left off (it
             # changes only a -0.0, and none is made here)
-            m = _HALF_EVEN
+            m = HALF_EVEN
             if mult == 1.0 and add == 0.0:
                 return [(x / reference * levels + m - m) / levels for x in signals]
             return [(x / reference * levels + m - m) / levels * mult + add for x in signals]
@@ -322,7 +315,7 @@ class SimHardware:
             # 0.0`` left off (it changes only a -0.0, and none is made here)
             if celsius[0] == max(celsius) == min(celsius):  # (a steady temperature)
                 return [round(celsius[0] * 16) / 16 / scale * mult + add] * len(celsius)
-            m = _HALF_EVEN
+            m = HALF_EVEN
             if mult == 1.0 and add == 0.0:
                 return [(c * 16 + m - m) / 16 / scale for c in celsius]
             return [(c * 16 + m - m) / 16 / scale * mult + add for c in celsius]
@@ -370,7 +363,7 @@ class SimHardware:
         ):
             # (every fraction within the range, none a NaN: rounded alone, ``* 1.0 +
             # 0.0`` left off: it changes only a -0.0, and none is made here)
-            m = _HALF_EVEN
+            m = HALF_EVEN
             return [(x / divider / reference * levels + m - m) / levels * then for x in signals]
         return [
             (

@@ -311,13 +311,10 @@ class Collector:
             try:
                 summary = await source.poll(self.deliver)
             except asyncio.CancelledError:
-                marking.cancel()
                 if cfg.name in self._was:  # stopped mid-contact: not left "contacting"
-                    self.store.set_state(cfg.name, state=self._was.pop(cfg.name))
+                    self.store.set_state(cfg.name, state=self._was[cfg.name])
                 raise
             except Exception as exc:  # a failing source must never stop the collector
-                marking.cancel()
-                self._was.pop(cfg.name, None)
                 failures += 1
                 wait = min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
                 text = f"{describe(exc)}; retry in {wait:g} s"
@@ -329,8 +326,6 @@ class Collector:
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=False, error=describe(exc))
             else:
-                marking.cancel()
-                self._was.pop(cfg.name, None)
                 failures = 0
                 self.failing.discard(cfg.name)
                 wait = max(0.0, cfg.interval - (time.monotonic() - started))
@@ -345,6 +340,9 @@ class Collector:
                 )
                 if self.alarms is not None:
                     self.alarms.contact(cfg.name, ok=True)
+            finally:  # (nothing above waits: the mark cannot come in between)
+                marking.cancel()
+                self._was.pop(cfg.name, None)
             self.contacts += 1
             if once:
                 return

@@ -183,7 +183,7 @@ class _Slow:
         self.overlapped = False
         self.taken: list[int] = []
 
-    async def reload(self, config: CollectorConfig) -> None:
+    async def reload(self, config: CollectorConfig) -> tuple[int, int, int]:
         self.active += 1
         self.overlapped |= self.active > 1
         for _ in range(self.turns[len(self.taken) % len(self.turns)]):
@@ -191,6 +191,7 @@ class _Slow:
         self.config = config
         self.taken.append(len(config.sources))
         self.active -= 1
+        return 0, 0, 0  # (added, removed, changed: only logged)
 
 
 @settings(max_examples=40, deadline=None)

@@ -47,33 +47,25 @@ async def reload_file(collector: Collector, path: Path) -> bool:
     """Read ``path`` again and take its sources; False (logged) when it was refused."""
     try:
         config = load_config(path)
-    except ConfigError as exc:
+        changes = untaken(collector.config, config)
+        added, removed, changed = await collector.reload(config)
+    except ConfigError as exc:  # (the message names the file and line)
         log.error("reload refused, the running configuration is kept: %s", exc)
         return False
-    except Exception as exc:  # a reader's bug must not end the reloads (nor the stop)
-        log.error("reload of %s failed, the running configuration is kept: %r", path, exc)
-        return False
-    try:
-        changes = untaken(collector.config, config)
-        before = {s.config.name: s.config for s in collector.sources}
-        await collector.reload(config)
     except ValueError as exc:
         log.error("reload refused, the running configuration is kept: %s: %s", path, exc)
         return False
-    except Exception as exc:  # a reload's bug (or one racing a stop) must not stop collecting
+    except Exception as exc:  # a reader's or a reload's bug (or one racing a stop): the
+        # reloads go on, and so does the collecting
         log.error("reload of %s failed: %s: %s", path, type(exc).__name__, exc)
         return False
-    after = {s.name: s for s in config.sources}
-    added = sorted(after.keys() - before.keys())
-    removed = sorted(before.keys() - after.keys())
-    changed = sorted(n for n in before.keys() & after.keys() if before[n] != after[n])
     log.warning(
         "reloaded %s: %d sources (%d added, %d removed, %d changed)",
         path,
-        len(after),
-        len(added),
-        len(removed),
-        len(changed),
+        len(config.sources),
+        added,
+        removed,
+        changed,
     )
     if changes:
         log.warning("reload: %s take effect at a restart", ", ".join(changes))

@@ -213,12 +213,13 @@ class Collector:
             stopper.cancel()
             self._changed = None
 
-    async def reload(self, config: CollectorConfig) -> None:
+    async def reload(self, config: CollectorConfig) -> tuple[int, int, int]:
         """Take the sources of ``config`` (the file read again) while running: a source no
         longer in it stops and its kept connection is closed, a new one starts, a changed
         one starts again with its new settings. Everything else (store, sinks, web, alarms,
         cluster) stays as it was loaded (the alarms stop watching a removed source); a
-        collector sharing its sources (``[cluster]``) takes no new list (``ValueError``)."""
+        collector sharing its sources (``[cluster]``) takes no new list (``ValueError``).
+        Returns how many sources were added, removed and changed."""
         if self.share is not None or config.cluster is not None:
             raise ValueError("a collector of a [cluster] takes a new source list at a restart")
         old = {s.config.name: s for s in self.sources}
@@ -248,6 +249,8 @@ class Collector:
             self.alarms.hold(set(new))  # watched for no contact before a restart)
         if self._changed is not None and not self._changed.done():
             self._changed.set_result(None)
+        removed = len(old.keys() - new.keys())
+        return len(new.keys() - old.keys()), removed, len(stopped) - removed
 
     async def _open_sink(self, sink: Sink) -> bool:
         try:

@@ -360,10 +360,13 @@ class AlarmLoop:
                 log.warning("notification %s not delivered: %s", message.key, error)
                 self.policy.failed(message, self.clock(), error)
                 continue
-            self.store.delivered(message.key, self.clock())
+            self._delivered(message)
             done += 1
-        self.sent += done
         return done
+
+    def _delivered(self, message: Message) -> None:
+        self.store.delivered(message.key, self.clock())
+        self.sent += 1
 
     async def _sending(self, sender: Sender, message: Message) -> None:
         """``sender.send(message)``; cancelled (a clean stop) while the message is on its
@@ -383,8 +386,7 @@ class AlarmLoop:
                 send.cancel()
             elif not send.cancelled() and send.exception() is None:
                 with contextlib.suppress(Exception):
-                    self.store.delivered(message.key, self.clock())
-                    self.sent += 1
+                    self._delivered(message)
                     log.info("notification %s delivered while stopping", message.key)
             raise
 

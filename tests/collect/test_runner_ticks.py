@@ -77,7 +77,7 @@ def _on_grid(instant: float, step: float) -> bool:
 
 def _run(seed: int, count: int, intervals: list[float], longest: float, fails: float) -> Any:
     """``count`` sources (intervals drawn from ``intervals``, first contacts at random
-    offsets within the shortest interval) for 20 of the longest intervals of virtual time."""
+    offsets within the shortest interval) for 10 of the longest intervals of virtual time."""
     rng = random.Random(seed)
     configs = tuple(
         SourceConfig(
@@ -101,7 +101,7 @@ def _run(seed: int, count: int, intervals: list[float], longest: float, fails: f
             _Random(cfg, random.Random(rng.random()), longest * cfg.interval, fails)
             for cfg in configs
         ]
-        span = 20 * max(intervals)
+        span = 10 * max(intervals)
 
         async def main() -> float:
             loop = asyncio.get_running_loop()
@@ -125,7 +125,7 @@ def _run(seed: int, count: int, intervals: list[float], longest: float, fails: f
     return sources, began, span
 
 
-@settings(max_examples=40)
+@settings(max_examples=30)
 @given(
     seed=st.integers(0, 2**32),
     count=st.integers(1, 25),

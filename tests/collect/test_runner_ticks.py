@@ -142,20 +142,18 @@ def test_contacts_start_on_the_grid_interval_apart_none_starved(
         contacts = source.contacts
         assert contacts, "starved: never contacted"
         failures = 0
-        before = TICK  # the step the contact started on (the first's: at most TICK)
         for (start, end, ok), (after, _, _) in itertools.pairwise(contacts):
             failures = 0 if ok else failures + 1
             wait = cfg.interval if ok else min(cfg.retry * 2 ** (failures - 1), cfg.retry_max)
             step = step_for(wait)
             # on its grid: the sources due within a step start together
             assert _on_grid(after, step), (after, step)
-            if ok:  # start to start: due an interval after the last was due (which started
-                # at most a step after it), started at most a step late or after the contact
-                assert after >= start + cfg.interval - before - 1e-6
+            if ok:  # start to start: never a step early, at most a step late or after the
+                # contact
+                assert after >= start + cfg.interval - step - 1e-6
                 assert after <= max(start + cfg.interval, end) + step + 1e-6
             else:  # the backoff from the failure's end, at most a step late
                 assert end + wait - 1e-6 <= after <= end + wait + step + 1e-6
-            before = step
         # the lateness does not add up: a source that never fails and is quick keeps its
         # rate (one contact an interval from its first, within one step)
         if all(ok for *_, ok in contacts) and source.longest < cfg.interval:
@@ -191,11 +189,29 @@ def test_the_step_is_a_tenth_of_the_wait_at_most_and_the_instant_at_most_a_step_
     assert due - 1e-9 * max(1.0, abs(due)) <= instant <= due + step + 1e-9 * max(1.0, abs(due))
 
 
-@given(due=st.floats(0, 1e6), now=st.floats(0, 1e6), wait=st.floats(0, 1e4), ok=st.booleans())
-def test_next_due(due: float, now: float, wait: float, ok: bool) -> None:
-    after = next_due(due, now, wait, ok)
+@given(
+    due=st.floats(0, 1e6),
+    late=st.floats(0, 1e3),
+    took=st.floats(0, 1e4),
+    wait=st.floats(0, 1e4),
+    ok=st.booleans(),
+)
+def test_next_due(due: float, late: float, took: float, wait: float, ok: bool) -> None:
+    """Never before the contact's end; after a contact that went well, never more than a step
+    early against its start, and on schedule (its due instant's successor) unless it started
+    late by more than a step or ended after it."""
+    started = due + late
+    now = started + took
+    after = next_due(due, started, now, wait, ok)
     assert after >= now
-    assert after == (max(due + wait, now) if ok else now + wait)
+    if not ok:
+        assert after == now + wait
+        return
+    step = step_for(wait)
+    assert after >= started + wait - step
+    assert after >= due + wait
+    if late <= step and now <= due + wait:
+        assert after == due + wait  # on schedule: the lateness does not add up
 
 
 def test_a_cancelled_waiter_leaves_the_others_waiting() -> None:

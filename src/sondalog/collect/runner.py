@@ -311,6 +311,7 @@ class Collector:
         await self.ticks.until(grid_instant(due, step_for(delay)))
         failures = 0
         while True:
+            started = loop.time()
             # a contact still running after a second says so (the dashboard's "contacting");
             # a quicker one is never seen at a write-behind flush, and writes nothing
             marking = loop.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
@@ -358,7 +359,7 @@ class Collector:
                 raise asyncio.CancelledError  # swallowed (asyncio.wait_for, 3.11)
             # start to start after a contact that went well, from its end after a failure;
             # on the grid: the sources due within a step start in one wake of the loop
-            due = next_due(due, loop.time(), wait, failures == 0)
+            due = next_due(due, started, loop.time(), wait, failures == 0)
             await self.ticks.until(grid_instant(due, step_for(wait)))
 
     async def _replay(self) -> None:

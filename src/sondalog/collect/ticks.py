@@ -13,7 +13,8 @@ at most a tenth of the wait, halved from :data:`TICK` until it fits (1, 0.5, 0.2
 every finer grid holds the coarser ones' instants, so sources of different intervals meet
 too); a contact starts at most one step (a tenth of its wait) late, never early, and the
 lateness does not add up: the next contact is due ``interval`` after the instant this one was
-due, not after it started (:func:`next_due`).
+due, not after it started, but never more than a step before ``interval`` after it started
+(:func:`next_due`).
 
 :func:`grid_instant`, :func:`step_for` and :func:`next_due` are pure; :class:`Ticks` holds one
 timer a grid instant for every source waiting for it.
@@ -53,14 +54,17 @@ def grid_instant(due: float, step: float) -> float:
     return math.ceil(due / step - 1e-9) * step
 
 
-def next_due(due: float, now: float, wait: float, ok: bool) -> float:
-    """When the next contact is due: ``wait`` (the interval) after the instant this contact
-    was ``due`` when it went well, but not before ``now`` (a contact that took longer than
-    its interval: the next at once, as before); ``wait`` after ``now`` after a failure (the
-    retry's backoff counts from the failure)."""
+def next_due(due: float, started: float, now: float, wait: float, ok: bool) -> float:
+    """When the next contact is due, after one that was ``due``, ``started`` and ended at
+    ``now``. After a contact that went well: ``wait`` (the interval) after the instant it was
+    due, so the grid's lateness does not add up; but at most a step of the grid earlier than
+    ``wait`` after it started (a contact the loop started late, busy, is not followed by
+    one early: the schedule slips, as it did before the grid), and not before ``now`` (a
+    contact that took longer than its interval: the next at once, as before). After a
+    failure: ``wait`` after ``now`` (the retry's backoff counts from the failure)."""
     if not ok:
         return now + wait
-    return max(due + wait, now)
+    return max(due + wait, started + wait - step_for(wait), now)
 
 
 class Ticks:

@@ -1,9 +1,11 @@
 """The collector's loop: one asyncio task per source, batches to every sink, retry with backoff.
 
-- Each source is contacted every ``interval`` seconds (start to start; the first contacts are
-  spread over 5 s, or over as many seconds as :data:`START_RATE` contacts a second need, at
-  most the shortest interval: ten thousand sources every minute start at an even 167 a
-  second instead of all within 5 s, which held thousands of connections open at once).
+- Each source is contacted every ``interval`` seconds (start to start, on a grid of loop time:
+  the sources due within a step start together, :mod:`sondalog.collect.ticks`; the first
+  contacts are spread over 5 s, or over as many seconds as :data:`START_RATE` contacts a
+  second need, at most the shortest interval: ten thousand sources every minute start at an
+  even 167 a second instead of all within 5 s, which held thousands of connections open at
+  once).
 - A failed contact (unreachable, no answer, garbage) sets the source's state to ``offline``
   with the error in the ``sources`` table, the log and the events table, and is retried after
   ``retry`` seconds, doubling up to ``retry_max`` (then every ``interval`` again once it works).
@@ -36,6 +38,7 @@ from sondalog.collect.share import Share, share_of
 from sondalog.collect.sinks import build_sinks
 from sondalog.collect.sources import Source, make_source
 from sondalog.collect.store_sqlite import SqliteStore, now_text
+from sondalog.collect.ticks import Ticks, grid_instant, next_due, step_for
 
 log = logging.getLogger(__name__)
 #: Seconds between replays of the buffered batches of sinks that were down.
@@ -110,6 +113,8 @@ class Collector:
         self.alarms: AlarmLoop | None = AlarmLoop(config) if config.alarms.rules else None
         #: ``[cluster]``: the sources this collector holds are polled (docs/scaling.md).
         self.share: Share | None = None
+        #: The grid the contacts start on (:mod:`sondalog.collect.ticks`).
+        self.ticks = Ticks()
 
     def open(self) -> None:
         """Build the sinks (their tables were checked when the file was loaded) and open the
@@ -302,10 +307,11 @@ class Collector:
         cfg = source.config
         loop = asyncio.get_running_loop()
         task = asyncio.current_task()  # its own: asked once, not at every contact
-        await asyncio.sleep(delay)
+        due = loop.time() + delay  # when this contact is due; it starts on the grid after
+        await self.ticks.until(grid_instant(due, step_for(delay)))
         failures = 0
         while True:
-            started = time.monotonic()
+            started = loop.time()
             # a contact still running after a second says so (the dashboard's "contacting");
             # a quicker one is never seen at a write-behind flush, and writes nothing
             marking = loop.call_later(CONTACTING_AFTER, self._contacting, cfg.name)
@@ -331,7 +337,7 @@ class Collector:
             else:
                 failures = 0
                 self.failing.discard(cfg.name)
-                wait = max(0.0, cfg.interval - (time.monotonic() - started))
+                wait = cfg.interval
                 log.info("source %s: %s", cfg.name, summary)
                 self.store.finish(
                     cfg.name,
@@ -351,7 +357,10 @@ class Collector:
                 return
             if task is not None and task.cancelling() > 0:  # a cancel that a finished wait
                 raise asyncio.CancelledError  # swallowed (asyncio.wait_for, 3.11)
-            await asyncio.sleep(wait)
+            # start to start after a contact that went well, from its end after a failure;
+            # on the grid: the sources due within a step start in one wake of the loop
+            due = next_due(due, started, loop.time(), wait, failures == 0)
+            await self.ticks.until(grid_instant(due, step_for(wait)))
 
     async def _replay(self) -> None:
         while True:

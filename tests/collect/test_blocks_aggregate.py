@@ -270,16 +270,23 @@ def test_the_oldest_blocks_are_forgotten_first(
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.one_of(ROWS, CLEAN_ROWS), st.lists(st.integers(1, 8), max_size=6))
+@given(
+    st.one_of(ROWS, CLEAN_ROWS),
+    st.lists(st.integers(1, 8), max_size=6),
+    st.sampled_from([1, 2, 5, blocks_rule.Aggregate.AT_ONCE]),
+)
 def test_blocks_of_pieces_are_those_of_the_rows_together(
-    items: list[tuple[str, int, tuple[int, ...], list[float | None]]], cuts: list[int]
+    items: list[tuple[str, int, tuple[int, ...], list[float | None]]],
+    cuts: list[int],
+    at_once: int,
 ) -> None:
-    """``Aggregate`` given the rows a piece at a time (as the sink sends them), a block's
-    rows in several pieces, out of time order, NULLs, NaN and ties included: exactly the
-    blocks of the readings taken one by one."""
+    """``Aggregate`` given the rows a piece at a time (as the sink sends them) and taking
+    them ``at_once`` rows at a time, a block's rows in several takes, out of time order,
+    NULLs, NaN and ties included: exactly the blocks of the readings taken one by one."""
     batch = readings_of_rows(items)
     rows = pg_rows.group(batch)
     pieces = blocks_rule.Aggregate()
+    pieces.AT_ONCE = at_once
     start = 0
     for n in [*cuts, len(rows)]:
         pieces.add(rows[start : start + n])

@@ -3,6 +3,7 @@ server: the grouping; the encoding is checked against the server by the sink's t
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import random
 from datetime import UTC, datetime, timedelta
@@ -220,3 +221,68 @@ def test_rows_of_the_same_channels_out_of_order_each_merged(
     assert readings_of(pg_rows.group(batch)) == sorted(
         first.values(), key=lambda r: (r.time, r.channel)
     )
+
+
+def _batch_of_rows(data: st.DataObject, uniform: bool) -> list[Reading]:
+    """Random record rows as a logger's are read: each a run of rising channels (all of one
+    set when ``uniform``), random loggers, times, counters, values (NaN, None), texts; rows
+    sometimes again later (a row in two runs), or out of channel order."""
+    t0 = datetime(2026, 1, 1)
+    same = data.draw(st.lists(st.integers(-1, 9), min_size=1, max_size=5, unique=True))
+    out: list[Reading] = []
+    for _ in range(data.draw(st.integers(0, 12))):
+        lg = data.draw(st.sampled_from(["A", "B", "Cé", "D\x00"]))
+        tm = t0 + timedelta(minutes=data.draw(st.integers(0, 3)))
+        cn = data.draw(st.integers(0, 1))
+        utc = data.draw(st.sampled_from([None, tm.replace(tzinfo=UTC)]))
+        if uniform:
+            chs = sorted(same)
+        else:
+            chs = data.draw(st.lists(st.integers(-1, 9), min_size=1, max_size=5, unique=True))
+            chs = sorted(chs) if data.draw(st.integers(0, 9)) else chs
+        for ch in chs:
+            v = data.draw(VALUES)
+            tx = data.draw(st.sampled_from([None, "x", "y\x00"]))
+            na = data.draw(st.sampled_from([None, f"T{ch}", "n"]))
+            out.append(Reading(lg, ch, tm, cn, data.draw(st.integers(0, 3)), v, tx, na, "V", utc))
+    if data.draw(st.booleans()):  # equal keys, other objects (a batch read from the buffer)
+        out = [
+            Reading(r.logger + "", r.channel, r.time + timedelta(0), r.counter, r.type, r.value,
+                    r.text, r.name, r.unit, r.utc)
+            for r in out
+        ]  # fmt: skip
+    return out
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data(), st.booleans())
+def test_grouping_by_column_is_grouping_by_run(data: st.DataObject, uniform: bool) -> None:
+    """The fast grouping of a batch (:func:`pg_rows.by_column`) gives the rows of the
+    general one, and their bytes, or declines (None) only when a row's readings are not one
+    run in rising channel order."""
+    batch = _batch_of_rows(data, uniform)
+    fast, slow = pg_rows.by_column(batch), pg_rows.by_run(batch)
+    runs = [(k, [r.channel for r in g]) for k, g in itertools.groupby(batch, key=pg_rows._key)]
+    simple = len({k for k, _ in runs}) == len(runs) and all(c == sorted(set(c)) for _, c in runs)
+    assert (fast is not None) == simple
+    if fast is not None:
+        assert fast == slow
+        assert list(map(_ids, fast)) == list(map(_ids, slow))  # the same objects
+        assert pg_rows.Encoder().encode(fast) == pg_rows.Encoder().encode(slow)
+    assert pg_rows.group(batch) == slow
+
+
+def _ids(row: pg_rows.Row) -> list[object]:
+    return [*map(id, row[:4]), *(tuple(map(id, a)) for a in row[4:])]
+
+
+def test_rows_as_read_are_grouped_by_column() -> None:
+    """Rows of one set of channels, and rows of several (a text row among them), take the
+    fast way; equal keys of other objects are one row."""
+    uniform = [*rows("A", 0, 3, channels=4), *rows("B", 0, 2, channels=4)]
+    mixed = [*rows("A", 0, 3, channels=4), text_row("A", 1, "x"), *rows("B", 0, 2)]
+    for batch in (uniform, mixed):
+        assert pg_rows.by_column(batch) == pg_rows.by_run(batch) == pg_rows.group(batch)
+    copies = [dataclasses.replace(r, time=r.time + timedelta(0)) for r in uniform]
+    assert pg_rows.by_column(copies) == pg_rows.by_run(uniform)
+    assert pg_rows.by_column([*uniform, uniform[0]]) is None  # a row in two runs

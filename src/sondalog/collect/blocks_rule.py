@@ -159,26 +159,40 @@ def aggregate_rows(rows: Sequence[tuple[Any, ...]]) -> list[tuple[Any, ...]]:
 
 
 class Aggregate:
-    """:func:`aggregate_rows` of rows given a piece at a time (:meth:`add`), so that the
-    PostgreSQL sink computes a piece's blocks while the server stores it; :meth:`blocks`
-    at the end. Exact: a finest block's extremes from two pieces are merged by the rule
-    (:func:`take`), which without NaN gives what the rows together give in any order; with a
-    NaN in any piece every reading of every piece goes in the rows' order at the end."""
+    """:func:`aggregate_rows` of rows given a piece at a time (:meth:`add`), taken into the
+    finest blocks :attr:`AT_ONCE` rows at a time (the PostgreSQL sink's pieces are smaller:
+    a batch's blocks are mostly computed at the end, while the server stores the last
+    pieces); :meth:`blocks` at the end. Exact: a finest block's extremes from two takes are
+    merged by the rule (:func:`take`), which without NaN gives what the rows together give
+    in any order; with a NaN in any take every reading goes in the rows' order at the end."""
+
+    #: Record rows taken into the finest blocks at a time: fewer rows a block and channel
+    #: cost more Python a reading (each block's channels by ``min``/``max``).
+    AT_ONCE = 1_024
 
     def __init__(self) -> None:
         self._fine: dict[tuple[str, int, int], list[Any]] = {}
         self._seconds: dict[datetime, int] = {}
         self._rows: list[tuple[Any, ...]] = []
+        self._done = 0  # rows taken into the finest blocks so far
         self._nan = False
 
     def add(self, rows: Sequence[tuple[Any, ...]]) -> None:
         """The next rows (all of a record row's readings in one piece)."""
         self._rows += rows
+        if len(self._rows) - self._done >= self.AT_ONCE:
+            self._take()
+
+    def _take(self) -> None:
+        """The rows not yet taken into the finest blocks, taken."""
         if not self._nan:
+            rows = self._rows[self._done :]
             self._nan = not _fine_of(rows, self._seconds, self._fine)
+        self._done = len(self._rows)
 
     def blocks(self) -> list[tuple[Any, ...]]:
         """The blocks of every size of all the rows added (as :func:`aggregate_rows`)."""
+        self._take()
         if self._nan:
             return _by_reading(self._rows, self._seconds)
         return _coarser(self._fine)

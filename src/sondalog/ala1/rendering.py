@@ -9,6 +9,8 @@ sample). tests/ala1/test_fast_sampling_render.py holds both to the Decimal rende
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 #: ``y + HALF_EVEN - HALF_EVEN`` is ``round(y)`` as a float for any finite ``|y| < 2**51``:
 #: the sum falls where floats are the whole numbers (1.5 * 2**52 .. 2**53), so the addition
 #: rounds ``y`` to the nearest, ties to the even (IEEE 754's default; ``HALF_EVEN`` is even),
@@ -80,3 +82,19 @@ def render(shown: str, decimals: int) -> str | None:
         digits = digits.lstrip("0").rjust(decimals + 1, "0")
     text = f"{digits[:-decimals]}.{digits[-decimals:]}" if decimals else digits
     return "-" + text if negative else text
+
+
+def value_units(decimals: int, values: Sequence[float | None]) -> list[float | None]:
+    """Each value's units of the last decimal (a whole float) where
+    :func:`~sondalog.ala1.measure.format_values` renders the value by them (``int`` of its
+    text's digits is then those units: issue 24, seventh round), else None."""
+    near, scale, rounds = NEAR_BELOW[decimals], SCALES[decimals], HALF_EVEN
+    return [
+        units
+        if value is not None
+        and -near < value < near
+        and not -1e-4 < value < 1e-4
+        and -0.4999 < (scaled := value * scale) - (units := scaled + rounds - rounds) < 0.4999
+        else None
+        for value in values
+    ]

@@ -13,6 +13,7 @@ from decimal import Decimal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sondalog.ala1 import measure
 from sondalog.ala1.conditions import record_all, record_values
 from sondalog.ala1.measure import ChannelConfig, Input, format_value
 from sondalog.ala1.runs import ChannelRun, record
@@ -158,6 +159,7 @@ def values(draw: st.DrawFn, decimals: int, start: float) -> list[float | None]:
     ),
     since=st.integers(0, 12),
     fresh=st.booleans(),
+    warm=st.booleans(),
 )
 def test_record_values_writes_as_each_value_text_by_text(
     data: st.DataObject,
@@ -169,9 +171,11 @@ def test_record_values_writes_as_each_value_text_by_text(
     recorded: str | int | None,
     since: int,
     fresh: bool,
+    warm: bool,
 ) -> None:
     """``record_values`` (issue 24, seventh round: the texts rendered only where written)
-    against :func:`runs.record` of every value's text: the very rows and state after them."""
+    against :func:`runs.record` of every value's text: the very rows and state after them
+    (``warm``: every value rendered before, as a steady input's are)."""
     cfg = replace(_config(kind, decimals, change, samples), format=NumberFormat(width, decimals))
     start = data.draw(st.floats(-50, 50))
     if isinstance(recorded, int):  # (a text of the channel's format, mostly; values near it)
@@ -181,6 +185,8 @@ def test_record_values_writes_as_each_value_text_by_text(
     one = ChannelRun(cfg, recorded=recorded, since_write=since)
     many = replace(one)
     texts = [format_value(cfg, value) for value in series]  # (every value, one by one)
+    if not warm:
+        measure._RENDERED.clear()
     expected = [(k, w) for k, text in enumerate(texts) if (w := record(one, text)) is not None]
     assert record_values(many, series, fresh) == expected
     assert (many.recorded, many.since_write, many.event_active) == (

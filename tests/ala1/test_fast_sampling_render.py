@@ -190,6 +190,9 @@ def test_a_series_of_numbers_formats_by_its_rounded_units(
 @example(value=2.5, decimals=0, width=0)  # a half: half to even (2) is not its text (3)
 @example(value=0.125, decimals=2, width=6)
 @example(value=-0.004, decimals=2, width=0)  # units -0.0, text 0.00
+@example(value=1e-05, decimals=3, width=0)  # a repr with an exponent
+@example(value=-5.5e-08, decimals=9, width=0)
+@example(value=-0.0, decimals=0, width=6)
 @example(value=8589934.5915, decimals=3, width=0)
 def test_value_units_are_the_digits_of_the_text(
     value: float | None, decimals: int, width: int

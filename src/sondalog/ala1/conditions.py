@@ -22,7 +22,13 @@ from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
 from sondalog.ala1.curves import has_none
-from sondalog.ala1.measure import KNOWN_UNITS, KNOWN_UNITS_MAX, format_value, format_values
+from sondalog.ala1.measure import (
+    KNOWN_UNITS,
+    KNOWN_UNITS_MAX,
+    format_value,
+    format_values,
+    rendered_lately,
+)
 from sondalog.ala1.rendering import value_units
 from sondalog.ala1.runs import ChannelRun, decide
 
@@ -252,12 +258,21 @@ def record_values(
     recorded = run.recorded
     if cfg.type == 6 or not cfg.change > _ZERO or not recorded or not values:
         return record_all(run, format_values(cfg, values, fresh))
+    if not fresh and (lately := rendered_lately(cfg, values)) is not None:
+        try:  # (values met lately, a steady input: looked up in C, cheaper than units)
+            "".join(lately)  # type: ignore[arg-type]  # (a None raises, in one C loop)
+        except TypeError:
+            pass
+        else:
+            return record_all(run, lately)  # type: ignore[arg-type]
     decimals = cfg.format.decimals
     units = value_units(decimals, values)
     last = _unit_of(recorded, decimals)
     if last is None:
         return record_all(run, format_values(cfg, values, fresh))
-    if has_none(units):  # (a value far out, near zero or near a half: by its text)
+    if has_none(units):  # (a value far out or near a half, or none: by its text)
+        if units.count(None) * 8 > len(units):  # (many: as many texts rendered anyway)
+            return record_all(run, format_values(cfg, values, fresh))
         for k, u in enumerate(units):
             if u is None:
                 text = format_value(cfg, values[k])

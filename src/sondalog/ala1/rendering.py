@@ -85,15 +85,16 @@ def render(shown: str, decimals: int) -> str | None:
 
 
 def value_units(decimals: int, values: Sequence[float | None]) -> list[float | None]:
-    """Each value's units of the last decimal (a whole float) where
-    :func:`~sondalog.ala1.measure.format_values` renders the value by them (``int`` of its
-    text's digits is then those units: issue 24, seventh round), else None."""
+    """Each value's units of the last decimal (a whole float), or None where its text may
+    show others: ``int`` of the digits of its text is its units (issue 24, seventh round)
+    wherever ``value * 10**decimals`` is below 2**33 (computed within 1e-6, as is the repr)
+    and farther than 1e-4 from a half, as in :func:`fixed` (a value near zero too: its repr
+    may have an exponent, but it rounds to the same units)."""
     near, scale, rounds = NEAR_BELOW[decimals], SCALES[decimals], HALF_EVEN
     return [
         units
         if value is not None
         and -near < value < near
-        and not -1e-4 < value < 1e-4
         and -0.4999 < (scaled := value * scale) - (units := scaled + rounds - rounds) < 0.4999
         else None
         for value in values

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from sondalog.ala1 import measure
 from sondalog.ala1.conditions import record_all, record_values
-from sondalog.ala1.measure import ChannelConfig, Input, format_value
+from sondalog.ala1.measure import ChannelConfig, Input, format_value, format_values
 from sondalog.ala1.runs import ChannelRun, record
 from sondalog.ala1.tokens import NumberFormat
 
@@ -175,7 +175,8 @@ def test_record_values_writes_as_each_value_text_by_text(
 ) -> None:
     """``record_values`` (issue 24, seventh round: the texts rendered only where written)
     against :func:`runs.record` of every value's text: the very rows and state after them
-    (``warm``: every value rendered before, as a steady input's are)."""
+    (``warm``: every value rendered before, by the value and by its units, as a steady
+    input's are; else none)."""
     cfg = replace(_config(kind, decimals, change, samples), format=NumberFormat(width, decimals))
     start = data.draw(st.floats(-50, 50))
     if isinstance(recorded, int):  # (a text of the channel's format, mostly; values near it)
@@ -185,8 +186,11 @@ def test_record_values_writes_as_each_value_text_by_text(
     one = ChannelRun(cfg, recorded=recorded, since_write=since)
     many = replace(one)
     texts = [format_value(cfg, value) for value in series]  # (every value, one by one)
-    if not warm:
+    if warm:
+        format_values(cfg, series, fresh=True)  # (their texts by units too)
+    else:
         measure._RENDERED.clear()
+        measure._BY_UNITS.clear()
     expected = [(k, w) for k, text in enumerate(texts) if (w := record(one, text)) is not None]
     assert record_values(many, series, fresh) == expected
     assert (many.recorded, many.since_write, many.event_active) == (

@@ -28,6 +28,7 @@ from sondalog.ala1.measure import (
     format_value,
     format_values,
     rendered_lately,
+    texts_by_units,
 )
 from sondalog.ala1.rendering import value_units
 from sondalog.ala1.runs import ChannelRun, decide
@@ -281,9 +282,14 @@ def record_values(
                     return record_all(run, format_values(cfg, values, fresh))
     least = _least(cfg.change, decimals)
     written = _written_by_units(units, last, least, cfg.samples, run.since_write)  # type: ignore[arg-type]  # (no None left)
-    texts = format_values(cfg, [values[k] for k in written], fresh) if written else []
-    _wrote(run, len(units), written, texts)
-    return list(zip(written, texts, strict=True))
+    # (the text of the units written: a text of the format is the one of its units)
+    texts = list(map(texts_by_units(cfg).get, [units[k] for k in written]))  # type: ignore[arg-type]
+    if None in texts:  # (units not rendered lately: rendered by their values)
+        missing = [k for k, text in zip(written, texts, strict=True) if text is None]
+        rendered = iter(format_values(cfg, [values[k] for k in missing], fresh))
+        texts = [next(rendered) if text is None else text for text in texts]
+    _wrote(run, len(units), written, texts)  # type: ignore[arg-type]
+    return list(zip(written, texts, strict=True))  # type: ignore[arg-type]
 
 
 def _units(text: str, decimals: int) -> int | Decimal:

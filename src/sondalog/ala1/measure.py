@@ -391,6 +391,12 @@ def rendered_lately(cfg: ChannelConfig, values: Sequence[float | None]) -> list[
     return None if rendered is None else list(map(rendered.get, values))  # type: ignore[arg-type]
 
 
+def texts_by_units(cfg: ChannelConfig) -> dict[float, str]:
+    """The texts rendered lately by their units of the last decimal (a text of the format
+    is the one of its units), in the channel's format."""
+    return _BY_UNITS.get(cfg.format.width * 16 + cfg.format.decimals) or {}
+
+
 def _by_units_texts(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:
     """:func:`format_values` of values not looked up by the value: by their units of the
     last decimal where rendering.fixed's common case holds, else by :func:`format_value`."""

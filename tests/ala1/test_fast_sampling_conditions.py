@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from decimal import Decimal
+from decimal import ROUND_CEILING, Decimal
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -198,3 +198,40 @@ def test_record_values_writes_as_each_value_text_by_text(
         one.since_write,
         one.event_active,
     )
+
+
+@settings(max_examples=300)
+@given(
+    decimals=st.integers(0, 3),
+    change=st.sampled_from(["0.001", "0.01", "0.05", "0.5", "2", "0.015"]),
+    samples=st.sampled_from([0, 1, 3, 10, 60]),
+    since=st.integers(0, 70),
+    recorded=st.integers(-20, 20),
+    shift=st.integers(-3, 3),
+    gap=st.integers(-1, 1),
+    levels=st.lists(st.booleans(), min_size=1, max_size=80),
+)
+def test_steady_series_write_as_text_by_text(
+    decimals: int,
+    change: str,
+    samples: int,
+    since: int,
+    recorded: int,
+    shift: int,
+    gap: int,
+    levels: list[bool],
+) -> None:
+    """Two levels ``least - 1``, ``least`` or ``least + 1`` units apart, near the recorded
+    text (issue 24, seventh round: a series within the band of each of its values writes
+    only by the samples condition): the very rows and state as text by text."""
+    cfg = _config(3, decimals, change, samples)
+    least = int(Decimal(change).scaleb(decimals).to_integral_value(rounding=ROUND_CEILING))
+    low = recorded + shift * least // 3
+    units = [low + (least + gap) * high for high in levels]
+    series = [f"{Decimal(u).scaleb(-decimals):.{decimals}f}".rjust(6) for u in units]
+    first = f"{Decimal(recorded).scaleb(-decimals):.{decimals}f}".rjust(6)
+    one = ChannelRun(cfg, recorded=first, since_write=since)
+    many = replace(one)
+    expected = [(k, w) for k, text in enumerate(series) if (w := record(one, text)) is not None]
+    assert record_all(many, series) == expected
+    assert (many.recorded, many.since_write) == (one.recorded, one.since_write)

@@ -228,6 +228,11 @@ def _written_by_units(
     # the index ``due`` where ``samples`` samples have passed since the last write)
     lo, hi = last - least, last + least
     due = samples - since - 1 if samples > 0 else n
+    if n and lo < (low := min(units)) and (high := max(units)) < hi and high - low < least:
+        # a steady series (issue 24, seventh round): every value within the band, and in
+        # the band of every other (each write by the samples condition moves it): only the
+        # samples condition writes
+        return list(range(max(0, due), n, samples)) if samples > 0 else []
     out: list[int] = []
     for k, u in enumerate(units):
         if not lo < u < hi or k >= due:

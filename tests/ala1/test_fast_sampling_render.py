@@ -14,6 +14,7 @@ from sondalog.ala1.conditions import _unit_of
 from sondalog.ala1.measure import KNOWN_UNITS, ChannelConfig, Input, format_values
 from sondalog.ala1.rendering import fixed as _fixed
 from sondalog.ala1.rendering import render as _render
+from sondalog.ala1.rendering import value_units
 from sondalog.ala1.tokens import NumberFormat
 
 values = st.one_of(
@@ -179,3 +180,28 @@ def test_a_series_of_numbers_formats_by_its_rounded_units(
         fmt.render(Decimal(repr(v))) if math.isfinite(v) and abs(v) < 1e15 else "" for v in values
     ]
     assert format_values(_config(width, decimals), values, fresh=fresh) == expected
+
+
+@given(
+    value=st.one_of(values, st.none(), st.sampled_from([math.nan, math.inf, -math.inf])),
+    decimals=st.integers(0, 9),
+    width=st.sampled_from([0, 6, 12]),
+)
+@example(value=2.5, decimals=0, width=0)  # a half: half to even (2) is not its text (3)
+@example(value=0.125, decimals=2, width=6)
+@example(value=-0.004, decimals=2, width=0)  # units -0.0, text 0.00
+@example(value=1e-05, decimals=3, width=0)  # a repr with an exponent
+@example(value=-5.5e-08, decimals=9, width=0)
+@example(value=-0.0, decimals=0, width=6)
+@example(value=8589934.5915, decimals=3, width=0)
+def test_value_units_are_the_digits_of_the_text(
+    value: float | None, decimals: int, width: int
+) -> None:
+    """``value_units`` (issue 24, seventh round: record conditions decided before any text
+    is rendered): where it gives units, ``int`` of the digits of the value's text (the
+    Decimal rendering) is those units."""
+    (units,) = value_units(decimals, [value])
+    if units is not None:
+        assert value is not None
+        text = NumberFormat(width, decimals).render(Decimal(repr(value)))
+        assert int(text.replace(".", "")) == units, (value, text, units)

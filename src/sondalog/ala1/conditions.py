@@ -22,7 +22,15 @@ from itertools import repeat
 
 from sondalog.ala1.columns import Column, Value
 from sondalog.ala1.curves import has_none
-from sondalog.ala1.measure import KNOWN_UNITS, KNOWN_UNITS_MAX, format_value, format_values
+from sondalog.ala1.measure import (
+    KNOWN_UNITS,
+    KNOWN_UNITS_MAX,
+    format_value,
+    format_values,
+    rendered_lately,
+    texts_by_units,
+)
+from sondalog.ala1.rendering import value_units
 from sondalog.ala1.runs import ChannelRun, decide
 
 #: ``FaultLog.report``: a channel's internal error at a host time.
@@ -200,28 +208,93 @@ def _by_units(
     run: ChannelRun, texts: Sequence[str], units: list[int], least: int, samples: int
 ) -> list[tuple[int, str]]:
     """:func:`record_all` of a channel whose texts are all numbers of its format and whose
-    recorded text is one (``units``: the texts' units, then the recorded text's): a text is
-    written when it differs from the recorded one by ``least`` units or more (§6.5.16.2),
-    or when ``samples`` samples have passed since the last write (§6.5.16.3)."""
+    recorded text is one (``units``: the texts' units, then the recorded text's)."""
     last = units.pop()
-    since, n = run.since_write, len(units)
+    written = _written_by_units(units, last, least, samples, run.since_write)
+    chosen = [texts[k] for k in written]
+    _wrote(run, len(units), written, chosen)
+    return list(zip(written, chosen, strict=True))
+
+
+def _written_by_units(
+    units: Sequence[float], last: float, least: int, samples: int, since: int
+) -> list[int]:
+    """The indexes of the texts written, of texts whose units are ``units`` after a
+    recorded text of ``last`` units: a text is written when it differs from the recorded
+    one by ``least`` units or more (§6.5.16.2), or when ``samples`` samples have passed
+    since the last write (§6.5.16.3)."""
+    n = len(units)
     # (a text is written when it leaves the band lo < u < hi around the recorded one, or at
     # the index ``due`` where ``samples`` samples have passed since the last write)
     lo, hi = last - least, last + least
     due = samples - since - 1 if samples > 0 else n
-    out: list[tuple[int, str]] = []
+    if n and lo < (low := min(units)) and (high := max(units)) < hi and high - low < least:
+        # a steady series (issue 24, seventh round): every value within the band, and in
+        # the band of every other (each write by the samples condition moves it): only the
+        # samples condition writes
+        return list(range(max(0, due), n, samples)) if samples > 0 else []
+    out: list[int] = []
     for k, u in enumerate(units):
         if not lo < u < hi or k >= due:
-            out.append((k, texts[k]))
+            out.append(k)
             lo, hi = u - least, u + least
             if samples > 0:
                 due = k + samples
-    if out:
-        run.recorded = out[-1][1]
-        run.since_write = n - 1 - out[-1][0]
-    else:
-        run.since_write = since + n
     return out
+
+
+def _wrote(run: ChannelRun, n: int, written: list[int], texts: list[str]) -> None:
+    """The run's state after ``n`` texts of which those at ``written`` (``texts``) were."""
+    if written:
+        run.recorded = texts[-1]
+        run.since_write = n - 1 - written[-1]
+    else:
+        run.since_write += n
+
+
+def record_values(
+    run: ChannelRun, values: Sequence[float | None], fresh: bool = False
+) -> list[tuple[int, str]]:
+    """:func:`record_all` of ``format_values(run.cfg, values, fresh)``, the texts rendered
+    only where written (issue 24, seventh round: most samples are not) when the change
+    condition can be decided on the values' units of the last decimal: a channel of values
+    (not events, §6.5.16.1) with a change above zero, a recorded text of its format, and
+    every value rendered by its units (:func:`value_units`) or to a number of the format."""
+    cfg = run.cfg
+    recorded = run.recorded
+    if cfg.type == 6 or not cfg.change > _ZERO or not recorded or not values:
+        return record_all(run, format_values(cfg, values, fresh))
+    if not fresh and (lately := rendered_lately(cfg, values)) is not None:
+        try:  # (values met lately, a steady input: looked up in C, cheaper than units)
+            "".join(lately)  # type: ignore[arg-type]  # (a None raises, in one C loop)
+        except TypeError:
+            pass
+        else:
+            return record_all(run, lately)  # type: ignore[arg-type]
+    decimals = cfg.format.decimals
+    units = value_units(decimals, values)
+    last = _unit_of(recorded, decimals)
+    if last is None:
+        return record_all(run, format_values(cfg, values, fresh))
+    if has_none(units):  # (a value far out or near a half, or none: by its text)
+        if units.count(None) * 8 > len(units):  # (many: as many texts rendered anyway)
+            return record_all(run, format_values(cfg, values, fresh))
+        for k, u in enumerate(units):
+            if u is None:
+                text = format_value(cfg, values[k])
+                units[k] = unit = _unit_of(text, decimals) if text else None
+                if unit is None:  # (no value, or not a number of the format)
+                    return record_all(run, format_values(cfg, values, fresh))
+    least = _least(cfg.change, decimals)
+    written = _written_by_units(units, last, least, cfg.samples, run.since_write)  # type: ignore[arg-type]  # (no None left)
+    # (the text of the units written: a text of the format is the one of its units)
+    texts = list(map(texts_by_units(cfg).get, [units[k] for k in written]))  # type: ignore[arg-type]
+    if None in texts:  # (units not rendered lately: rendered by their values)
+        missing = [k for k, text in zip(written, texts, strict=True) if text is None]
+        rendered = iter(format_values(cfg, [values[k] for k in missing], fresh))
+        texts = [next(rendered) if text is None else text for text in texts]
+    _wrote(run, len(units), written, texts)  # type: ignore[arg-type]
+    return list(zip(written, texts, strict=True))  # type: ignore[arg-type]
 
 
 def _units(text: str, decimals: int) -> int | Decimal:
@@ -237,8 +310,7 @@ def _plain_bulk(
     """A channel without averaging: a sample without a valid value (a fault too) is the
     empty text, as :func:`runs.decide` formats it."""
     cfg = run.cfg
-    texts = format_values(cfg, values.values)  # (a fault's value is None: "")
-    written = record_all(run, texts)
+    written = record_values(run, values.values)  # (a fault's value is None: "")
     for k, exc in sorted(values.faults.items()):
         report(cfg.number, exc, times[k] - offset)
     run.sample, run.sampled = values.values[-1], True
@@ -291,8 +363,7 @@ def _averaged_bulk(
         partial, have = reduce(add, valid[used:], 0.0), len(valid) - used
     else:
         partial, have = reduce(add, valid, partial), have + len(valid)
-    texts = format_values(cfg, averages, fresh=True)
-    written = record_all(run, texts)
+    written = record_values(run, averages, fresh=True)
     run.avg_sum, run.avg_n = partial, have
     for k, exc in values.faults.items():
         report(cfg.number, exc, times[k] - offset)

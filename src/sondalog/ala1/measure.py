@@ -366,11 +366,9 @@ def format_values(
     The units are ``round(value * 10**decimals)`` as a float: adding and subtracting
     :data:`HALF_EVEN` rounds to the nearest integer (half to even, as ``round``) in two float
     operations wherever the product is below 2**51 (here below 2**33)."""
-    fmt = cfg.format
-    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
-    if fresh or rendered is None:
+    texts = None if fresh else rendered_lately(cfg, values)
+    if texts is None:
         return _by_units_texts(cfg, values)
-    texts = list(map(rendered.get, values))  # type: ignore[arg-type]  # (None: not lately)
     try:
         "".join(texts)  # type: ignore[arg-type]  # (a None raises, in one C loop)
     except TypeError:
@@ -383,6 +381,20 @@ def format_values(
     for k, text in zip(missing, _by_units_texts(cfg, [values[k] for k in missing]), strict=True):
         texts[k] = text
     return texts  # type: ignore[return-value]
+
+
+def rendered_lately(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str | None] | None:
+    """The texts of ``values`` rendered lately, looked up by the value (None: not lately);
+    None when no value of the channel's format was."""
+    fmt = cfg.format
+    rendered = _RENDERED.get(fmt.width * 16 + fmt.decimals)
+    return None if rendered is None else list(map(rendered.get, values))  # type: ignore[arg-type]
+
+
+def texts_by_units(cfg: ChannelConfig) -> dict[float, str]:
+    """The texts rendered lately by their units of the last decimal (a text of the format
+    is the one of its units), in the channel's format."""
+    return _BY_UNITS.get(cfg.format.width * 16 + cfg.format.decimals) or {}
 
 
 def _by_units_texts(cfg: ChannelConfig, values: Sequence[float | None]) -> list[str]:

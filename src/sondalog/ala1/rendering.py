@@ -9,6 +9,8 @@ sample). tests/ala1/test_fast_sampling_render.py holds both to the Decimal rende
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 #: ``y + HALF_EVEN - HALF_EVEN`` is ``round(y)`` as a float for any finite ``|y| < 2**51``:
 #: the sum falls where floats are the whole numbers (1.5 * 2**52 .. 2**53), so the addition
 #: rounds ``y`` to the nearest, ties to the even (IEEE 754's default; ``HALF_EVEN`` is even),
@@ -80,3 +82,20 @@ def render(shown: str, decimals: int) -> str | None:
         digits = digits.lstrip("0").rjust(decimals + 1, "0")
     text = f"{digits[:-decimals]}.{digits[-decimals:]}" if decimals else digits
     return "-" + text if negative else text
+
+
+def value_units(decimals: int, values: Sequence[float | None]) -> list[float | None]:
+    """Each value's units of the last decimal (a whole float), or None where its text may
+    show others: ``int`` of the digits of its text is its units (issue 24, seventh round)
+    wherever ``value * 10**decimals`` is below 2**33 (computed within 1e-6, as is the repr)
+    and farther than 1e-4 from a half, as in :func:`fixed` (a value near zero too: its repr
+    may have an exponent, but it rounds to the same units)."""
+    near, scale, rounds = NEAR_BELOW[decimals], SCALES[decimals], HALF_EVEN
+    return [
+        units
+        if value is not None
+        and -near < value < near
+        and -0.4999 < (scaled := value * scale) - (units := scaled + rounds - rounds) < 0.4999
+        else None
+        for value in values
+    ]

@@ -179,8 +179,9 @@ def by_channel(
     the next channel is asked for.
 
     From the blocks: one statement reads the whole blocks of the range (a year: 1,460 a
-    channel) with each one's bucket, by channel and time, and a channel's blocks of one
-    bucket are merged here as they come (:func:`_merged`); one more reads the two ends.
+    channel) by channel and time, each with its bucket (on PostgreSQL worked out here:
+    :func:`_blocks`), and a channel's blocks of one bucket are merged here as they come
+    (:func:`_merged`); one more reads the two ends.
     On PostgreSQL a channel's blocks come as one row of arrays, in binary (psycopg makes
     the lists in C; a row a block, each converted by Python code, took most of a year's
     CPU)."""
@@ -195,36 +196,31 @@ def by_channel(
         params = [logger if mine else next(rest) for mine in _markers(sql)]
         for e, ch, vmin, tmin, vmax, tmax in db.conn.execute(db.dialect.sql(sql), params):
             ends.setdefault(ch, [None, None])[e] = (e, e * (p.m - 1), vmin, tmin, vmax, tmax)
-    # a block's bucket (``start >= a``: no negative division to round differently)
-    k = "(start - ?::bigint) / ?::bigint * ?::bigint / ?::bigint"
-    if not db.dialect.postgres:
-        k = k.replace("::bigint", "")
     where = "logger = ? AND size = ? AND start >= ? AND start < ?"
-    args = [p.a, p.size, p.m, p.n, logger, p.size, p.a, p.b]
     if db.dialect.postgres:
         # grouped by a hash, the blocks' arrays in the order the server reads them (its
         # heap's: a sort by channel, by the key, or one an aggregate took the server two
         # to three times as long as the whole statement without); each channel's blocks
         # are sorted here by their starts unless these show them in order already
-        # no array of the starts (each array took the server about 3 ms): a block's tmin
-        # lies in it, so the tmins of a channel's blocks are in the order of their starts
-        arrays = ", ".join(f"array_agg({c})" for c in ("k", *_EXTREMES))
+        # no array of the starts, nor of the buckets (each array took the server about
+        # 3 ms): a block's tmin lies in it, so the tmins of a channel's blocks are in the
+        # order of their starts, and give their buckets (:func:`_blocks`)
+        arrays = ", ".join(f"array_agg({c})" for c in _EXTREMES)
         sql = (
-            f"SELECT channel, {arrays} FROM (SELECT channel, {k} AS k, "
-            f"{', '.join(_EXTREMES)} FROM {TABLE} "
-            f"WHERE {where} {_KEY_ORDER}) b GROUP BY channel"
+            f"SELECT channel, {arrays} FROM (SELECT channel, {', '.join(_EXTREMES)} "
+            f"FROM {TABLE} WHERE {where} {_KEY_ORDER}) b GROUP BY channel"
         )
         with db.conn.cursor(binary=True) as cur:
-            got = cur.execute(db.dialect.sql(sql), args).fetchall()
+            got = cur.execute(db.dialect.sql(sql), [logger, p.size, p.a, p.b]).fetchall()
+        whole: list[int] = []  # the buckets of all the blocks, once (the same for each channel)
         for ch, *columns in got:
             head, tail = ends.pop(ch, (None, None))
-            tmins = columns[2]
-            blocks_of: Iterable[Block] = zip(repeat(ch), *columns)  # (channel, k, ...)
-            if not all(map(operator.lt, tmins, tmins[1:])):
-                blocks_of = sorted(blocks_of, key=_tmin)
-            yield ch, _merged(blocks_of, head, tail)
+            yield ch, _merged(_blocks(ch, columns, p, whole), head, tail)
     else:
+        # a block's bucket (``start >= a``: no negative division to round differently)
+        k = "(start - ?) / ? * ? / ?"
         sql = f"SELECT channel, {k}, {', '.join(_EXTREMES)} FROM {TABLE} WHERE {where}"
+        args = [p.a, p.size, p.m, p.n, logger, p.size, p.a, p.b]
         for ch, group in groupby(db.conn.execute(sql + " ORDER BY channel, start", args), _first):
             head, tail = ends.pop(ch, (None, None))
             yield ch, _merged(group, head, tail)  # (channel, k, ...): as a Block
@@ -234,7 +230,6 @@ def by_channel(
 
 _EXTREMES = ("vmin", "tmin", "vmax", "tmax")
 _first = itemgetter(0)
-_tmin = itemgetter(3)
 #: The order the server is asked to read the blocks in: none (a tests' knob: the answer is
 #: the same in any order).
 _KEY_ORDER = ""
@@ -245,6 +240,28 @@ Bucket = tuple[Any, int, float | None, int, float | None, int]
 #: A block's (or an end's) extremes with its bucket, after a column not read here (what
 #: the statement gives first): ``(_, bucket, vmin, tmin, vmax, tmax)``.
 Block = tuple[Any, int, float | None, int, float | None, int]
+
+
+def _buckets(p: Plan, tmins: Sequence[int]) -> list[int]:
+    """The bucket of each block whose tmin (a time in the block) is in ``tmins``."""
+    a, size, m, n = p.a, p.size, p.m, p.n
+    return [(t - a) // size * m // n for t in tmins]
+
+
+def _blocks(ch: int, columns: list[Sequence[Any]], p: Plan, whole: list[int]) -> Iterable[Block]:
+    """One channel's blocks (``columns``: its vmins, tmins, vmaxs and tmaxs, in any order)
+    as :data:`Block` tuples in time order: ``n`` of them are every block of ``p`` (block
+    ``j`` in bucket ``j * m // n``, kept in ``whole``), fewer have theirs from their tmins."""
+    tmins = columns[1]
+    if not all(map(operator.lt, tmins, tmins[1:])):  # the order of their starts
+        order = sorted(range(len(tmins)), key=tmins.__getitem__)
+        columns = [[c[i] for i in order] for c in columns]
+        tmins = columns[1]
+    if len(tmins) != p.n:
+        return zip(repeat(ch), _buckets(p, tmins), *columns)
+    if not whole:
+        whole += [j * p.m // p.n for j in range(p.n)]
+    return zip(repeat(ch), whole, *columns)
 
 
 def _merged(got: Iterable[Block], head: Block | None, tail: Block | None) -> Iterator[Bucket]:

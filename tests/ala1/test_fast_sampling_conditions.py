@@ -29,6 +29,12 @@ def _config(kind: int, decimals: int, change: str, samples: int) -> ChannelConfi
     )  # fmt: skip
 
 
+def _state(run: ChannelRun) -> tuple[object, int, bool]:
+    """What a run carries from one sample to the next: the last written text, the samples
+    since it, and the event's state (the conditions of §6.5.16)."""
+    return (run.recorded, run.since_write, run.event_active)
+
+
 @st.composite
 def texts(draw: st.DrawFn, decimals: int) -> list[str]:
     """A walk of values shown in the format (repeats and runs), some empty, a few of
@@ -76,11 +82,7 @@ def test_record_all_is_record_text_by_text(
     many = replace(one)
     expected = [(k, w) for k, text in enumerate(series) if (w := record(one, text)) is not None]
     assert record_all(many, series) == expected
-    assert (many.recorded, many.since_write, many.event_active) == (
-        one.recorded,
-        one.since_write,
-        one.event_active,
-    )
+    assert _state(many) == _state(one)
 
 
 @settings(max_examples=300)
@@ -119,7 +121,7 @@ def test_slow_signals_write_as_text_by_text(
     many = replace(one)
     expected = [(k, w) for k, text in enumerate(series) if (w := record(one, text)) is not None]
     assert record_all(many, series) == expected
-    assert (many.recorded, many.since_write) == (one.recorded, one.since_write)
+    assert _state(many) == _state(one)
 
 
 @st.composite
@@ -193,11 +195,7 @@ def test_record_values_writes_as_each_value_text_by_text(
         measure._BY_UNITS.clear()
     expected = [(k, w) for k, text in enumerate(texts) if (w := record(one, text)) is not None]
     assert record_values(many, series, fresh) == expected
-    assert (many.recorded, many.since_write, many.event_active) == (
-        one.recorded,
-        one.since_write,
-        one.event_active,
-    )
+    assert _state(many) == _state(one)
 
 
 @settings(max_examples=300)
@@ -234,4 +232,4 @@ def test_steady_series_write_as_text_by_text(
     many = replace(one)
     expected = [(k, w) for k, text in enumerate(series) if (w := record(one, text)) is not None]
     assert record_all(many, series) == expected
-    assert (many.recorded, many.since_write) == (one.recorded, one.since_write)
+    assert _state(many) == _state(one)

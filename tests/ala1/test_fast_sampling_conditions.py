@@ -29,7 +29,7 @@ def _config(kind: int, decimals: int, change: str, samples: int) -> ChannelConfi
     )  # fmt: skip
 
 
-def _state(run: ChannelRun) -> tuple[object, int, bool]:
+def _state(run: ChannelRun) -> tuple[str | None, int, bool]:
     """What a run carries from one sample to the next: the last written text, the samples
     since it, and the event's state (the conditions of §6.5.16)."""
     return (run.recorded, run.since_write, run.event_active)
